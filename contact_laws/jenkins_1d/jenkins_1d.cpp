@@ -1,0 +1,122 @@
+// jenkins_1d: elastic Coulomb slider (Jenkins element) in one tangential direction, with a
+// constant normal load or a normal load that follows the normal relative displacement.
+//
+//   N = max(0, N0 + kn (u_n - g0))            (kn = 0: N = N0, constant)
+//   trial T* = kt (u_t - w_prev)
+//   stick  |T*| <= mu N : T = T*,              w = w_prev
+//   slip   |T*| >  mu N : T = mu N sign(T*),   w = u_t - T / kt
+//   separated N = 0     : T = 0,               w = u_t   (the slider is released)
+// State: w, the slider (stick-point) position in m.
+#include <cmath>
+#include <stdexcept>
+
+#include "frichb/plugin/sdk.hpp"
+
+namespace {
+
+using frichb::sdk::Param;
+
+std::vector<frichb_param_spec> jenkins_schema() {
+  return {
+      Param::real("kt", "N/m", "tangential contact stiffness").greater_than(0),
+      Param::real("mu", "", "friction coefficient").at_least(0),
+      Param::real("normal_load", "N", "normal load N0 at zero normal displacement (preload)")
+          .defaults_to(0.0)
+          .at_least(0),
+      Param::real("kn", "N/m",
+                  "normal contact stiffness; 0 keeps the normal load constant, > 0 makes it "
+                  "follow the normal relative displacement with separation")
+          .defaults_to(0.0)
+          .at_least(0),
+      Param::real("gap", "m", "initial normal gap g0 (needs kn > 0 and normal_load = 0)")
+          .defaults_to(0.0)
+          .at_least(0),
+  };
+}
+
+class Jenkins1d final : public frichb::sdk::ContactLaw {
+ public:
+  explicit Jenkins1d(const frichb::sdk::Params& p)
+      : kt_(p.real("kt")),
+        mu_(p.real("mu")),
+        n0_(p.real("normal_load")),
+        kn_(p.real("kn")),
+        gap_(p.real("gap")) {
+    if (gap_ > 0 && kn_ <= 0) throw std::invalid_argument("gap > 0 needs kn > 0");
+    if (gap_ > 0 && n0_ > 0)
+      throw std::invalid_argument("give either normal_load (preload) or gap, not both");
+  }
+
+  frichb_contact_law_traits traits() const override {
+    return frichb::sdk::make_traits(1, kn_ > 0, 1, true);
+  }
+
+  void step(const double* state_prev, const double* /*u_prev*/, const double* u_now,
+            double* force_now, double* state_now,
+            const frichb_step_tangents* tangents) const override {
+    const double ut = u_now[0];
+    const double w_prev = state_prev[0];
+    const bool variable = kn_ > 0;
+    const double normal_trial = variable ? n0_ + kn_ * (u_now[2] - gap_) : n0_;
+    const double normal = std::max(0.0, normal_trial);
+    const double dnormal_dun = (variable && normal_trial > 0) ? kn_ : 0.0;
+    const double limit = mu_ * normal;
+    const double trial = kt_ * (ut - w_prev);
+
+    double t = 0, w = 0;
+    // Partial derivatives of T and w with respect to (u_t, u_n, w_prev).
+    double dt_dut = 0, dt_dun = 0, dt_dw = 0, dw_dut = 0, dw_dun = 0, dw_dw = 0;
+    if (variable && normal_trial <= 0) {
+      // Separated: no force, and the slider follows so that contact resumes unloaded.
+      t = 0;
+      w = ut;
+      dw_dut = 1;
+    } else if (std::abs(trial) <= limit) {
+      t = trial;
+      w = w_prev;
+      dt_dut = kt_;
+      dt_dw = -kt_;
+      dw_dw = 1;
+    } else {
+      const double sign = trial > 0 ? 1.0 : -1.0;
+      t = sign * limit;
+      w = ut - t / kt_;
+      dt_dun = sign * mu_ * dnormal_dun;
+      dw_dut = 1;
+      dw_dun = -dt_dun / kt_;
+    }
+    force_now[0] = t;
+    force_now[1] = 0;
+    force_now[2] = variable ? normal : 0.0;
+    state_now[0] = w;
+    if (!tangents || !tangents->dforce_du_now) return;
+    double* a = tangents->dforce_du_now;
+    for (int i = 0; i < 9; ++i) {
+      a[i] = 0;
+      tangents->dforce_du_prev[i] = 0;
+    }
+    a[0 * 3 + 0] = dt_dut;
+    a[0 * 3 + 2] = dt_dun;
+    a[2 * 3 + 2] = variable ? dnormal_dun : 0.0;
+    double* fs = tangents->dforce_dstate_prev;
+    fs[0] = dt_dw;
+    fs[1] = 0;
+    fs[2] = 0;
+    double* su = tangents->dstate_du_now;
+    su[0] = dw_dut;
+    su[1] = 0;
+    su[2] = dw_dun;
+    for (int j = 0; j < 3; ++j) tangents->dstate_du_prev[j] = 0;
+    tangents->dstate_dstate_prev[0] = dw_dw;
+  }
+
+ private:
+  double kt_, mu_, n0_, kn_, gap_;
+};
+
+}  // namespace
+
+FRICHB_CONTACT_LAW_PLUGIN(Jenkins1d, jenkins_1d, "1.0.0",
+                          "elastic Coulomb slider in one tangential direction, constant or "
+                          "displacement-dependent normal load with separation",
+                          jenkins_schema)

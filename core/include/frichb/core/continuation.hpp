@@ -1,0 +1,150 @@
+// Pseudo-arclength continuation (Keller) of a curve e(x, lambda) = 0, physics-free.
+//
+// The module knows nothing of friction or harmonics: it traces the solution curve of any
+// n equations in n + 1 unknowns y = [x; lambda] for which a callable returns the residual
+// and its dense Jacobian. It implements the seed thesis' chapter 4:
+//   - tangent predictor  y1 = y_i + ds * v_i                       (eq. 4.8)
+//   - first tangent from w = e_x^-1 e_lambda, v = +-(-w, 1)/|(1, w)| (eq. 4.9), sign from
+//     the sweep direction; later tangents from [A; v_{i-1}^T] v = [0; 1], normalised (4.10)
+//   - Keller corrector: Newton on [e(y) = 0; v_i^T (y - y1) = 0]      (eq. 4.6, 4.12)
+//   - step adaptation ds_i = ds_{i-1} * sqrt(N* / N_i), clamped to [min_step, max_step]
+//     and to a growth factor of at most 2 per step                   (eq. 4.13)
+//   - turning-point fine control: when the lambda component of the tangent changes sign
+//     between consecutive points, discard the last `turning_point_backtrack` points and
+//     retrace from there at `turning_point_refinement` times the step; a fold already
+//     approached with the refined step is accepted (each fold is refined once)
+//   - steep-branch cap: when |v_x,i| > alpha |v_x,i-1| the step is capped at
+//     steep_branch_step_factor * max_step for the following points   (eq. 4.14)
+// All of it works on scaled unknowns y_s = y / scale so that the arclength is well
+// conditioned whether displacements are 1e-9 m or 1 m.
+//
+// Failure is a result, never an exception: the summary says why the curve ended, with the
+// last converged point. Not thread-safe per call; distinct calls may run concurrently if the
+// problem's evaluate() is thread-safe.
+#pragma once
+
+#include <Eigen/Dense>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace frichb::core {
+
+// n equations in n + 1 unknowns; the continuation parameter is the LAST unknown.
+class CurveProblem {
+ public:
+  virtual ~CurveProblem() = default;
+  // n, the number of equations (the number of unknowns is n + 1).
+  virtual Eigen::Index equation_count() const = 0;
+  // Writes residual (size n) and, when `jacobian` is not null, the n x (n + 1) Jacobian
+  // [de/dx, de/dlambda] at y (size n + 1), in UNSCALED variables. Returns false when the
+  // residual cannot be evaluated at y (then `message` says why); the corrector treats that
+  // as a failed step.
+  virtual bool evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
+                        Eigen::MatrixXd* jacobian, std::string* message) const = 0;
+};
+
+struct NewtonOptions {
+  int max_iterations = 25;
+  // Converged when the scaled residual's infinity norm is <= residual_tolerance AND the
+  // scaled Newton update's infinity norm is <= step_tolerance (or the residual is <= 1e-3
+  // times residual_tolerance).
+  double residual_tolerance = 1e-9;
+  double step_tolerance = 1e-9;
+  // Damping: an update that increases the residual norm is halved up to this many times.
+  int max_line_search_halvings = 6;
+};
+
+struct ContinuationOptions {
+  double lambda_start = 0.0;
+  double lambda_end = 1.0;  // the sweep direction is sign(lambda_end - lambda_start)
+  // Arclength steps, in scaled units.
+  double initial_step = 1e-2;
+  double min_step = 1e-6;
+  double max_step = 1e-1;
+  int target_newton_iterations = 4;  // N* of eq. 4.13
+  int max_points = 2000;
+  double max_wall_seconds = 600.0;
+
+  bool turning_point_control = true;
+  int turning_point_backtrack = 2;
+  double turning_point_refinement = 0.1;
+
+  bool steep_branch_control = true;
+  double steep_branch_alpha = 30.0;
+  double steep_branch_step_factor = 0.1;
+  int steep_branch_points = 5;  // how many following points keep the cap
+
+  // Scale of each unknown (size n + 1, last entry lambda's); empty means all ones.
+  // The scaled unknown is y_i / unknown_scale_i.
+  Eigen::VectorXd unknown_scale;
+  // Scale of each residual component (size n); empty means all ones.
+  Eigen::VectorXd residual_scale;
+
+  NewtonOptions newton;
+
+  // When the curve passes lambda_end, the last point is corrected onto lambda = lambda_end
+  // exactly (a fixed-parameter Newton solve) before stopping.
+  bool land_on_end = true;
+
+  // Returns false and says why when an option is out of range.
+  bool IsValid(std::string* why) const;
+};
+
+struct ContinuationPoint {
+  Eigen::VectorXd y;        // unscaled unknowns, lambda last
+  Eigen::VectorXd tangent;  // unit tangent in scaled variables, oriented along the sweep
+  int newton_iterations = 0;
+  double step = 0.0;           // arclength step that reached this point (scaled)
+  double residual_norm = 0.0;  // scaled infinity norm at convergence
+};
+
+enum class TerminationType {
+  kReachedEnd,        // lambda_end reached
+  kMaxPoints,         // max_points converged points
+  kStepTooSmall,      // corrector kept failing down to min_step
+  kStartFailed,       // Newton at lambda_start did not converge
+  kEvaluationFailed,  // evaluate() reported failure at the start point
+  kTimeLimit,         // max_wall_seconds elapsed
+  kCancelled,         // the point callback asked to stop
+  kInvalidOptions,
+};
+
+const char* to_string(TerminationType t);
+
+struct ContinuationSummary {
+  TerminationType termination = TerminationType::kInvalidOptions;
+  std::string message;  // human-readable reason, with the last point's lambda
+  std::vector<ContinuationPoint> points;
+  int rejected_steps = 0;         // corrector failures and steps undone
+  int turning_points = 0;         // sign changes of the tangent's lambda component accepted
+  int fine_control_restarts = 0;  // times the turning-point control stepped back
+  int steep_branch_caps = 0;      // times the steep-branch cap was applied
+  int total_newton_iterations = 0;
+  double wall_seconds = 0.0;
+  bool reached_end() const { return termination == TerminationType::kReachedEnd; }
+};
+
+struct NewtonResult {
+  bool converged = false;
+  int iterations = 0;
+  double residual_norm = 0.0;  // scaled infinity norm at the last iterate
+  Eigen::VectorXd y;           // last iterate, unscaled, lambda last
+  std::string message;
+};
+
+// Solves e(x, lambda) = 0 for x at the lambda given in y_guess (last entry, held fixed).
+// Scaling as in `options` (unknown_scale / residual_scale of ContinuationOptions).
+NewtonResult solve_fixed_parameter(const CurveProblem& problem, const Eigen::VectorXd& y_guess,
+                                   const ContinuationOptions& options);
+
+// Called after each accepted point with its index in summary.points; return false to stop.
+using PointCallback = std::function<bool(const ContinuationPoint&, std::size_t index)>;
+
+// Traces the curve from the solution near y_guess (lambda = y_guess's last entry, which
+// should equal options.lambda_start) towards options.lambda_end.
+ContinuationSummary trace_curve(const CurveProblem& problem, const Eigen::VectorXd& y_guess,
+                                const ContinuationOptions& options,
+                                const PointCallback& on_point = {});
+
+}  // namespace frichb::core

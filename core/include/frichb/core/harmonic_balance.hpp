@@ -1,0 +1,86 @@
+// The harmonic-balance equations in receptance form, reduced to the contacts' relative
+// displacements (seed eq. 4.2 premultiplied by the contact gather matrix G):
+//
+//   e(U, w) = U - U0(w) + Rc(w) F(U) = 0,   U0 = G R Fext,   Rc = G R G^T,
+//
+// for every kept temporal harmonic n (receptance at n w). U holds, contact after contact,
+// the harmonic coefficients of each used local component (t1, t2, n) of the relative
+// displacement u = frame . (x_B - x_A); F the matching contact-force coefficients from AFT.
+// Unknowns are y = [U; w] (w in rad/s, last). The model is a CurveProblem for the
+// continuation module; evaluate() is not thread-safe (it reuses AFT work buffers).
+#pragma once
+
+#include <Eigen/Dense>
+#include <complex>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "frichb/core/continuation.hpp"
+#include "frichb/core/periodic_trace.hpp"
+#include "frichb/core/reduced_structure.hpp"
+#include "frichb/core/scene.hpp"
+
+namespace frichb::core {
+
+struct ContactModel {
+  std::string name;
+  std::unique_ptr<ContactLawInstance> law;
+  std::unique_ptr<PeriodicTracer> tracer;
+  // gather(a, k): weight of kept DOF k in used local component a (d x kept).
+  Eigen::MatrixXd gather;
+  int offset = 0;  // first row of this contact's components in the stacked components
+};
+
+struct EvaluationStats {
+  long residual_evaluations = 0;
+  long jacobian_evaluations = 0;
+  long contacts_with_fd_jacobian = 0;  // contact traces that fell back to finite differences
+  long non_periodic_traces = 0;
+  std::string last_trace_diagnostic;
+};
+
+class HarmonicBalanceModel final : public CurveProblem {
+ public:
+  // Builds the reduced model of a bound scene (plugins loaded, params validated).
+  HarmonicBalanceModel(const Scene& scene, StructureInstance& structure);
+  ~HarmonicBalanceModel() override;
+
+  Eigen::Index equation_count() const override { return unknown_count_; }
+  bool evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
+                std::string* message) const override;
+
+  const HarmonicLayout& layout() const { return layout_; }
+  const std::vector<ContactModel>& contacts() const { return contacts_; }
+  const ReducedStructure& structure() const { return *structure_; }
+  int component_count() const { return components_; }
+  // Contact-free response of the contact unknowns at w (rad/s): U0.
+  Eigen::VectorXd linear_response(double w) const;
+  // Complex amplitude X_n (kept DOFs) of each kept harmonic for the solution y.
+  std::vector<Eigen::VectorXcd> kept_response(const Eigen::VectorXd& y) const;
+  // Index of a structure DOF among the kept DOFs.
+  Eigen::Index kept_index(std::size_t dof) const;
+  // Traces contact c at the solution y (for friction loops).
+  bool trace_contact(std::size_t c, const Eigen::VectorXd& y, ContactTrace& out,
+                     std::string* error) const;
+  const EvaluationStats& stats() const { return stats_; }
+  JacobianMode jacobian_mode() const { return mode_; }
+
+ private:
+  void gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces, Eigen::MatrixXd* dforces,
+                     std::string* message, bool& ok) const;
+
+  HarmonicLayout layout_;
+  JacobianMode mode_;
+  std::unique_ptr<ReducedStructure> structure_;
+  std::vector<std::size_t> kept_dofs_;
+  std::vector<ContactModel> contacts_;
+  Eigen::MatrixXd gather_;                    // components x kept
+  std::vector<Eigen::VectorXcd> excitation_;  // per kept harmonic, over kept DOFs
+  int components_ = 0;
+  Eigen::Index unknown_count_ = 0;
+  mutable EvaluationStats stats_;
+  mutable std::vector<ContactTrace> traces_;
+};
+
+}  // namespace frichb::core

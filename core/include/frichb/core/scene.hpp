@@ -1,0 +1,117 @@
+// Scenes: the YAML a user writes (docs/scene-reference.md), parsed and validated.
+//
+// load_scene() checks the scene's own structure against the core's section schemas (every
+// key known, every value typed and in range) and returns a Scene whose plugin `params` are
+// still raw YAML. bind_plugins() then loads only the plugins the scene names and validates
+// their params against each plugin's schema. Both steps run before any computation; every
+// failure is a SceneError (file:line:column: key.path: message) or PluginError.
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "frichb/core/registry.hpp"
+#include "frichb/core/schema.hpp"
+
+namespace frichb::core {
+
+enum class FrequencyUnit { kHz, kRadPerSecond };
+
+// A named group of structure DOFs (a scalar DOF, or a node's 2-3 translation DOFs).
+struct NodeSpec {
+  std::string name;
+  std::vector<std::size_t> dofs;
+};
+
+struct ExcitationSpec {
+  std::string node;
+  std::vector<double> direction;  // unit vector over the node's components
+  double amplitude = 0.0;         // N
+  int harmonic = 1;               // temporal harmonic number
+  double phase = 0.0;             // rad; force = amplitude cos(n w t + phase)
+};
+
+struct ContactSpec {
+  std::string name;
+  std::string law;
+  std::string side_a, side_b;  // node names, or "ground"
+  // Unit frame vectors over the sides' node components; empty when not given.
+  std::vector<double> tangent1, tangent2, normal;
+  YAML::Node params;
+  ParamValues values;  // set by bind_plugins()
+  std::shared_ptr<const LoadedPlugin> plugin;
+};
+
+struct StructureSpec {
+  std::string provider;
+  YAML::Node params;
+  std::vector<NodeSpec> nodes;  // in scene order
+  ParamValues values;           // set by bind_plugins()
+  std::shared_ptr<const LoadedPlugin> plugin;
+  const NodeSpec* find(const std::string& name) const;
+};
+
+struct HarmonicBalanceSpec {
+  std::vector<int> harmonics;
+  int samples_per_period = 128;
+  bool analytic_jacobian = true;
+  int max_trace_passes = 200;
+};
+
+struct ContinuationSpec {
+  FrequencyUnit unit = FrequencyUnit::kHz;
+  double from = 0, to = 0;                                  // in `unit`
+  double initial_step = 1, min_step = 1e-4, max_step = 10;  // arclength, in `unit`
+  int target_newton_iterations = 4;
+  int max_newton_iterations = 25;
+  int max_points = 2000;
+  double tolerance = 1e-9;
+  bool turning_point_control = true;
+  double steep_branch_alpha = 30;
+  double max_wall_seconds = 600;
+  double displacement_scale = 0;  // m; 0: automatic
+  // Factor from `unit` to rad/s.
+  double to_rad_per_s() const;
+};
+
+struct OutputSpec {
+  std::vector<std::string> response;      // node names
+  std::vector<double> friction_loops_at;  // in the continuation unit
+  bool plots = true;
+};
+
+struct Scene {
+  std::filesystem::path file;
+  std::string name, description;
+  std::vector<std::filesystem::path> plugin_paths;  // resolved against the scene's folder
+  StructureSpec structure;
+  std::vector<ExcitationSpec> excitation;
+  std::vector<ContactSpec> contacts;
+  HarmonicBalanceSpec harmonic_balance;
+  ContinuationSpec continuation;
+  OutputSpec output;
+  YAML::Node root;
+  nlohmann::json core_values;  // every core key with its default filled in
+};
+
+// Parses and validates the scene's own structure. Throws SceneError.
+Scene load_scene(const std::filesystem::path& file);
+
+// Loads the plugins the scene names (and only those) and validates their params.
+// Throws SceneError (bad params, with file:line:column) or PluginError (unknown plugin...).
+void bind_plugins(Scene& scene, const Registry& registry);
+
+// The validated scene, defaults filled in, for summary.json.
+nlohmann::json scene_to_json(const Scene& scene);
+
+// The core's section schemas, for the generated scene reference: (section path, schema).
+std::vector<std::pair<std::string, std::vector<frichb_param_spec>>> core_schemas();
+
+}  // namespace frichb::core

@@ -1,0 +1,479 @@
+#include "frichb/core/continuation.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <utility>
+
+namespace frichb::core {
+namespace {
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string FormatLambda(double lambda) {
+  std::ostringstream out;
+  out.precision(12);
+  out << "lambda = " << lambda;
+  return out.str();
+}
+
+bool Fail(std::string* why, const std::string& reason) {
+  if (why != nullptr) *why = reason;
+  return false;
+}
+
+bool PositiveFinite(double v) {
+  return std::isfinite(v) && v > 0.0;
+}
+
+// Scale vectors resolved to their full sizes (empty option = all ones).
+struct Scaling {
+  VectorXd unknown;   // n + 1
+  VectorXd residual;  // n
+};
+
+bool MakeScaling(const ContinuationOptions& options, Index n, Scaling* scaling, std::string* why) {
+  scaling->unknown =
+      options.unknown_scale.size() == 0 ? VectorXd::Ones(n + 1) : options.unknown_scale;
+  scaling->residual =
+      options.residual_scale.size() == 0 ? VectorXd::Ones(n) : options.residual_scale;
+  if (scaling->unknown.size() != n + 1) return Fail(why, "unknown_scale must have n + 1 entries");
+  if (scaling->residual.size() != n) return Fail(why, "residual_scale must have n entries");
+  return true;
+}
+
+// Evaluates the problem at scaled unknowns and returns the scaled residual and the scaled
+// n x (n + 1) Jacobian. Non-finite output counts as a failed evaluation so that NaN can never
+// leak into an accepted point.
+bool EvaluateScaled(const CurveProblem& problem, const Scaling& s, const VectorXd& ys, VectorXd* es,
+                    MatrixXd* js, std::string* message) {
+  const Index n = s.residual.size();
+  const VectorXd y = ys.cwiseProduct(s.unknown);
+  VectorXd e(n);
+  MatrixXd j(n, n + 1);
+  std::string why;
+  if (!problem.evaluate(y, e, &j, &why)) {
+    *message = "evaluation failed at " + FormatLambda(y(n)) + (why.empty() ? "" : ": " + why);
+    return false;
+  }
+  if (e.size() != n || j.rows() != n || j.cols() != n + 1) {
+    *message = "evaluate() returned wrongly sized residual or Jacobian";
+    return false;
+  }
+  if (!e.allFinite() || !j.allFinite()) {
+    *message = "non-finite residual or Jacobian at " + FormatLambda(y(n));
+    return false;
+  }
+  *es = e.cwiseQuotient(s.residual);
+  *js = s.residual.cwiseInverse().asDiagonal() * j * s.unknown.asDiagonal();
+  return true;
+}
+
+struct CoreResult {
+  bool converged = false;
+  bool first_evaluation_failed = false;
+  int iterations = 0;
+  double residual_norm = kInf;
+  VectorXd ys;  // scaled, lambda last
+  MatrixXd js;  // scaled full Jacobian at ys
+  std::string message;
+};
+
+// Damped Newton in scaled variables. Without a tangent, lambda stays fixed and the n
+// equations are solved for x; with a tangent v and predictor y1, the Keller system
+// [e; v^T (y - y1)] = 0 is solved for all n + 1 unknowns.
+CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const VectorXd& ys0,
+                        const NewtonOptions& opt, const VectorXd* tangent = nullptr,
+                        const VectorXd* predictor = nullptr) {
+  const Index n = s.residual.size();
+  const bool keller = tangent != nullptr;
+  const Index m = keller ? n + 1 : n;
+
+  // Square residual and Jacobian of the system being solved, from the full evaluation.
+  auto system = [&](const VectorXd& ys, VectorXd* r, MatrixXd* a, MatrixXd* js, std::string* msg) {
+    VectorXd es;
+    if (!EvaluateScaled(problem, s, ys, &es, js, msg)) return false;
+    r->resize(m);
+    r->head(n) = es;
+    if (keller) {
+      (*r)(n) = tangent->dot(ys - *predictor);
+      a->resize(m, m);
+      a->topRows(n) = *js;
+      a->row(n) = tangent->transpose();
+    } else {
+      *a = js->leftCols(n);
+    }
+    return true;
+  };
+
+  CoreResult out;
+  out.ys = ys0;
+  VectorXd r;
+  MatrixXd a;
+  if (!system(out.ys, &r, &a, &out.js, &out.message)) {
+    out.first_evaluation_failed = true;
+    return out;
+  }
+  out.residual_norm = r.lpNorm<Eigen::Infinity>();
+  if (out.residual_norm <= 1e-3 * opt.residual_tolerance) {
+    out.converged = true;
+    return out;
+  }
+  while (out.iterations < opt.max_iterations) {
+    const Eigen::FullPivLU<MatrixXd> lu(a);
+    if (!lu.isInvertible()) {
+      out.message = "singular Jacobian at " + FormatLambda(out.ys(n) * s.unknown(n));
+      return out;
+    }
+    VectorXd dz = lu.solve(-r);
+    if (!dz.allFinite()) {
+      out.message = "non-finite Newton update at " + FormatLambda(out.ys(n) * s.unknown(n));
+      return out;
+    }
+    ++out.iterations;
+    VectorXd dy = VectorXd::Zero(n + 1);
+    dy.head(m) = dz;
+
+    // Halve the update while it increases the residual; if no trial improves, take the best
+    // one rather than stalling, since Newton may need to cross a residual hill.
+    double best_norm = kInf;
+    double best_factor = 0.0;
+    VectorXd best_r;
+    MatrixXd best_a, best_js;
+    std::string trial_message;
+    double factor = 1.0;
+    for (int h = 0; h <= opt.max_line_search_halvings; ++h, factor *= 0.5) {
+      VectorXd tr;
+      MatrixXd ta, tjs;
+      if (!system(out.ys + factor * dy, &tr, &ta, &tjs, &trial_message)) continue;
+      const double tn = tr.lpNorm<Eigen::Infinity>();
+      if (tn < best_norm) {
+        best_norm = tn;
+        best_factor = factor;
+        best_r = std::move(tr);
+        best_a = std::move(ta);
+        best_js = std::move(tjs);
+      }
+      if (tn <= out.residual_norm) break;
+    }
+    if (best_factor == 0.0) {
+      out.message = trial_message;
+      return out;
+    }
+    out.ys += best_factor * dy;
+    r = std::move(best_r);
+    a = std::move(best_a);
+    out.js = std::move(best_js);
+    out.residual_norm = best_norm;
+    const double update_norm = best_factor * dy.lpNorm<Eigen::Infinity>();
+    if ((out.residual_norm <= opt.residual_tolerance && update_norm <= opt.step_tolerance) ||
+        out.residual_norm <= 1e-3 * opt.residual_tolerance) {
+      out.converged = true;
+      return out;
+    }
+  }
+  std::ostringstream msg;
+  msg << "Newton did not converge in " << opt.max_iterations << " iterations (residual "
+      << out.residual_norm << ") at " << FormatLambda(out.ys(n) * s.unknown(n));
+  out.message = msg.str();
+  return out;
+}
+
+// Eq. 4.9: w = e_x^-1 e_lambda, v = dir * (-w, 1) / |(1, w)|.
+bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v) {
+  const Index n = js.rows();
+  const Eigen::FullPivLU<MatrixXd> lu(js.leftCols(n));
+  if (!lu.isInvertible()) return false;
+  const VectorXd w = lu.solve(js.col(n));
+  VectorXd t(n + 1);
+  t.head(n) = -w;
+  t(n) = 1.0;
+  *v = direction * t / t.norm();
+  return v->allFinite();
+}
+
+// Eq. 4.10: [A; v_prev^T] v = [0; 1]; the last row keeps v . v_prev > 0, i.e. no reversal.
+bool NextTangent(const MatrixXd& js, const VectorXd& previous, VectorXd* v) {
+  const Index n = js.rows();
+  MatrixXd a(n + 1, n + 1);
+  a.topRows(n) = js;
+  a.row(n) = previous.transpose();
+  const Eigen::FullPivLU<MatrixXd> lu(a);
+  if (!lu.isInvertible()) return false;
+  const VectorXd t = lu.solve(VectorXd::Unit(n + 1, n));
+  *v = t / t.norm();
+  return v->allFinite();
+}
+
+}  // namespace
+
+const char* to_string(TerminationType t) {
+  switch (t) {
+    case TerminationType::kReachedEnd:
+      return "reached_end";
+    case TerminationType::kMaxPoints:
+      return "max_points";
+    case TerminationType::kStepTooSmall:
+      return "step_too_small";
+    case TerminationType::kStartFailed:
+      return "start_failed";
+    case TerminationType::kEvaluationFailed:
+      return "evaluation_failed";
+    case TerminationType::kTimeLimit:
+      return "time_limit";
+    case TerminationType::kCancelled:
+      return "cancelled";
+    case TerminationType::kInvalidOptions:
+      return "invalid_options";
+  }
+  return "unknown";
+}
+
+bool ContinuationOptions::IsValid(std::string* why) const {
+  if (!std::isfinite(lambda_start) || !std::isfinite(lambda_end))
+    return Fail(why, "lambda_start and lambda_end must be finite");
+  if (lambda_start == lambda_end) return Fail(why, "lambda_end must differ from lambda_start");
+  if (!PositiveFinite(min_step) || !PositiveFinite(max_step) || !PositiveFinite(initial_step))
+    return Fail(why, "initial_step, min_step and max_step must be positive");
+  if (min_step > max_step) return Fail(why, "min_step must not exceed max_step");
+  if (initial_step < min_step || initial_step > max_step)
+    return Fail(why, "initial_step must lie in [min_step, max_step]");
+  if (target_newton_iterations < 1) return Fail(why, "target_newton_iterations must be >= 1");
+  if (max_points < 1) return Fail(why, "max_points must be >= 1");
+  if (!(max_wall_seconds > 0.0)) return Fail(why, "max_wall_seconds must be positive");
+  if (turning_point_control) {
+    if (turning_point_backtrack < 1) return Fail(why, "turning_point_backtrack must be >= 1");
+    if (!(turning_point_refinement > 0.0 && turning_point_refinement < 1.0))
+      return Fail(why, "turning_point_refinement must lie in (0, 1)");
+  }
+  if (steep_branch_control) {
+    if (!(steep_branch_alpha > 1.0) || !std::isfinite(steep_branch_alpha))
+      return Fail(why, "steep_branch_alpha must be > 1");
+    if (!(steep_branch_step_factor > 0.0 && steep_branch_step_factor <= 1.0))
+      return Fail(why, "steep_branch_step_factor must lie in (0, 1]");
+    if (steep_branch_points < 0) return Fail(why, "steep_branch_points must be >= 0");
+  }
+  if (!unknown_scale.allFinite() || (unknown_scale.array() <= 0.0).any())
+    return Fail(why, "unknown_scale entries must be positive and finite");
+  if (!residual_scale.allFinite() || (residual_scale.array() <= 0.0).any())
+    return Fail(why, "residual_scale entries must be positive and finite");
+  if (newton.max_iterations < 1) return Fail(why, "newton.max_iterations must be >= 1");
+  if (!PositiveFinite(newton.residual_tolerance) || !PositiveFinite(newton.step_tolerance))
+    return Fail(why, "newton tolerances must be positive");
+  if (newton.max_line_search_halvings < 0)
+    return Fail(why, "newton.max_line_search_halvings must be >= 0");
+  return true;
+}
+
+NewtonResult solve_fixed_parameter(const CurveProblem& problem, const VectorXd& y_guess,
+                                   const ContinuationOptions& options) {
+  NewtonResult result;
+  result.y = y_guess;
+  const Index n = problem.equation_count();
+  Scaling s;
+  if (y_guess.size() != n + 1) {
+    result.message = "y_guess must have n + 1 entries";
+    return result;
+  }
+  if (!MakeScaling(options, n, &s, &result.message)) return result;
+  const CoreResult core =
+      DampedNewton(problem, s, y_guess.cwiseQuotient(s.unknown), options.newton);
+  result.converged = core.converged;
+  result.iterations = core.iterations;
+  result.residual_norm = core.residual_norm;
+  result.y = core.ys.cwiseProduct(s.unknown);
+  result.y(n) = y_guess(n);  // unscaling must not perturb the fixed parameter
+  result.message = core.message;
+  return result;
+}
+
+ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_guess,
+                                const ContinuationOptions& options, const PointCallback& on_point) {
+  const auto clock_start = std::chrono::steady_clock::now();
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  };
+  ContinuationSummary summary;
+  const Index n = problem.equation_count();
+  auto finish = [&](TerminationType t, const std::string& reason) {
+    summary.termination = t;
+    summary.message = reason;
+    if (!summary.points.empty())
+      summary.message += " (last point at " + FormatLambda(summary.points.back().y(n)) + ")";
+    summary.turning_points = 0;
+    for (std::size_t i = 1; i < summary.points.size(); ++i)
+      if (summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0)
+        ++summary.turning_points;
+    summary.wall_seconds = elapsed();
+    return summary;
+  };
+
+  std::string why;
+  if (!options.IsValid(&why)) return finish(TerminationType::kInvalidOptions, why);
+  Scaling s;
+  if (n < 1) return finish(TerminationType::kInvalidOptions, "problem has no equations");
+  if (y_guess.size() != n + 1)
+    return finish(TerminationType::kInvalidOptions, "y_guess must have n + 1 entries");
+  if (!MakeScaling(options, n, &s, &why)) return finish(TerminationType::kInvalidOptions, why);
+
+  const double direction = options.lambda_end > options.lambda_start ? 1.0 : -1.0;
+  const NewtonOptions& newton = options.newton;
+  auto unscale = [&](const VectorXd& ys) { return VectorXd(ys.cwiseProduct(s.unknown)); };
+  auto emit = [&](const ContinuationPoint& p) {
+    summary.points.push_back(p);
+    return !on_point || on_point(summary.points.back(), summary.points.size() - 1);
+  };
+
+  // Start point: fixed-parameter Newton at lambda_start.
+  VectorXd ys0 = y_guess.cwiseQuotient(s.unknown);
+  ys0(n) = options.lambda_start / s.unknown(n);
+  const CoreResult start = DampedNewton(problem, s, ys0, newton);
+  summary.total_newton_iterations += start.iterations;
+  if (start.first_evaluation_failed)
+    return finish(TerminationType::kEvaluationFailed, "start point: " + start.message);
+  if (!start.converged)
+    return finish(TerminationType::kStartFailed, "start point: " + start.message);
+  ContinuationPoint first;
+  first.y = unscale(start.ys);
+  first.y(n) = options.lambda_start;
+  if (!FirstTangent(start.js, direction, &first.tangent))
+    return finish(TerminationType::kStartFailed,
+                  "start point: singular e_x, no tangent at " + FormatLambda(first.y(n)));
+  first.newton_iterations = start.iterations;
+  first.residual_norm = start.residual_norm;
+  if (!emit(first)) return finish(TerminationType::kCancelled, "cancelled by callback");
+
+  double ds = options.initial_step;
+  int steep_left = 0;     // points still under the steep-branch cap
+  bool refining = false;  // retracing towards a fold with the fine step
+  int refine_left = 0;    // bound on that retrace in case the fold vanishes
+  double refine_cap = kInf;
+  std::size_t fold_floor = 0;  // restarts never undo an accepted fold (no ping-pong)
+  const long max_attempts = 64L * options.max_points + 1000L;
+
+  for (long attempt = 0;; ++attempt) {
+    if (summary.points.size() >= static_cast<std::size_t>(options.max_points))
+      return finish(TerminationType::kMaxPoints, "max_points reached");
+    if (attempt >= max_attempts)
+      return finish(TerminationType::kMaxPoints, "step attempt budget exhausted");
+    if (elapsed() > options.max_wall_seconds)
+      return finish(TerminationType::kTimeLimit, "max_wall_seconds elapsed");
+
+    const ContinuationPoint& last = summary.points.back();
+    double step = ds;
+    if (steep_left > 0)
+      step = std::min(
+          step, std::max(options.min_step, options.steep_branch_step_factor * options.max_step));
+    if (refining) step = std::min(step, refine_cap);
+
+    const VectorXd ys_last = last.y.cwiseQuotient(s.unknown);
+    const VectorXd predictor = ys_last + step * last.tangent;
+    CoreResult corr = DampedNewton(problem, s, predictor, newton, &last.tangent, &predictor);
+    summary.total_newton_iterations += corr.iterations;
+    ContinuationPoint p;
+    bool sign_change = false;
+    bool ok = corr.converged;
+    // A correction longer than the step cannot come from the branch's own curvature: the
+    // corrector has jumped onto another branch.
+    if (ok && (corr.ys - predictor).norm() > step) {
+      ok = false;
+      corr.message = "corrector jumped away from the predictor";
+    }
+    if (ok && !NextTangent(corr.js, last.tangent, &p.tangent)) {
+      ok = false;
+      corr.message = "singular bordered Jacobian, no tangent";
+    }
+
+    if (ok) {
+      p.y = unscale(corr.ys);
+      p.newton_iterations = corr.iterations;
+      p.step = step;
+      p.residual_norm = corr.residual_norm;
+
+      sign_change = last.tangent(n) * p.tangent(n) < 0.0;
+      if (sign_change && options.turning_point_control && !refining) {
+        // Points kept: at least up to the last accepted fold; the new point is always undone.
+        const std::size_t total = summary.points.size() + 1;
+        const std::size_t backtrack = static_cast<std::size_t>(options.turning_point_backtrack);
+        const std::size_t keep =
+            std::max(fold_floor + 1, total > backtrack ? total - backtrack : std::size_t{1});
+        summary.rejected_steps += static_cast<int>(total - keep);
+        summary.points.resize(keep);
+        ++summary.fine_control_restarts;
+        refining = true;
+        refine_cap = std::max(options.min_step, options.turning_point_refinement * step);
+        refine_left = static_cast<int>(
+            std::ceil((options.turning_point_backtrack + 2) / options.turning_point_refinement));
+        ds = refine_cap;
+        continue;
+      }
+
+      if ((p.y(n) - options.lambda_end) * direction >= 0.0) {
+        if (!options.land_on_end) {
+          emit(p);
+          return finish(TerminationType::kReachedEnd, "passed lambda_end");
+        }
+        // Land exactly on lambda_end from the chord between the last two points.
+        const double t = (options.lambda_end - last.y(n)) / (p.y(n) - last.y(n));
+        VectorXd guess = last.y + t * (p.y - last.y);
+        guess(n) = options.lambda_end;
+        const VectorXd guess_s = guess.cwiseQuotient(s.unknown);
+        const CoreResult land = DampedNewton(problem, s, guess_s, newton);
+        summary.total_newton_iterations += land.iterations;
+        ContinuationPoint end;
+        if (land.converged && (land.ys - guess_s).norm() <= step &&
+            NextTangent(land.js, last.tangent, &end.tangent)) {
+          end.y = unscale(land.ys);
+          end.y(n) = options.lambda_end;
+          end.newton_iterations = land.iterations;
+          end.step = (land.ys - ys_last).norm();
+          end.residual_norm = land.residual_norm;
+          emit(end);
+          return finish(TerminationType::kReachedEnd, "reached lambda_end");
+        }
+        ok = false;
+        corr.message = "landing on lambda_end failed" +
+                       (land.message.empty() ? std::string() : ": " + land.message);
+      }
+    }
+
+    if (!ok) {
+      ++summary.rejected_steps;
+      if (step <= options.min_step) {
+        std::ostringstream msg;
+        msg << "step below min_step " << options.min_step << ": " << corr.message;
+        return finish(TerminationType::kStepTooSmall, msg.str());
+      }
+      ds = std::max(0.5 * step, options.min_step);
+      continue;
+    }
+
+    // The point is accepted from here on.
+    if (sign_change) {
+      refining = false;
+      fold_floor = summary.points.size();
+    } else if (refining && --refine_left <= 0) {
+      refining = false;
+    }
+    if (steep_left > 0) --steep_left;
+    if (options.steep_branch_control &&
+        p.tangent.head(n).norm() > options.steep_branch_alpha * last.tangent.head(n).norm()) {
+      steep_left = options.steep_branch_points;
+      ++summary.steep_branch_caps;
+    }
+    // Eq. 4.13; an exact predictor (0 iterations) counts as 1 so the growth cap decides.
+    const double ratio =
+        static_cast<double>(options.target_newton_iterations) / std::max(p.newton_iterations, 1);
+    ds = std::clamp(std::min(step * std::sqrt(ratio), 2.0 * step), options.min_step,
+                    options.max_step);
+    if (!emit(p)) return finish(TerminationType::kCancelled, "cancelled by callback");
+  }
+}
+
+}  // namespace frichb::core

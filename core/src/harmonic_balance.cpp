@@ -1,0 +1,268 @@
+#include "frichb/core/harmonic_balance.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace frichb::core {
+
+namespace {
+
+std::vector<std::size_t> collect_kept_dofs(const Scene& scene) {
+  std::vector<std::size_t> kept;
+  auto add_node = [&](const std::string& name) {
+    if (name == "ground") return;
+    for (std::size_t d : scene.structure.find(name)->dofs)
+      if (std::find(kept.begin(), kept.end(), d) == kept.end()) kept.push_back(d);
+  };
+  for (const auto& c : scene.contacts) {
+    add_node(c.side_a);
+    add_node(c.side_b);
+  }
+  for (const auto& e : scene.excitation) add_node(e.node);
+  for (const auto& r : scene.output.response) add_node(r);
+  return kept;
+}
+
+}  // namespace
+
+HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance& structure)
+    : layout_(scene.harmonic_balance.harmonics, scene.harmonic_balance.samples_per_period),
+      mode_(scene.harmonic_balance.analytic_jacobian ? JacobianMode::kAnalytic
+                                                     : JacobianMode::kFiniteDifference) {
+  kept_dofs_ = collect_kept_dofs(scene);
+  const std::size_t n_dofs = structure.dof_count();
+  for (const auto& node : scene.structure.nodes)
+    for (std::size_t d : node.dofs)
+      if (d >= n_dofs)
+        throw SceneError(scene.file.string(), 0, 0, "structure.dofs." + node.name,
+                         "DOF " + std::to_string(d) + " does not exist: provider '" +
+                             scene.structure.provider + "' has " + std::to_string(n_dofs) +
+                             " DOFs (0.." + std::to_string(n_dofs - 1) + ")");
+  // Without cyclic symmetry every temporal harmonic has harmonic index 0.
+  structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, std::vector<int>{0});
+  const auto kept = static_cast<Eigen::Index>(kept_dofs_.size());
+
+  TraceOptions trace_options;
+  trace_options.max_passes = scene.harmonic_balance.max_trace_passes;
+  std::vector<Eigen::MatrixXd> gathers;
+  for (const auto& spec : scene.contacts) {
+    ContactModel c;
+    c.name = spec.name;
+    c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
+    c.tracer = std::make_unique<PeriodicTracer>(*c.law, layout_, trace_options);
+    const auto& comps = c.tracer->components();
+    c.gather = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(comps.size()), kept);
+    for (std::size_t a = 0; a < comps.size(); ++a) {
+      const std::vector<double>& dir =
+          comps[a] == 0 ? spec.tangent1 : (comps[a] == 1 ? spec.tangent2 : spec.normal);
+      if (dir.empty()) {
+        static const char* names[] = {"tangent1", "tangent2", "normal"};
+        throw SceneError(scene.file.string(), 0, 0,
+                         "contacts." + spec.name + ".frame." + names[comps[a]],
+                         "law '" + spec.law + "' with these params uses the " + names[comps[a]] +
+                             " direction: give frame." + names[comps[a]]);
+      }
+      auto add_side = [&](const std::string& side, double sign) {
+        if (side == "ground") return;
+        const auto& dofs = scene.structure.find(side)->dofs;
+        for (std::size_t k = 0; k < dofs.size(); ++k)
+          c.gather(static_cast<Eigen::Index>(a), kept_index(dofs[k])) += sign * dir[k];
+      };
+      add_side(spec.side_a, -1.0);
+      add_side(spec.side_b, +1.0);
+    }
+    c.offset = components_;
+    components_ += static_cast<int>(comps.size());
+    gathers.push_back(c.gather);
+    contacts_.push_back(std::move(c));
+  }
+  gather_.resize(components_, kept);
+  for (const auto& c : contacts_) gather_.middleRows(c.offset, c.gather.rows()) = c.gather;
+  unknown_count_ = static_cast<Eigen::Index>(components_) * layout_.coefficient_count();
+  traces_.resize(contacts_.size());
+
+  const auto& h = layout_.harmonics();
+  excitation_.assign(h.size(), Eigen::VectorXcd::Zero(kept));
+  for (const auto& e : scene.excitation) {
+    const auto k = static_cast<std::size_t>(std::find(h.begin(), h.end(), e.harmonic) - h.begin());
+    const auto& dofs = scene.structure.find(e.node)->dofs;
+    // amplitude cos(n w t + phase) = Re(amplitude e^{i phase} e^{i n w t})
+    const std::complex<double> a = std::polar(e.amplitude, e.phase);
+    for (std::size_t d = 0; d < dofs.size(); ++d)
+      excitation_[k](kept_index(dofs[d])) += a * e.direction[d];
+  }
+}
+
+HarmonicBalanceModel::~HarmonicBalanceModel() = default;
+
+Eigen::Index HarmonicBalanceModel::kept_index(std::size_t dof) const {
+  auto it = std::find(kept_dofs_.begin(), kept_dofs_.end(), dof);
+  return it == kept_dofs_.end() ? -1 : static_cast<Eigen::Index>(it - kept_dofs_.begin());
+}
+
+void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces,
+                                         Eigen::MatrixXd* dforces, std::string* message,
+                                         bool& ok) const {
+  const int c = layout_.coefficient_count();
+  forces.setZero(unknown_count_);
+  if (dforces) dforces->setZero(unknown_count_, unknown_count_);
+  ok = true;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const auto& contact = contacts_[i];
+    const int p = contact.tracer->unknown_count();
+    const Eigen::Index first = static_cast<Eigen::Index>(contact.offset) * c;
+    ContactTrace& t = traces_[i];
+    std::string error;
+    if (!contact.tracer->trace(y.segment(first, p), dforces ? mode_ : JacobianMode::kNone, t,
+                               &error)) {
+      if (message) *message = "contact '" + contact.name + "': " + error;
+      ok = false;
+      return;
+    }
+    if (t.used_finite_differences) ++stats_.contacts_with_fd_jacobian;
+    if (!t.periodic) {
+      ++stats_.non_periodic_traces;
+      stats_.last_trace_diagnostic = "contact '" + contact.name + "': " + t.diagnostic;
+    }
+    forces.segment(first, p) = t.force_coefficients;
+    if (dforces) dforces->block(first, first, p, p) = t.jacobian;
+  }
+}
+
+Eigen::VectorXd HarmonicBalanceModel::linear_response(double w) const {
+  const int c = layout_.coefficient_count();
+  const auto& h = layout_.harmonics();
+  Eigen::VectorXd u0 = Eigen::VectorXd::Zero(unknown_count_);
+  Eigen::MatrixXcd r;
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    if (excitation_[k].cwiseAbs().maxCoeff() == 0.0) continue;
+    structure_->receptance(0, h[k] * w, r);
+    const Eigen::VectorXcd x = gather_ * (r * excitation_[k]);
+    for (int a = 0; a < components_; ++a) {
+      u0(a * c + layout_.cos_index(k)) = x(a).real();
+      if (h[k] > 0) u0(a * c + layout_.sin_index(k)) = -x(a).imag();
+    }
+  }
+  return u0;
+}
+
+bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
+                                    Eigen::MatrixXd* jacobian, std::string* message) const {
+  const int c = layout_.coefficient_count();
+  const Eigen::Index n = unknown_count_;
+  const double w = y(n);
+  ++stats_.residual_evaluations;
+  if (jacobian) ++stats_.jacobian_evaluations;
+  Eigen::VectorXd forces;
+  Eigen::MatrixXd dforces;
+  bool ok = true;
+  gather_forces(y, forces, jacobian ? &dforces : nullptr, message, ok);
+  if (!ok) return false;
+
+  residual = y.head(n);
+  // Real form of each harmonic's complex receptance: with X = c - i s and R = A + i B,
+  // [c; s] = [[A, B], [-B, A]] [fc; fs].
+  Eigen::MatrixXd real_receptance, d_real_receptance;
+  if (jacobian) {
+    real_receptance.setZero(n, n);
+    d_real_receptance.setZero(n, n);
+  }
+  Eigen::VectorXd dresidual_dw = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXcd r, dr;
+  const auto& h = layout_.harmonics();
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    const int hn = h[k];
+    structure_->receptance(0, hn * w, r, &dr);
+    const Eigen::MatrixXcd rc = gather_ * r * gather_.transpose();
+    const Eigen::MatrixXcd drc = static_cast<double>(hn) * (gather_ * dr * gather_.transpose());
+    const Eigen::VectorXcd u0 = gather_ * (r * excitation_[k]);
+    const Eigen::VectorXcd du0 = static_cast<double>(hn) * (gather_ * (dr * excitation_[k]));
+    if (!rc.allFinite() || !u0.allFinite()) {
+      if (message)
+        *message = "receptance at harmonic " + std::to_string(hn) + " is singular (" +
+                   (hn == 0 ? "a rigid-body mode: drop harmonic 0 or ground the structure"
+                            : "undamped resonance") +
+                   ")";
+      return false;
+    }
+    const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
+    for (int a = 0; a < components_; ++a) {
+      residual(a * c + ci) -= u0(a).real();
+      dresidual_dw(a * c + ci) -= du0(a).real();
+      if (hn > 0) {
+        residual(a * c + si) -= -u0(a).imag();
+        dresidual_dw(a * c + si) -= -du0(a).imag();
+      }
+      for (int b = 0; b < components_; ++b) {
+        const double A = rc(a, b).real(), B = rc(a, b).imag();
+        const double dA = drc(a, b).real(), dB = drc(a, b).imag();
+        const double fc = forces(b * c + ci);
+        const double fs = hn > 0 ? forces(b * c + si) : 0.0;
+        residual(a * c + ci) += A * fc + (hn > 0 ? B * fs : 0.0);
+        dresidual_dw(a * c + ci) += dA * fc + (hn > 0 ? dB * fs : 0.0);
+        if (hn > 0) {
+          residual(a * c + si) += -B * fc + A * fs;
+          dresidual_dw(a * c + si) += -dB * fc + dA * fs;
+        }
+        if (jacobian) {
+          real_receptance(a * c + ci, b * c + ci) = A;
+          if (hn > 0) {
+            real_receptance(a * c + ci, b * c + si) = B;
+            real_receptance(a * c + si, b * c + ci) = -B;
+            real_receptance(a * c + si, b * c + si) = A;
+          }
+        }
+      }
+    }
+  }
+  if (!residual.allFinite()) {
+    if (message) *message = "the residual is not finite at w = " + std::to_string(w) + " rad/s";
+    return false;
+  }
+  if (jacobian) {
+    jacobian->resize(n, n + 1);
+    jacobian->leftCols(n).noalias() = real_receptance * dforces;
+    jacobian->leftCols(n).diagonal().array() += 1.0;
+    jacobian->col(n) = dresidual_dw;
+    if (!jacobian->allFinite()) {
+      if (message) *message = "the Jacobian is not finite at w = " + std::to_string(w) + " rad/s";
+      return false;
+    }
+  }
+  return true;
+}
+
+std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(const Eigen::VectorXd& y) const {
+  const int c = layout_.coefficient_count();
+  const double w = y(unknown_count_);
+  Eigen::VectorXd forces;
+  bool ok = true;
+  std::string message;
+  gather_forces(y, forces, nullptr, &message, ok);
+  const auto& h = layout_.harmonics();
+  std::vector<Eigen::VectorXcd> out;
+  Eigen::MatrixXcd r;
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    Eigen::VectorXcd f_local(components_);
+    for (int a = 0; a < components_; ++a) {
+      const double fc = forces(a * c + layout_.cos_index(k));
+      const double fs = h[k] > 0 ? forces(a * c + layout_.sin_index(k)) : 0.0;
+      f_local(a) = std::complex<double>(fc, -fs);
+    }
+    structure_->receptance(0, h[k] * w, r);
+    out.push_back(r *
+                  (excitation_[k] - gather_.transpose().cast<std::complex<double>>() * f_local));
+  }
+  return out;
+}
+
+bool HarmonicBalanceModel::trace_contact(std::size_t i, const Eigen::VectorXd& y, ContactTrace& out,
+                                         std::string* error) const {
+  const int c = layout_.coefficient_count();
+  const auto& contact = contacts_[i];
+  return contact.tracer->trace(
+      y.segment(static_cast<Eigen::Index>(contact.offset) * c, contact.tracer->unknown_count()),
+      JacobianMode::kNone, out, error);
+}
+
+}  // namespace frichb::core

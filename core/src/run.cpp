@@ -1,0 +1,388 @@
+#include "frichb/core/run.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "frichb/core/continuation.hpp"
+#include "frichb/core/harmonic_balance.hpp"
+#include "frichb/core/output.hpp"
+#include "frichb/core/response.hpp"
+#include "frichb/core/scene.hpp"
+
+namespace frichb::core {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::string unit_name(FrequencyUnit u) {
+  return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
+}
+
+std::string format_number(double x, int precision = 6) {
+  std::ostringstream os;
+  os.precision(precision);
+  os << x;
+  return os.str();
+}
+
+struct NodeColumns {
+  std::string name;
+  std::vector<Eigen::Index> kept;  // kept indices of the node's DOFs
+};
+
+nlohmann::json plugin_json(const LoadedPlugin& p) {
+  const auto& d = p.descriptor();
+  return {{"name", d.name},
+          {"kind", to_string(p.kind())},
+          {"version", d.version},
+          {"abi", std::to_string(d.abi_major) + "." + std::to_string(d.abi_minor)},
+          {"build", d.build_tag},
+          {"file", p.file().string()}};
+}
+
+std::string response_plot_script(const Scene& scene, const std::vector<NodeColumns>& nodes) {
+  std::ostringstream gp;
+  gp << "# gnuplot script written by frichb; run `gnuplot response.gp` to remake response.png\n"
+     << "set terminal pngcairo size 1000,640 noenhanced\n"
+     << "set output 'response.png'\n"
+     << "set datafile separator ','\n"
+     << "set title '" << (scene.name.empty() ? scene.file.stem().string() : scene.name)
+     << ": forced response'\n"
+     << "set xlabel 'frequency [" << unit_name(scene.continuation.unit) << "]'\n"
+     << "set ylabel 'amplitude [m]'\nset grid\nset key top right\n";
+  const int xcol = scene.continuation.unit == FrequencyUnit::kHz ? 2 : 3;
+  gp << "plot ";
+  for (std::size_t i = 0; i < nodes.size(); ++i)
+    gp << (i ? ", \\\n     " : "") << "'response.csv' using " << xcol << ":"
+       << "(column('" << nodes[i].name << "_amplitude_m')) with linespoints pt 7 ps 0.4 title '"
+       << nodes[i].name << "'";
+  gp << "\n";
+  return gp.str();
+}
+
+std::string loop_plot_script(const std::string& csv, const std::string& title, int dims) {
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 800,600 noenhanced\n"
+     << "set output '" << fs::path(csv).replace_extension(".png").filename().string() << "'\n"
+     << "set datafile separator ','\nset grid\n"
+     << "set title '" << title << "'\n"
+     << "set xlabel 'relative displacement u_t1 [m]'\nset ylabel 'friction force T1 [N]'\n"
+     << "plot '" << fs::path(csv).filename().string() << "' using 2:" << (2 + dims)
+     << " with lines lw 2 title 'loop'\n";
+  return gp.str();
+}
+
+}  // namespace
+
+int run_scene(const RunRequest& request) {
+  const auto t_start = Clock::now();
+  nlohmann::json timing;
+  Scene scene;
+  std::unique_ptr<Registry> registry;
+  try {
+    scene = load_scene(request.scene_file);
+    registry = std::make_unique<Registry>(Registry::default_search_path(scene.plugin_paths));
+    bind_plugins(scene, *registry);
+  } catch (const SceneError& e) {
+    spdlog::error("{}", e.what());
+    return kExitInvalidInput;
+  } catch (const PluginError& e) {
+    spdlog::error("{}: {}", request.scene_file.string(), e.what());
+    return kExitInvalidInput;
+  }
+  if (request.validate_only) {
+    spdlog::info("{}: valid ({} contact{}, provider '{}', plugins loaded: {})",
+                 request.scene_file.string(), scene.contacts.size(),
+                 scene.contacts.size() == 1 ? "" : "s", scene.structure.provider,
+                 registry->search_path().size() ? "ok" : "none");
+    return kExitOk;
+  }
+
+  try {
+    std::unique_ptr<StructureInstance> structure;
+    std::unique_ptr<HarmonicBalanceModel> model;
+    try {
+      structure =
+          std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
+      model = std::make_unique<HarmonicBalanceModel>(scene, *structure);
+    } catch (const PluginError& e) {
+      spdlog::error("{}: {}", request.scene_file.string(), e.what());
+      return kExitInvalidInput;
+    } catch (const SceneError& e) {
+      spdlog::error("{}", e.what());
+      return kExitInvalidInput;
+    }
+    timing["setup_s"] = seconds_since(t_start);
+    const auto& C = scene.continuation;
+    const double unit = C.to_rad_per_s();
+    const double w_from = C.from * unit, w_to = C.to * unit;
+    const Eigen::Index n = model->equation_count();
+    spdlog::info(
+        "scene '{}': {} contact(s), {} unknowns ({} harmonics, {} samples), {} {} -> {} {}",
+        scene.name.empty() ? scene.file.stem().string() : scene.name, model->contacts().size(), n,
+        model->layout().harmonics().size(), model->layout().samples(), C.from, unit_name(C.unit),
+        C.to, unit_name(C.unit));
+
+    // Scaling: frequency in the scene's unit; displacements so that the contact-free peak
+    // over the sweep is kTallness times as tall as the sweep is wide. Friction peaks are much
+    // lower than the contact-free one, so a tall box keeps the arclength resolving them.
+    constexpr double kTallness = 20.0;
+    double peak = 0.0;
+    for (int i = 0; i <= 256; ++i) {
+      const double w = w_from + (w_to - w_from) * i / 256.0;
+      const Eigen::VectorXd u0 = model->linear_response(w);
+      if (u0.size()) peak = std::max(peak, u0.cwiseAbs().maxCoeff());
+    }
+    if (peak == 0.0) peak = 1e-6;
+    const double span = std::abs(C.to - C.from);
+    const double u_unit =
+        C.displacement_scale > 0 ? C.displacement_scale : peak / (kTallness * span);
+
+    ContinuationOptions options;
+    options.lambda_start = w_from;
+    options.lambda_end = w_to;
+    options.initial_step = C.initial_step;
+    options.min_step = C.min_step;
+    options.max_step = C.max_step;
+    options.target_newton_iterations = C.target_newton_iterations;
+    options.max_points = C.max_points;
+    options.max_wall_seconds = C.max_wall_seconds;
+    options.turning_point_control = C.turning_point_control;
+    options.steep_branch_alpha = C.steep_branch_alpha;
+    options.newton.max_iterations = C.max_newton_iterations;
+    options.newton.residual_tolerance = C.tolerance;
+    options.newton.step_tolerance = C.tolerance;
+    options.unknown_scale = Eigen::VectorXd::Constant(n + 1, u_unit);
+    options.unknown_scale(n) = unit;
+    options.residual_scale = Eigen::VectorXd::Constant(n, peak);
+
+    Eigen::VectorXd y0(n + 1);
+    y0.head(n) = model->linear_response(w_from);
+    y0(n) = w_from;
+
+    const auto t_cont = Clock::now();
+    double last_report = -1.0;
+    auto progress = [&](const ContinuationPoint& p, std::size_t index) {
+      const double f = p.y(n) / unit;
+      const double done = std::clamp((f - C.from) / (C.to - C.from), 0.0, 1.0);
+      if (done - last_report >= 0.05 || index == 0) {
+        last_report = done;
+        spdlog::info("  [{:3.0f}%] point {:5d}  {:.6g} {}  Newton {}  step {:.3g}", 100 * done,
+                     index, f, unit_name(C.unit), p.newton_iterations, p.step);
+      }
+      return true;
+    };
+    const ContinuationSummary summary = trace_curve(*model, y0, options, progress);
+    timing["continuation_s"] = seconds_since(t_cont);
+    if (summary.reached_end())
+      spdlog::info(
+          "reached {} {} with {} points ({} rejected steps, {} turning points) in {:.3f} s", C.to,
+          unit_name(C.unit), summary.points.size(), summary.rejected_steps, summary.turning_points,
+          summary.wall_seconds);
+    else
+      spdlog::error("the response curve ended early: {} ({})", to_string(summary.termination),
+                    summary.message);
+
+    // ---- post-processing ----
+    const auto t_post = Clock::now();
+    std::vector<NodeColumns> nodes;
+    for (const auto& name : scene.output.response) {
+      NodeColumns nc{name, {}};
+      for (std::size_t d : scene.structure.find(name)->dofs)
+        nc.kept.push_back(model->kept_index(d));
+      nodes.push_back(nc);
+    }
+    const auto& harmonics = model->layout().harmonics();
+    AmplitudeSampler sampler(harmonics, std::max(256, 8 * model->layout().samples()));
+    std::vector<std::string> header = {"point", "frequency_hz", "omega_rad_s"};
+    for (const auto& nc : nodes) {
+      header.push_back(nc.name + "_amplitude_m");
+      for (int h : harmonics) header.push_back(nc.name + "_h" + std::to_string(h) + "_m");
+    }
+    header.insert(header.end(), {"newton_iterations", "step"});
+    std::vector<std::vector<double>> rows;
+    nlohmann::json peaks = nlohmann::json::object();
+    std::vector<double> peak_amp(nodes.size(), -1.0), peak_w(nodes.size(), 0.0);
+    for (std::size_t i = 0; i < summary.points.size(); ++i) {
+      const auto& p = summary.points[i];
+      const double w = p.y(n);
+      const auto x = model->kept_response(p.y);
+      std::vector<double> row = {static_cast<double>(i), w / (2 * std::numbers::pi), w};
+      for (std::size_t k = 0; k < nodes.size(); ++k) {
+        const double amp = sampler.peak_amplitude(x, nodes[k].kept);
+        row.push_back(amp);
+        if (amp > peak_amp[k]) {
+          peak_amp[k] = amp;
+          peak_w[k] = w;
+        }
+        for (double a : AmplitudeSampler::harmonic_amplitudes(x, nodes[k].kept)) row.push_back(a);
+      }
+      row.push_back(p.newton_iterations);
+      row.push_back(p.step);
+      rows.push_back(std::move(row));
+    }
+    for (std::size_t k = 0; k < nodes.size(); ++k)
+      peaks[nodes[k].name] = {{"amplitude_m", peak_amp[k]},
+                              {"frequency_hz", peak_w[k] / (2 * std::numbers::pi)},
+                              {"omega_rad_s", peak_w[k]}};
+
+    // ---- outputs ----
+    fs::path out_dir = request.output_directory;
+    if (out_dir.empty()) out_dir = fs::path("out") / scene.file.stem();
+    StagedOutput out(out_dir);
+    write_csv(out.path("response.csv"), header, rows);
+
+    // Friction loops: every crossing of each requested frequency, solved exactly there.
+    nlohmann::json loops = nlohmann::json::array();
+    for (double f_req : scene.output.friction_loops_at) {
+      const double w_req = f_req * unit;
+      int crossing = 0;
+      for (std::size_t i = 1; i < summary.points.size(); ++i) {
+        const double wa = summary.points[i - 1].y(n), wb = summary.points[i].y(n);
+        if ((wa - w_req) * (wb - w_req) > 0 || wa == wb) continue;
+        if (wb == w_req && i + 1 < summary.points.size()) continue;  // counted at the next pair
+        const double s = (w_req - wa) / (wb - wa);
+        Eigen::VectorXd guess = (1 - s) * summary.points[i - 1].y + s * summary.points[i].y;
+        guess(n) = w_req;
+        const NewtonResult solved = solve_fixed_parameter(*model, guess, options);
+        if (!solved.converged) {
+          spdlog::warn("friction loop at {} {}: Newton did not converge ({})", f_req,
+                       unit_name(C.unit), solved.message);
+          continue;
+        }
+        ++crossing;
+        for (std::size_t c = 0; c < model->contacts().size(); ++c) {
+          ContactTrace trace;
+          std::string error;
+          if (!model->trace_contact(c, solved.y, trace, &error)) {
+            spdlog::warn("friction loop: {}", error);
+            continue;
+          }
+          const auto& contact = model->contacts()[c];
+          const auto& comps = contact.tracer->components();
+          static const char* names[] = {"t1", "t2", "n"};
+          std::vector<std::string> lh = {"phase"};
+          for (int a : comps) lh.push_back(std::string("u_") + names[a] + "_m");
+          for (int a : comps) lh.push_back(std::string("f_") + names[a] + "_N");
+          std::vector<std::vector<double>> lrows;
+          const int samples = model->layout().samples();
+          for (int j = 0; j <= samples; ++j) {  // closed loop: repeat the first sample
+            const int jj = j % samples;
+            std::vector<double> r = {static_cast<double>(j) / samples};
+            for (Eigen::Index a = 0; a < trace.displacement.cols(); ++a)
+              r.push_back(trace.displacement(jj, a));
+            for (Eigen::Index a = 0; a < trace.force.cols(); ++a) r.push_back(trace.force(jj, a));
+            lrows.push_back(std::move(r));
+          }
+          const std::string base = "loops/" + contact.name + "_" + format_number(f_req) +
+                                   unit_name(C.unit).substr(0, 2) + "_" + std::to_string(crossing);
+          const fs::path csv = out.path(base + ".csv");
+          write_csv(csv, lh, lrows);
+          // Energy dissipated per cycle: the closed integral of f . du over the loop.
+          double energy = 0;
+          for (int j = 0; j < samples; ++j) {
+            const int jn = (j + 1) % samples;
+            for (Eigen::Index a = 0; a < trace.force.cols(); ++a)
+              energy += 0.5 * (trace.force(j, a) + trace.force(jn, a)) *
+                        (trace.displacement(jn, a) - trace.displacement(j, a));
+          }
+          loops.push_back({{"contact", contact.name},
+                           {"frequency", f_req},
+                           {"crossing", crossing},
+                           {"file", base + ".csv"},
+                           {"dissipated_energy_per_cycle_J", energy},
+                           {"trace_passes", trace.passes}});
+          if (scene.output.plots) {
+            const fs::path gp = out.path(base + ".gp");
+            write_text(gp, loop_plot_script(csv.string(),
+                                            contact.name + " at " + format_number(f_req) + " " +
+                                                unit_name(C.unit),
+                                            static_cast<int>(comps.size())));
+            run_gnuplot(gp);
+          }
+        }
+      }
+      if (crossing == 0)
+        spdlog::warn("friction loop at {} {}: the response curve does not reach it", f_req,
+                     unit_name(C.unit));
+    }
+    if (scene.output.plots) {
+      const fs::path gp = out.path("response.gp");
+      write_text(gp, response_plot_script(scene, nodes));
+      run_gnuplot(gp);
+    }
+    timing["post_and_output_s"] = seconds_since(t_post);
+    timing["total_s"] = seconds_since(t_start);
+
+    nlohmann::json plugins = nlohmann::json::array();
+    plugins.push_back(plugin_json(*scene.structure.plugin));
+    std::vector<std::string> listed = {scene.structure.plugin->name()};
+    for (const auto& c : scene.contacts)
+      if (std::find(listed.begin(), listed.end(), c.plugin->name()) == listed.end()) {
+        listed.push_back(c.plugin->name());
+        plugins.push_back(plugin_json(*c.plugin));
+      }
+    const auto& stats = model->stats();
+    nlohmann::json last = nullptr;
+    if (!summary.points.empty()) {
+      const auto& p = summary.points.back();
+      last = {{"frequency", p.y(n) / unit},
+              {"omega_rad_s", p.y(n)},
+              {"scaled_residual", p.residual_norm},
+              {"newton_iterations", p.newton_iterations}};
+    }
+    nlohmann::json doc = {
+        {"frichb_version", version()},
+        {"scene", {{"file", scene.file.string()}, {"name", scene.name}}},
+        {"termination",
+         {{"reason", to_string(summary.termination)},
+          {"reached_end", summary.reached_end()},
+          {"message", summary.message},
+          {"last_point", last}}},
+        {"points", summary.points.size()},
+        {"rejected_steps", summary.rejected_steps},
+        {"turning_points", summary.turning_points},
+        {"fine_control_restarts", summary.fine_control_restarts},
+        {"steep_branch_caps", summary.steep_branch_caps},
+        {"newton_iterations", summary.total_newton_iterations},
+        {"residual_evaluations", stats.residual_evaluations},
+        {"jacobian_evaluations", stats.jacobian_evaluations},
+        {"jacobian",
+         {{"mode",
+           model->jacobian_mode() == JacobianMode::kAnalytic ? "analytic" : "finite_difference"},
+          {"contact_traces_with_finite_differences", stats.contacts_with_fd_jacobian}}},
+        {"non_periodic_traces", stats.non_periodic_traces},
+        {"unknowns", n},
+        {"scaling", {{"displacement_m", u_unit}, {"residual_m", peak}}},
+        {"peak", peaks},
+        {"friction_loops", loops},
+        {"wall_time_s", timing},
+        {"plugins", plugins},
+        {"validated_scene", scene_to_json(scene)}};
+    if (!stats.last_trace_diagnostic.empty())
+      doc["last_trace_diagnostic"] = stats.last_trace_diagnostic;
+    if (stats.contacts_with_fd_jacobian && model->jacobian_mode() == JacobianMode::kAnalytic)
+      spdlog::warn("{} contact traces used finite differences (a law without tangents)",
+                   stats.contacts_with_fd_jacobian);
+    write_json(out.path("summary.json"), doc);
+    out.commit();
+    spdlog::info("wrote {} ({} points; total {:.3f} s)", out_dir.string(), rows.size(),
+                 seconds_since(t_start));
+    return summary.reached_end() ? kExitOk : kExitIncomplete;
+  } catch (const std::exception& e) {
+    spdlog::error("{}: {}", request.scene_file.string(), e.what());
+    return kExitInternal;
+  }
+}
+
+}  // namespace frichb::core

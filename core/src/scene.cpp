@@ -1,0 +1,478 @@
+#include "frichb/core/scene.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <set>
+
+#include "frichb/plugin/sdk.hpp"
+
+namespace frichb::core {
+
+namespace fs = std::filesystem;
+using sdk::Param;
+
+namespace {
+
+// ---- The core's own schemas (single source of truth for validation and the reference) ----
+
+const std::vector<frichb_param_spec>& top_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text("name", "short name of the scene, used in plots").defaults_to_text(""),
+      Param::text("description", "free text").defaults_to_text(""),
+      Param::text_list("plugin_paths",
+                       "extra folders searched for plugins, relative to the scene file")
+          .optional(),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& structure_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text("provider", "structure-provider plugin name (`frichb plugins` lists them)"),
+  };
+  return s;
+}
+const frichb_param_spec* excitation_fields() {
+  static const frichb_param_spec f[] = {
+      Param::text("dof", "name of the excited DOF or node (a key of structure.dofs)"),
+      Param::real("amplitude", "N", "force amplitude").at_least(0),
+      Param::integer("harmonic", "temporal harmonic number n of the force")
+          .defaults_to(1)
+          .at_least(0),
+      Param::real("phase_deg", "deg", "phase: force = amplitude cos(n w t + phase)").defaults_to(0),
+      Param::real_list("direction", "",
+                       "direction over the node's components (nodes with more than one DOF)")
+          .optional(),
+  };
+  return f;
+}
+constexpr std::size_t kExcitationFieldCount = 5;
+const std::vector<frichb_param_spec>& excitation_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::records("excitation", "harmonic point forces", excitation_fields(),
+                     kExcitationFieldCount)
+          .optional()};
+  return s;
+}
+const std::vector<frichb_param_spec>& contact_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text("name", "name of the contact, used in outputs"),
+      Param::text("law", "contact-law plugin name (`frichb plugins` lists them)"),
+      Param::text_list("between", "side A and side B: node names or 'ground'").count(2, 2),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& frame_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::real_list("tangent1", "", "first tangential direction over the node's components")
+          .optional(),
+      Param::real_list("tangent2", "", "second tangential direction (2D tangential laws)")
+          .optional(),
+      Param::real_list("normal", "",
+                       "normal direction, pointing so that u_n > 0 closes the contact")
+          .optional(),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& harmonic_balance_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::real_list("harmonics", "", "kept temporal harmonics, e.g. [0, 1, 3, 5]")
+          .at_least(0)
+          .optional(),
+      Param::integer("max_harmonic", "keep harmonics 0..max_harmonic (instead of `harmonics`)")
+          .defaults_to(-1)
+          .at_least(-1),
+      Param::integer("samples_per_period", "time samples N of the AFT; N >= 2 max_harmonic + 1")
+          .defaults_to(128)
+          .at_least(2),
+      Param::text("jacobian", "contact Jacobian: quasi-analytical, or finite differences")
+          .defaults_to_text("analytic")
+          .choices("analytic|finite_difference"),
+      Param::integer("max_trace_passes", "bound on passes over the period for periodicity")
+          .defaults_to(200)
+          .at_least(1),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& continuation_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::integer("target_newton_iterations", "N* of the step adaptation ds*sqrt(N*/N)")
+          .defaults_to(4)
+          .at_least(1)
+          .at_most(20),
+      Param::integer("max_newton_iterations", "corrector iterations before a step is retried")
+          .defaults_to(25)
+          .at_least(2),
+      Param::integer("max_points", "bound on converged points").defaults_to(2000).at_least(2),
+      Param::real("tolerance", "", "Newton tolerance on the scaled residual and update")
+          .defaults_to(1e-9)
+          .greater_than(0)
+          .at_most(1e-2),
+      Param::boolean("turning_point_control",
+                     "step back and refine tenfold where the frequency tangent changes sign")
+          .defaults_to(1),
+      Param::real("steep_branch_alpha", "", "steep-branch cap threshold alpha (thesis: 20-40)")
+          .defaults_to(30)
+          .greater_than(1),
+      Param::real("max_wall_seconds", "s", "wall-clock bound of the continuation")
+          .defaults_to(600)
+          .greater_than(0),
+      Param::real("displacement_scale", "m",
+                  "scale of the displacement unknowns in the arclength; 0 = automatic")
+          .defaults_to(0)
+          .at_least(0),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& frequency_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::real("from", "Hz or rad/s", "start of the sweep").at_least(0),
+      Param::real("to", "Hz or rad/s", "end of the sweep").at_least(0),
+      Param::text("unit", "unit of from/to, steps and friction_loops_at")
+          .defaults_to_text("Hz")
+          .choices("Hz|rad/s"),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& step_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::real("initial", "Hz or rad/s", "first arclength step").defaults_to(1).greater_than(0),
+      Param::real("min", "Hz or rad/s", "smallest step before giving up")
+          .defaults_to(1e-4)
+          .greater_than(0),
+      Param::real("max", "Hz or rad/s", "largest step").defaults_to(10).greater_than(0),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& output_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text_list("response", "nodes whose amplitude goes to response.csv").optional(),
+      Param::real_list("friction_loops_at", "Hz or rad/s",
+                       "frequencies where friction loops are written")
+          .greater_than(0)
+          .optional(),
+      Param::boolean("plots", "write gnuplot scripts and PNG plots").defaults_to(1),
+  };
+  return s;
+}
+
+sdk::Params view(const std::vector<frichb_param_spec>& schema, const ParamValues& values) {
+  return sdk::Params(schema.data(), schema.size(), values.data());
+}
+
+std::vector<double> unit_vector(const std::vector<double>& v, const YAML::Node& node,
+                                const std::string& path, const YamlContext& ctx,
+                                std::size_t components) {
+  if (v.size() != components)
+    ctx.fail(node, path,
+             "has " + std::to_string(v.size()) + " entries but the node has " +
+                 std::to_string(components) + " components");
+  double norm = 0;
+  for (double x : v) norm += x * x;
+  norm = std::sqrt(norm);
+  if (norm == 0) ctx.fail(node, path, "is the zero vector");
+  std::vector<double> out;
+  for (double x : v) out.push_back(x / norm);
+  return out;
+}
+
+}  // namespace
+
+const NodeSpec* StructureSpec::find(const std::string& name) const {
+  for (const auto& n : nodes)
+    if (n.name == name) return &n;
+  return nullptr;
+}
+
+double ContinuationSpec::to_rad_per_s() const {
+  return unit == FrequencyUnit::kHz ? 2.0 * std::numbers::pi : 1.0;
+}
+
+Scene load_scene(const fs::path& file) {
+  Scene scene;
+  scene.file = file;
+  YamlContext ctx{file.string()};
+  {
+    std::ifstream probe(file);
+    if (!probe) throw SceneError(file.string(), 0, 0, "", "cannot open the scene file");
+  }
+  try {
+    scene.root = YAML::LoadFile(file.string());
+  } catch (const YAML::Exception& e) {
+    throw SceneError(file.string(), e.mark.line + 1, e.mark.column + 1, "",
+                     "malformed YAML: " + e.msg);
+  }
+  const YAML::Node& root = scene.root;
+  if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
+
+  const std::vector<std::string> sections = {"structure",        "excitation",   "contacts",
+                                             "harmonic_balance", "continuation", "output"};
+  const auto top = validate_params(root, top_schema(), "", ctx, sections);
+  const auto topv = view(top_schema(), top);
+  scene.name = topv.text("name");
+  scene.description = topv.text("description");
+  for (const auto& p : topv.texts("plugin_paths")) {
+    fs::path path(p);
+    scene.plugin_paths.push_back(path.is_absolute() ? path : file.parent_path() / path);
+  }
+  scene.core_values = top.to_json(top_schema());
+
+  // structure
+  const YAML::Node s = root["structure"];
+  if (!s) ctx.fail(root, "structure", "missing required section");
+  const auto sv = validate_params(s, structure_schema(), "structure", ctx,
+                                  std::vector<std::string>{"params", "dofs"});
+  scene.structure.provider = view(structure_schema(), sv).text("provider");
+  scene.structure.params = s["params"];
+  const YAML::Node dofs = s["dofs"];
+  if (!dofs || !dofs.IsMap() || dofs.size() == 0)
+    ctx.fail(dofs ? dofs : s, "structure.dofs",
+             "expected a map naming DOFs, e.g. {blade: 0, damper: [3, 4, 5]}");
+  for (const auto& kv : dofs) {
+    NodeSpec node;
+    node.name = kv.first.as<std::string>();
+    const std::string path = "structure.dofs." + node.name;
+    if (node.name == "ground") ctx.fail(kv.first, path, "'ground' is reserved");
+    auto read_index = [&](const YAML::Node& n) {
+      double x = -1;
+      if (!n.IsScalar() || !YAML::convert<double>::decode(n, x) || x < 0 || x != std::floor(x))
+        ctx.fail(n, path, "expected a DOF index (integer >= 0) or a list of them");
+      node.dofs.push_back(static_cast<std::size_t>(x));
+    };
+    if (kv.second.IsSequence()) {
+      if (kv.second.size() == 0 || kv.second.size() > 3)
+        ctx.fail(kv.second, path, "a node has 1 to 3 DOFs");
+      for (const auto& n : kv.second) read_index(n);
+    } else {
+      read_index(kv.second);
+    }
+    scene.structure.nodes.push_back(std::move(node));
+  }
+  scene.core_values["structure"] = sv.to_json(structure_schema());
+
+  // harmonic balance
+  const YAML::Node hbn = root["harmonic_balance"];
+  const auto hb = validate_params(hbn, harmonic_balance_schema(), "harmonic_balance", ctx);
+  const auto hbv = view(harmonic_balance_schema(), hb);
+  const auto listed = hbv.reals("harmonics");
+  const long long max_h = hbv.integer("max_harmonic");
+  if (listed.empty() == (max_h < 0))
+    ctx.fail(hbn ? hbn : root, "harmonic_balance",
+             "give exactly one of `harmonics: [...]` or `max_harmonic: H`");
+  auto& H = scene.harmonic_balance;
+  if (max_h >= 0) {
+    for (int n = 0; n <= max_h; ++n) H.harmonics.push_back(n);
+  } else {
+    std::set<int> seen;
+    for (std::size_t i = 0; i < listed.size(); ++i) {
+      const double x = listed[i];
+      if (x != std::floor(x) || !seen.insert(static_cast<int>(x)).second)
+        ctx.fail(hbn["harmonics"][i], "harmonic_balance.harmonics[" + std::to_string(i) + "]",
+                 "harmonics are distinct integers >= 0");
+      H.harmonics.push_back(static_cast<int>(x));
+    }
+  }
+  H.samples_per_period = static_cast<int>(hbv.integer("samples_per_period"));
+  const int max_kept = *std::max_element(H.harmonics.begin(), H.harmonics.end());
+  if (H.samples_per_period < 2 * max_kept + 1)
+    ctx.fail(hbn["samples_per_period"] ? hbn["samples_per_period"] : hbn,
+             "harmonic_balance.samples_per_period",
+             "value " + std::to_string(H.samples_per_period) +
+                 " violates samples_per_period >= 2 * max_harmonic + 1 = " +
+                 std::to_string(2 * max_kept + 1) + " (aliasing)");
+  H.analytic_jacobian = hbv.text("jacobian") == "analytic";
+  H.max_trace_passes = static_cast<int>(hbv.integer("max_trace_passes"));
+  scene.core_values["harmonic_balance"] = hb.to_json(harmonic_balance_schema());
+
+  // excitation
+  const YAML::Node exn = root["excitation"];
+  YAML::Node wrapped;
+  wrapped["excitation"] = exn;
+  const auto ex = validate_params(exn ? wrapped : YAML::Node(), excitation_schema(), "", ctx);
+  const auto exv = view(excitation_schema(), ex);
+  for (std::size_t i = 0; i < exv.record_count("excitation"); ++i) {
+    const auto r = exv.record("excitation", i);
+    const std::string path = "excitation[" + std::to_string(i) + "]";
+    ExcitationSpec e;
+    e.node = r.text("dof");
+    const NodeSpec* node = scene.structure.find(e.node);
+    if (!node)
+      ctx.fail(exn[i]["dof"], path + ".dof", "'" + e.node + "' is not a key of structure.dofs");
+    auto dir = r.reals("direction");
+    if (dir.empty() && node->dofs.size() == 1) dir = {1.0};
+    if (dir.empty())
+      ctx.fail(exn[i], path + ".direction",
+               "node '" + e.node + "' has several DOFs: give a direction");
+    e.direction = unit_vector(dir, exn[i]["direction"] ? exn[i]["direction"] : exn[i],
+                              path + ".direction", ctx, node->dofs.size());
+    e.amplitude = r.real("amplitude");
+    e.harmonic = static_cast<int>(r.integer("harmonic"));
+    e.phase = r.real("phase_deg") * std::numbers::pi / 180.0;
+    if (std::find(H.harmonics.begin(), H.harmonics.end(), e.harmonic) == H.harmonics.end())
+      ctx.fail(exn[i], path + ".harmonic",
+               "harmonic " + std::to_string(e.harmonic) +
+                   " is not among harmonic_balance's kept harmonics");
+    scene.excitation.push_back(std::move(e));
+  }
+  scene.core_values["excitation"] = ex.to_json(excitation_schema())["excitation"];
+
+  // contacts
+  const YAML::Node cn = root["contacts"];
+  if (cn && !cn.IsNull() && !cn.IsSequence())
+    ctx.fail(cn, "contacts", "expected a list of contacts");
+  std::set<std::string> contact_names;
+  nlohmann::json contacts_json = nlohmann::json::array();
+  for (std::size_t i = 0; cn && cn.IsSequence() && i < cn.size(); ++i) {
+    const std::string path = "contacts[" + std::to_string(i) + "]";
+    const YAML::Node c = cn[i];
+    const auto cv = validate_params(c, contact_schema(), path, ctx,
+                                    std::vector<std::string>{"frame", "params"});
+    const auto v = view(contact_schema(), cv);
+    ContactSpec contact;
+    contact.name = v.text("name");
+    contact.law = v.text("law");
+    if (!contact_names.insert(contact.name).second)
+      ctx.fail(c["name"], path + ".name", "contact name '" + contact.name + "' is used twice");
+    const auto sides = v.texts("between");
+    contact.side_a = sides[0];
+    contact.side_b = sides[1];
+    std::size_t components = 0;
+    for (int k = 0; k < 2; ++k) {
+      const std::string& side = sides[static_cast<std::size_t>(k)];
+      if (side == "ground") continue;
+      const NodeSpec* node = scene.structure.find(side);
+      if (!node)
+        ctx.fail(c["between"][k], path + ".between[" + std::to_string(k) + "]",
+                 "'" + side + "' is neither 'ground' nor a key of structure.dofs");
+      if (components && node->dofs.size() != components)
+        ctx.fail(c["between"], path + ".between", "the two sides have different DOF counts");
+      components = node->dofs.size();
+    }
+    if (components == 0)
+      ctx.fail(c["between"], path + ".between",
+               "a contact needs at least one side that is not ground");
+    const YAML::Node fn = c["frame"];
+    const auto fv = validate_params(fn, frame_schema(), path + ".frame", ctx);
+    const auto f = view(frame_schema(), fv);
+    auto vec = [&](const char* key) {
+      const auto raw = f.reals(key);
+      if (raw.empty()) return std::vector<double>{};
+      return unit_vector(raw, fn[key], path + ".frame." + key, ctx, components);
+    };
+    contact.tangent1 = vec("tangent1");
+    contact.tangent2 = vec("tangent2");
+    contact.normal = vec("normal");
+    if (contact.tangent1.empty() && components == 1) contact.tangent1 = {1.0};
+    contact.params = c["params"];
+    nlohmann::json cj = cv.to_json(contact_schema());
+    cj["frame"] = fv.to_json(frame_schema());
+    contacts_json.push_back(cj);
+    scene.contacts.push_back(std::move(contact));
+  }
+  scene.core_values["contacts"] = contacts_json;
+
+  // continuation
+  const YAML::Node con = root["continuation"];
+  if (!con) ctx.fail(root, "continuation", "missing required section (frequency sweep)");
+  const auto cov = validate_params(con, continuation_schema(), "continuation", ctx,
+                                   std::vector<std::string>{"frequency", "step"});
+  const auto co = view(continuation_schema(), cov);
+  if (!con["frequency"]) ctx.fail(con, "continuation.frequency", "missing {from, to, unit}");
+  const auto fr =
+      validate_params(con["frequency"], frequency_schema(), "continuation.frequency", ctx);
+  const auto frv = view(frequency_schema(), fr);
+  const auto st = validate_params(con["step"], step_schema(), "continuation.step", ctx);
+  const auto stv = view(step_schema(), st);
+  auto& C = scene.continuation;
+  C.unit = frv.text("unit") == "Hz" ? FrequencyUnit::kHz : FrequencyUnit::kRadPerSecond;
+  C.from = frv.real("from");
+  C.to = frv.real("to");
+  if (C.from == C.to) ctx.fail(con["frequency"], "continuation.frequency", "from equals to");
+  if (std::min(C.from, C.to) <= 0)
+    ctx.fail(con["frequency"], "continuation.frequency",
+             "the sweep must stay above 0 (the static response is harmonic 0)");
+  C.initial_step = stv.real("initial");
+  C.min_step = stv.real("min");
+  C.max_step = stv.real("max");
+  if (!(C.min_step <= C.initial_step && C.initial_step <= C.max_step))
+    ctx.fail(con["step"] ? con["step"] : con, "continuation.step",
+             "steps must satisfy min <= initial <= max");
+  C.target_newton_iterations = static_cast<int>(co.integer("target_newton_iterations"));
+  C.max_newton_iterations = static_cast<int>(co.integer("max_newton_iterations"));
+  C.max_points = static_cast<int>(co.integer("max_points"));
+  C.tolerance = co.real("tolerance");
+  C.turning_point_control = co.boolean("turning_point_control");
+  C.steep_branch_alpha = co.real("steep_branch_alpha");
+  C.max_wall_seconds = co.real("max_wall_seconds");
+  C.displacement_scale = co.real("displacement_scale");
+  nlohmann::json cj = cov.to_json(continuation_schema());
+  cj["frequency"] = fr.to_json(frequency_schema());
+  cj["step"] = st.to_json(step_schema());
+  scene.core_values["continuation"] = cj;
+
+  // output
+  const YAML::Node on = root["output"];
+  const auto ov = validate_params(on, output_schema(), "output", ctx);
+  const auto o = view(output_schema(), ov);
+  scene.output.response = o.texts("response");
+  for (std::size_t i = 0; i < scene.output.response.size(); ++i)
+    if (!scene.structure.find(scene.output.response[i]))
+      ctx.fail(on["response"][i], "output.response[" + std::to_string(i) + "]",
+               "'" + scene.output.response[i] + "' is not a key of structure.dofs");
+  if (scene.output.response.empty())
+    for (const auto& n : scene.structure.nodes) scene.output.response.push_back(n.name);
+  scene.output.friction_loops_at = o.reals("friction_loops_at");
+  scene.output.plots = o.boolean("plots");
+  scene.core_values["output"] = ov.to_json(output_schema());
+  return scene;
+}
+
+void bind_plugins(Scene& scene, const Registry& registry) {
+  YamlContext ctx{scene.file.string()};
+  auto fail_plugin = [&](const YAML::Node& node, const std::string& path, const PluginError& e) {
+    ctx.fail(node, path, e.what());
+  };
+  try {
+    scene.structure.plugin = registry.load(scene.structure.provider, FRICHB_KIND_STRUCTURE);
+  } catch (const PluginError& e) {
+    fail_plugin(scene.root["structure"]["provider"], "structure.provider", e);
+  }
+  scene.structure.values = validate_params(scene.structure.params, scene.structure.plugin->schema(),
+                                           "structure.params", ctx);
+  for (std::size_t i = 0; i < scene.contacts.size(); ++i) {
+    auto& c = scene.contacts[i];
+    const std::string path = "contacts[" + std::to_string(i) + "]";
+    try {
+      c.plugin = registry.load(c.law, FRICHB_KIND_CONTACT_LAW);
+    } catch (const PluginError& e) {
+      fail_plugin(scene.root["contacts"][i]["law"], path + ".law", e);
+    }
+    c.values = validate_params(c.params, c.plugin->schema(), path + ".params", ctx);
+  }
+}
+
+nlohmann::json scene_to_json(const Scene& scene) {
+  nlohmann::json j = scene.core_values;
+  if (scene.structure.plugin)
+    j["structure"]["params"] = scene.structure.values.to_json(scene.structure.plugin->schema());
+  nlohmann::json dofs = nlohmann::json::object();
+  for (const auto& n : scene.structure.nodes) dofs[n.name] = n.dofs;
+  j["structure"]["dofs"] = dofs;
+  for (std::size_t i = 0; i < scene.contacts.size(); ++i)
+    if (scene.contacts[i].plugin)
+      j["contacts"][i]["params"] =
+          scene.contacts[i].values.to_json(scene.contacts[i].plugin->schema());
+  return j;
+}
+
+std::vector<std::pair<std::string, std::vector<frichb_param_spec>>> core_schemas() {
+  return {{"(top level)", top_schema()},           {"structure", structure_schema()},
+          {"excitation", excitation_schema()},     {"contacts[]", contact_schema()},
+          {"contacts[].frame", frame_schema()},    {"harmonic_balance", harmonic_balance_schema()},
+          {"continuation", continuation_schema()}, {"continuation.frequency", frequency_schema()},
+          {"continuation.step", step_schema()},    {"output", output_schema()}};
+}
+
+}  // namespace frichb::core

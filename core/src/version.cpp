@@ -1,0 +1,7 @@
+#include "frichb/core/run.hpp"
+
+namespace frichb::core {
+const char* version() {
+  return FRICHB_VERSION;
+}
+}  // namespace frichb::core

@@ -1,0 +1,433 @@
+#include "frichb/core/continuation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace frichb::core {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+// One scalar equation e(x, lambda) = 0 given by lambdas, for compact test problems.
+class ScalarCurve : public CurveProblem {
+ public:
+  using Residual = std::function<double(double x, double lambda)>;
+  using Gradient = std::function<Eigen::Vector2d(double x, double lambda)>;
+  using Guard = std::function<bool(double x, double lambda)>;
+
+  ScalarCurve(Residual e, Gradient g, Guard ok = {})
+      : e_(std::move(e)), g_(std::move(g)), ok_(std::move(ok)) {}
+
+  Eigen::Index equation_count() const override { return 1; }
+  bool evaluate(const VectorXd& y, VectorXd& residual, MatrixXd* jacobian,
+                std::string* message) const override {
+    ++evaluations;
+    if (ok_ && !ok_(y(0), y(1))) {
+      if (message != nullptr) *message = "outside the domain";
+      return false;
+    }
+    residual.resize(1);
+    residual(0) = e_(y(0), y(1));
+    if (jacobian != nullptr) {
+      jacobian->resize(1, 2);
+      jacobian->row(0) = g_(y(0), y(1)).transpose();
+    }
+    visited.push_back(y(0));
+    return true;
+  }
+
+  mutable int evaluations = 0;
+  mutable std::vector<double> visited;  // x of each successful evaluation
+
+ private:
+  Residual e_;
+  Gradient g_;
+  Guard ok_;
+};
+
+ScalarCurve Circle() {
+  return ScalarCurve([](double x, double l) { return x * x + l * l - 1.0; },
+                     [](double x, double l) { return Eigen::Vector2d(2.0 * x, 2.0 * l); });
+}
+
+// lambda = x^3 - x: folds at x = +-1/sqrt(3). `scale` writes it in x' = scale * x.
+ScalarCurve SCurve(double scale = 1.0) {
+  return ScalarCurve(
+      [scale](double xp, double l) {
+        const double x = xp / scale;
+        return x * x * x - x - l;
+      },
+      [scale](double xp, double) {
+        const double x = xp / scale;
+        return Eigen::Vector2d((3.0 * x * x - 1.0) / scale, -1.0);
+      });
+}
+
+ScalarCurve Line() {
+  return ScalarCurve([](double x, double l) { return x - 2.0 * l; },
+                     [](double, double) { return Eigen::Vector2d(1.0, -2.0); });
+}
+
+// Real root of x^3 - x - c = 0 for c > 2/(3 sqrt 3), by Cardano (independent of Newton).
+double CubicRoot(double c) {
+  const double d = std::sqrt(c * c / 4.0 - 1.0 / 27.0);
+  return std::cbrt(c / 2.0 + d) + std::cbrt(c / 2.0 - d);
+}
+
+int TangentSignChanges(const ContinuationSummary& s) {
+  int changes = 0;
+  for (std::size_t i = 1; i < s.points.size(); ++i)
+    if (s.points[i - 1].tangent(1) * s.points[i].tangent(1) < 0.0) ++changes;
+  return changes;
+}
+
+ContinuationOptions Sweep(double from, double to) {
+  ContinuationOptions o;
+  o.lambda_start = from;
+  o.lambda_end = to;
+  return o;
+}
+
+TEST(Continuation, ClosesACircleThroughBothFolds) {
+  const ScalarCurve circle = Circle();
+  ContinuationOptions o = Sweep(0.0, 2.0);  // 2 is never reached
+  o.max_points = 5000;
+  const Eigen::Vector2d start(-1.0, 0.0);
+  bool far = false, closed = false;
+  const auto summary = trace_curve(circle, Eigen::Vector2d(-0.9, 0.0), o,
+                                   [&](const ContinuationPoint& p, std::size_t) {
+                                     const double d = (p.y - start).norm();
+                                     if (d > 1.9) far = true;
+                                     if (far && d < 0.1) closed = true;
+                                     return !closed;
+                                   });
+  EXPECT_TRUE(closed);
+  EXPECT_EQ(summary.termination, TerminationType::kCancelled) << summary.message;
+  EXPECT_EQ(summary.turning_points, 2);
+  EXPECT_EQ(TangentSignChanges(summary), 2);
+  double lmax = -2.0, lmin = 2.0;
+  for (const auto& p : summary.points) {
+    EXPECT_LT(std::abs(p.y.squaredNorm() - 1.0), 1e-8);
+    EXPECT_NEAR(p.tangent.norm(), 1.0, 1e-12);
+    lmax = std::max(lmax, p.y(1));
+    lmin = std::min(lmin, p.y(1));
+  }
+  EXPECT_NEAR(lmax, 1.0, 1e-3);
+  EXPECT_NEAR(lmin, -1.0, 1e-3);
+  EXPECT_NEAR(summary.points.front().y(0), -1.0, 1e-12);
+  EXPECT_EQ(summary.points.front().step, 0.0);
+}
+
+TEST(Continuation, SCurvePassesBothFoldsAndLandsOnEnd) {
+  const ScalarCurve curve = SCurve();
+  const auto summary = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), Sweep(-2.0, 2.0));
+  ASSERT_EQ(summary.termination, TerminationType::kReachedEnd) << summary.message;
+  EXPECT_TRUE(summary.reached_end());
+  EXPECT_NEAR(summary.points.back().y(1), 2.0, 1e-12);
+  EXPECT_NEAR(summary.points.back().y(0), CubicRoot(2.0), 1e-9);
+  EXPECT_NEAR(summary.points.front().y(0), -CubicRoot(2.0), 1e-9);
+  EXPECT_EQ(summary.turning_points, 2);
+  EXPECT_EQ(TangentSignChanges(summary), 2);
+  const double fold = 2.0 / (3.0 * std::sqrt(3.0));
+  double lmax = -10.0, lmin = 10.0;
+  for (const auto& p : summary.points) {
+    const double x = p.y(0);
+    EXPECT_LT(std::abs(x * x * x - x - p.y(1)), 1e-9);
+    EXPECT_TRUE(p.y.allFinite() && p.tangent.allFinite());
+    lmax = std::max(lmax, p.y(1) < 1.0 && x < 0.0 ? p.y(1) : -10.0);
+    lmin = std::min(lmin, p.y(1) > -1.0 && x > 0.0 ? p.y(1) : 10.0);
+  }
+  EXPECT_NEAR(lmax, fold, 1e-2);
+  EXPECT_NEAR(lmin, -fold, 1e-2);
+  EXPECT_GT(summary.fine_control_restarts, 0);
+  EXPECT_GT(summary.total_newton_iterations, 0);
+  // The tangent starts along the sweep and ends along it.
+  EXPECT_GT(summary.points.front().tangent(1), 0.0);
+  EXPECT_GT(summary.points.back().tangent(1), 0.0);
+}
+
+TEST(Continuation, TurningPointControlOnlyChangesRestarts) {
+  const ScalarCurve curve = SCurve();
+  ContinuationOptions o = Sweep(-2.0, 2.0);
+  const auto with = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), o);
+  o.turning_point_control = false;
+  const auto without = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), o);
+  ASSERT_TRUE(with.reached_end()) << with.message;
+  ASSERT_TRUE(without.reached_end()) << without.message;
+  EXPECT_GT(with.fine_control_restarts, 0);
+  EXPECT_EQ(without.fine_control_restarts, 0);
+  EXPECT_EQ(with.turning_points, 2);
+  EXPECT_EQ(without.turning_points, 2);
+  EXPECT_NEAR(without.points.back().y(1), 2.0, 1e-12);
+  // The refined trace resolves the folds more finely.
+  EXPECT_GT(with.points.size(), without.points.size());
+  const double fold = 2.0 / (3.0 * std::sqrt(3.0));
+  auto fold_error = [fold](const ContinuationSummary& s) {
+    double lmax = -10.0;
+    for (const auto& p : s.points)
+      if (p.y(0) < 0.0) lmax = std::max(lmax, p.y(1));
+    return fold - lmax;
+  };
+  EXPECT_LT(fold_error(with), 1e-4);
+  EXPECT_LT(fold_error(with), fold_error(without));
+}
+
+TEST(Continuation, CloseFoldsAreEachRefinedOnce) {
+  // lambda = x^3 - 0.01 x: folds 0.115 apart in x, closer than a long backtrack reaches.
+  const ScalarCurve close(
+      [](double x, double l) { return x * x * x - 0.01 * x - l; },
+      [](double x, double) { return Eigen::Vector2d(3.0 * x * x - 0.01, -1.0); });
+  ContinuationOptions o = Sweep(-1.0, 1.0);
+  o.turning_point_backtrack = 8;
+  const auto summary = trace_curve(close, Eigen::Vector2d(-1.0, -1.0), o);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  EXPECT_EQ(summary.fine_control_restarts, 2);
+  EXPECT_EQ(summary.turning_points, 2);
+  EXPECT_EQ(TangentSignChanges(summary), 2);
+}
+
+TEST(Continuation, ScalingMakesTinyUnknownsEquivalent) {
+  const double s = 1e-9;
+  const ScalarCurve plain = SCurve();
+  const ScalarCurve tiny = SCurve(s);
+  ContinuationOptions o = Sweep(-2.0, 2.0);
+  const auto a = trace_curve(plain, Eigen::Vector2d(-1.5, -2.0), o);
+  o.unknown_scale = Eigen::Vector2d(s, 1.0);
+  const auto b = trace_curve(tiny, Eigen::Vector2d(-1.5 * s, -2.0), o);
+  ASSERT_TRUE(a.reached_end()) << a.message;
+  ASSERT_TRUE(b.reached_end()) << b.message;
+  ASSERT_EQ(a.points.size(), b.points.size());
+  for (std::size_t i = 0; i < a.points.size(); ++i) {
+    EXPECT_NEAR(a.points[i].y(1), b.points[i].y(1), 1e-9) << i;
+    EXPECT_NEAR(a.points[i].y(0), b.points[i].y(0) / s, 1e-9) << i;
+  }
+}
+
+TEST(Continuation, LinearProblemGrowsStepToMax) {
+  const ScalarCurve line = Line();
+  ContinuationOptions o = Sweep(0.0, 3.0);
+  o.target_newton_iterations = 16;  // sqrt(16 / 1) = 4: only the 2x growth cap limits it
+  const auto summary = trace_curve(line, Eigen::Vector2d(0.3, 0.0), o);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  EXPECT_EQ(summary.points.back().y(1), 3.0);
+  EXPECT_NEAR(summary.points.back().y(0), 6.0, 1e-12);
+  bool hit_max = false;
+  for (std::size_t i = 0; i < summary.points.size(); ++i) {
+    const auto& p = summary.points[i];
+    EXPECT_LE(p.newton_iterations, 1) << i;
+    EXPECT_NEAR(p.y(0), 2.0 * p.y(1), 1e-12);
+    EXPECT_LE(p.step, o.max_step * (1.0 + 1e-12));
+    if (i > 1 && i + 1 < summary.points.size()) {
+      EXPECT_GE(p.step, summary.points[i - 1].step);
+      EXPECT_LE(p.step, 2.0 * summary.points[i - 1].step * (1.0 + 1e-12));
+    }
+    if (p.step == o.max_step) hit_max = true;
+  }
+  EXPECT_TRUE(hit_max);
+  EXPECT_EQ(summary.rejected_steps, 0);
+  EXPECT_EQ(summary.turning_points, 0);
+  // Tangent of x = 2 lambda, swept upwards.
+  EXPECT_NEAR(summary.points[1].tangent(0), 2.0 / std::sqrt(5.0), 1e-12);
+  EXPECT_NEAR(summary.points[1].tangent(1), 1.0 / std::sqrt(5.0), 1e-12);
+}
+
+TEST(Continuation, FailedEvaluationEndsWithStepTooSmall) {
+  const ScalarCurve cut([](double x, double l) { return x - l; },
+                        [](double, double) { return Eigen::Vector2d(1.0, -1.0); },
+                        [](double, double l) { return l <= 0.5; });
+  const auto summary = trace_curve(cut, Eigen::Vector2d(0.0, 0.0), Sweep(0.0, 1.0));
+  ASSERT_EQ(summary.termination, TerminationType::kStepTooSmall) << summary.message;
+  ASSERT_FALSE(summary.points.empty());
+  const double last = summary.points.back().y(1);
+  EXPECT_LE(last, 0.5);
+  EXPECT_GT(last, 0.49);
+  EXPECT_GT(summary.rejected_steps, 0);
+  // The message quotes lambda at full precision; compare its first five decimals, truncated.
+  char text[64];
+  std::snprintf(text, sizeof text, "%.5f", std::floor(last * 1e5) / 1e5);
+  EXPECT_NE(summary.message.find(text), std::string::npos) << summary.message << " vs " << text;
+  EXPECT_NE(summary.message.find("lambda"), std::string::npos);
+}
+
+TEST(Continuation, NoSolutionAtStartIsStartFailed) {
+  const ScalarCurve none([](double x, double) { return x * x + 1.0; },
+                         [](double x, double) { return Eigen::Vector2d(2.0 * x, 0.0); });
+  const auto summary = trace_curve(none, Eigen::Vector2d(0.5, 0.0), Sweep(0.0, 1.0));
+  EXPECT_EQ(summary.termination, TerminationType::kStartFailed) << summary.message;
+  EXPECT_TRUE(summary.points.empty());
+  EXPECT_FALSE(summary.message.empty());
+}
+
+TEST(Continuation, EvaluationFailureAtStart) {
+  const ScalarCurve never([](double x, double l) { return x - l; },
+                          [](double, double) { return Eigen::Vector2d(1.0, -1.0); },
+                          [](double, double) { return false; });
+  const auto summary = trace_curve(never, Eigen::Vector2d(0.0, 0.0), Sweep(0.0, 1.0));
+  EXPECT_EQ(summary.termination, TerminationType::kEvaluationFailed) << summary.message;
+  EXPECT_NE(summary.message.find("outside the domain"), std::string::npos) << summary.message;
+}
+
+TEST(Continuation, InvalidOptionsAreReported) {
+  ContinuationOptions o;
+  std::string why;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
+  o.min_step = 1.0;
+  o.max_step = 0.1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("min_step"), std::string::npos) << why;
+  const ScalarCurve line = Line();
+  const auto summary = trace_curve(line, Eigen::Vector2d(0.0, 0.0), o);
+  EXPECT_EQ(summary.termination, TerminationType::kInvalidOptions);
+  EXPECT_FALSE(summary.message.empty());
+
+  ContinuationOptions same;
+  same.lambda_end = same.lambda_start;
+  EXPECT_FALSE(same.IsValid(&why));
+
+  // Mismatched sizes are only detectable against the problem.
+  ContinuationOptions wrong_scale;
+  wrong_scale.unknown_scale = Eigen::Vector3d(1.0, 1.0, 1.0);
+  EXPECT_EQ(trace_curve(line, Eigen::Vector2d(0.0, 0.0), wrong_scale).termination,
+            TerminationType::kInvalidOptions);
+  EXPECT_EQ(trace_curve(line, Eigen::Vector3d(0.0, 0.0, 0.0), ContinuationOptions{}).termination,
+            TerminationType::kInvalidOptions);
+}
+
+TEST(Continuation, DownwardSweepReachesLowerEnd) {
+  const ScalarCurve curve = SCurve();
+  const auto summary = trace_curve(curve, Eigen::Vector2d(1.5, 2.0), Sweep(2.0, -2.0));
+  ASSERT_EQ(summary.termination, TerminationType::kReachedEnd) << summary.message;
+  EXPECT_NEAR(summary.points.back().y(1), -2.0, 1e-12);
+  EXPECT_NEAR(summary.points.back().y(0), -CubicRoot(2.0), 1e-9);
+  EXPECT_EQ(summary.turning_points, 2);
+  EXPECT_LT(summary.points.front().tangent(1), 0.0);
+  EXPECT_LT(summary.points.back().tangent(1), 0.0);
+}
+
+TEST(Continuation, FixedParameterNewtonConvergesQuadratically) {
+  const ScalarCurve sq([](double x, double) { return x * x - 2.0; },
+                       [](double x, double) { return Eigen::Vector2d(2.0 * x, 0.0); });
+  const NewtonResult r = solve_fixed_parameter(sq, Eigen::Vector2d(1.0, 0.7), {});
+  ASSERT_TRUE(r.converged) << r.message;
+  EXPECT_LE(r.iterations, 6);
+  EXPECT_NEAR(r.y(0), std::sqrt(2.0), 1e-12);
+  EXPECT_EQ(r.y(1), 0.7);
+  EXPECT_LE(r.residual_norm, 1e-9);
+  // Error contracts quadratically: e_{k+1} <= e_k^2 (theory: e_k^2 / (2 x_k)).
+  std::vector<double> err;
+  for (double x : sq.visited) err.push_back(std::abs(x - std::sqrt(2.0)));
+  ASSERT_GE(err.size(), 3u);
+  for (std::size_t k = 0; k + 1 < err.size() && err[k] > 1e-7; ++k)
+    EXPECT_LE(err[k + 1], err[k] * err[k] * (1.0 + 1e-9)) << k;
+}
+
+TEST(Continuation, FixedParameterNewtonIsDamped) {
+  // Undamped Newton on atan(x) = 0 diverges from |x0| > 1.39.
+  const ScalarCurve atan(
+      [](double x, double) { return std::atan(x); },
+      [](double x, double) { return Eigen::Vector2d(1.0 / (1.0 + x * x), 0.0); });
+  const NewtonResult r = solve_fixed_parameter(atan, Eigen::Vector2d(3.0, 0.0), {});
+  ASSERT_TRUE(r.converged) << r.message;
+  EXPECT_NEAR(r.y(0), 0.0, 1e-12);
+  ContinuationOptions no_damping;
+  no_damping.newton.max_line_search_halvings = 0;
+  EXPECT_FALSE(solve_fixed_parameter(atan, Eigen::Vector2d(3.0, 0.0), no_damping).converged);
+}
+
+TEST(Continuation, SteepBranchCapsTheFollowingSteps) {
+  // x = 0.01 lambda + tanh(50 (lambda - 0.5)): flat, then nearly vertical.
+  const ScalarCurve steep(
+      [](double x, double l) { return x - 0.01 * l - std::tanh(50.0 * (l - 0.5)); },
+      [](double, double l) {
+        const double t = std::tanh(50.0 * (l - 0.5));
+        return Eigen::Vector2d(1.0, -0.01 - 50.0 * (1.0 - t * t));
+      });
+  ContinuationOptions o = Sweep(0.0, 1.0);
+  const auto summary = trace_curve(steep, Eigen::Vector2d(0.0, 0.0), o);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  EXPECT_EQ(summary.steep_branch_caps, 1);
+  std::size_t jumps = 0;
+  for (std::size_t i = 1; i < summary.points.size(); ++i) {
+    const double vx = std::abs(summary.points[i].tangent(0));
+    if (vx <= o.steep_branch_alpha * std::abs(summary.points[i - 1].tangent(0))) continue;
+    ++jumps;
+    for (std::size_t k = i + 1; k <= i + static_cast<std::size_t>(o.steep_branch_points); ++k) {
+      ASSERT_LT(k, summary.points.size());
+      EXPECT_LE(summary.points[k].step, o.steep_branch_step_factor * o.max_step * (1 + 1e-12));
+    }
+  }
+  EXPECT_EQ(jumps, 1u);
+  o.steep_branch_control = false;
+  EXPECT_EQ(trace_curve(steep, Eigen::Vector2d(0.0, 0.0), o).steep_branch_caps, 0);
+}
+
+TEST(Continuation, NanAtStartIsAnEvaluationFailure) {
+  const ScalarCurve nan_everywhere(
+      [](double, double) { return std::numeric_limits<double>::quiet_NaN(); },
+      [](double, double) { return Eigen::Vector2d(1.0, -1.0); });
+  const auto summary = trace_curve(nan_everywhere, Eigen::Vector2d(0.0, 0.0), Sweep(0.0, 1.0));
+  EXPECT_EQ(summary.termination, TerminationType::kEvaluationFailed) << summary.message;
+  EXPECT_TRUE(summary.points.empty());
+}
+
+TEST(Continuation, NanResidualNeverEntersAPoint) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const ScalarCurve bad([nan](double x, double l) { return l > 1.0 ? nan : x - l; },
+                        [](double, double) { return Eigen::Vector2d(1.0, -1.0); });
+  const ScalarCurve bad_jacobian(
+      [](double x, double l) { return x - l; },
+      [](double, double l) {
+        return Eigen::Vector2d(1.0, l > 1.0 ? std::numeric_limits<double>::infinity() : -1.0);
+      });
+  for (const ScalarCurve* problem : {&bad, &bad_jacobian}) {
+    const auto summary = trace_curve(*problem, Eigen::Vector2d(0.0, 0.0), Sweep(0.0, 2.0));
+    EXPECT_EQ(summary.termination, TerminationType::kStepTooSmall) << summary.message;
+    EXPECT_FALSE(summary.message.empty());
+    ASSERT_FALSE(summary.points.empty());
+    for (const auto& p : summary.points) {
+      EXPECT_TRUE(p.y.allFinite());
+      EXPECT_TRUE(p.tangent.allFinite());
+      EXPECT_TRUE(std::isfinite(p.residual_norm));
+      EXPECT_TRUE(std::isfinite(p.step));
+      EXPECT_LE(p.y(1), 1.0);
+    }
+  }
+}
+
+TEST(Continuation, BudgetsAndCancellationStopTheTrace) {
+  const ScalarCurve curve = SCurve();
+  ContinuationOptions o = Sweep(-2.0, 2.0);
+  o.max_points = 5;
+  auto summary = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), o);
+  EXPECT_EQ(summary.termination, TerminationType::kMaxPoints);
+  EXPECT_EQ(summary.points.size(), 5u);
+
+  o = Sweep(-2.0, 2.0);
+  o.max_wall_seconds = 1e-12;
+  summary = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), o);
+  EXPECT_EQ(summary.termination, TerminationType::kTimeLimit);
+  EXPECT_GE(summary.points.size(), 1u);
+
+  o = Sweep(-2.0, 2.0);
+  std::size_t calls = 0;
+  summary = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), o,
+                        [&](const ContinuationPoint&, std::size_t index) {
+                          ++calls;
+                          return index < 3;
+                        });
+  EXPECT_EQ(summary.termination, TerminationType::kCancelled);
+  EXPECT_EQ(summary.points.size(), 4u);
+  EXPECT_EQ(calls, 4u);
+  EXPECT_STREQ(to_string(TerminationType::kReachedEnd), "reached_end");
+  EXPECT_STREQ(to_string(TerminationType::kStepTooSmall), "step_too_small");
+}
+
+}  // namespace
+}  // namespace frichb::core
