@@ -59,10 +59,13 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
         for (int b = 0; b < d; ++b) {
           const int ca = components_[a], cb = components_[b];
           row.segment(b * c, c) += df_dun(ca, cb) * basis_.row(j) + df_dup(ca, cb) * basis_.row(jp);
-          if (s > 0)
-            dnext.middleCols(b * c, c) +=
-                ds_dun.col(cb).head(s) * basis_.row(j) + ds_dup.col(cb).head(s) * basis_.row(jp);
         }
+      }
+      // The state depends on each used displacement component once (not once per force).
+      for (int b = 0; b < d && s > 0; ++b) {
+        const int cb = components_[b];
+        dnext.middleCols(b * c, c) +=
+            ds_dun.col(cb).head(s) * basis_.row(j) + ds_dup.col(cb).head(s) * basis_.row(jp);
       }
       dstate->swap(dnext);
     }

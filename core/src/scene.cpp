@@ -204,7 +204,8 @@ Scene load_scene(const fs::path& file) {
     throw SceneError(file.string(), e.mark.line + 1, e.mark.column + 1, "",
                      "malformed YAML: " + e.msg);
   }
-  const YAML::Node& root = scene.root;
+  // Non-const handles: a const operator[] on a missing key gives an invalid node that throws.
+  YAML::Node root = scene.root;
   if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
 
   const std::vector<std::string> sections = {"structure",        "excitation",   "contacts",
@@ -220,13 +221,13 @@ Scene load_scene(const fs::path& file) {
   scene.core_values = top.to_json(top_schema());
 
   // structure
-  const YAML::Node s = root["structure"];
+  YAML::Node s = root["structure"];
   if (!s) ctx.fail(root, "structure", "missing required section");
   const auto sv = validate_params(s, structure_schema(), "structure", ctx,
                                   std::vector<std::string>{"params", "dofs"});
   scene.structure.provider = view(structure_schema(), sv).text("provider");
   scene.structure.params = s["params"];
-  const YAML::Node dofs = s["dofs"];
+  YAML::Node dofs = s["dofs"];
   if (!dofs || !dofs.IsMap() || dofs.size() == 0)
     ctx.fail(dofs ? dofs : s, "structure.dofs",
              "expected a map naming DOFs, e.g. {blade: 0, damper: [3, 4, 5]}");
@@ -253,7 +254,7 @@ Scene load_scene(const fs::path& file) {
   scene.core_values["structure"] = sv.to_json(structure_schema());
 
   // harmonic balance
-  const YAML::Node hbn = root["harmonic_balance"];
+  YAML::Node hbn = root["harmonic_balance"];
   const auto hb = validate_params(hbn, harmonic_balance_schema(), "harmonic_balance", ctx);
   const auto hbv = view(harmonic_balance_schema(), hb);
   const auto listed = hbv.reals("harmonics");
@@ -287,7 +288,7 @@ Scene load_scene(const fs::path& file) {
   scene.core_values["harmonic_balance"] = hb.to_json(harmonic_balance_schema());
 
   // excitation
-  const YAML::Node exn = root["excitation"];
+  YAML::Node exn = root["excitation"];
   YAML::Node wrapped;
   wrapped["excitation"] = exn;
   const auto ex = validate_params(exn ? wrapped : YAML::Node(), excitation_schema(), "", ctx);
@@ -319,14 +320,14 @@ Scene load_scene(const fs::path& file) {
   scene.core_values["excitation"] = ex.to_json(excitation_schema())["excitation"];
 
   // contacts
-  const YAML::Node cn = root["contacts"];
+  YAML::Node cn = root["contacts"];
   if (cn && !cn.IsNull() && !cn.IsSequence())
     ctx.fail(cn, "contacts", "expected a list of contacts");
   std::set<std::string> contact_names;
   nlohmann::json contacts_json = nlohmann::json::array();
   for (std::size_t i = 0; cn && cn.IsSequence() && i < cn.size(); ++i) {
     const std::string path = "contacts[" + std::to_string(i) + "]";
-    const YAML::Node c = cn[i];
+    YAML::Node c = cn[i];
     const auto cv = validate_params(c, contact_schema(), path, ctx,
                                     std::vector<std::string>{"frame", "params"});
     const auto v = view(contact_schema(), cv);
@@ -353,7 +354,7 @@ Scene load_scene(const fs::path& file) {
     if (components == 0)
       ctx.fail(c["between"], path + ".between",
                "a contact needs at least one side that is not ground");
-    const YAML::Node fn = c["frame"];
+    YAML::Node fn = c["frame"];
     const auto fv = validate_params(fn, frame_schema(), path + ".frame", ctx);
     const auto f = view(frame_schema(), fv);
     auto vec = [&](const char* key) {
@@ -374,7 +375,7 @@ Scene load_scene(const fs::path& file) {
   scene.core_values["contacts"] = contacts_json;
 
   // continuation
-  const YAML::Node con = root["continuation"];
+  YAML::Node con = root["continuation"];
   if (!con) ctx.fail(root, "continuation", "missing required section (frequency sweep)");
   const auto cov = validate_params(con, continuation_schema(), "continuation", ctx,
                                    std::vector<std::string>{"frequency", "step"});
@@ -413,7 +414,7 @@ Scene load_scene(const fs::path& file) {
   scene.core_values["continuation"] = cj;
 
   // output
-  const YAML::Node on = root["output"];
+  YAML::Node on = root["output"];
   const auto ov = validate_params(on, output_schema(), "output", ctx);
   const auto o = view(output_schema(), ov);
   scene.output.response = o.texts("response");

@@ -154,11 +154,12 @@ class ParamBuilder {
                                             std::span<const frichb_param_spec> schema,
                                             const std::string& path,
                                             std::span<const std::string> ignored) {
-    if (node.IsDefined() && !node.IsNull() && !node.IsMap())
+    const bool is_map = node.IsDefined() && node.IsMap();
+    if (node.IsDefined() && !node.IsNull() && !is_map)
       ctx_.fail(node, path, "expected a map of key: value, got " + describe_node(node));
     std::vector<std::string> names;
     for (const auto& s : schema) names.emplace_back(s.name);
-    if (node.IsMap()) {
+    if (is_map) {
       for (const auto& kv : node) {
         const std::string key = kv.first.as<std::string>();
         if (std::find(ignored.begin(), ignored.end(), key) != ignored.end()) continue;
@@ -172,7 +173,7 @@ class ParamBuilder {
     }
     std::vector<frichb_param_value> out;
     for (const auto& spec : schema) {
-      const YAML::Node child = node.IsMap() ? node[spec.name] : YAML::Node();
+      const YAML::Node child = is_map ? node[spec.name] : YAML::Node();
       const std::string key_path = join_key(path, spec.name);
       if (!child.IsDefined() || child.IsNull()) {
         if (spec.required) {

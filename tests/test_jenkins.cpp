@@ -1,0 +1,197 @@
+// The Jenkins element through the real loader and the periodic tracer, against closed forms:
+// loop energy, describing function, full stick, mu = 0, and the analytic Jacobian against
+// central differences.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "frichb/core/periodic_trace.hpp"
+#include "test_support.hpp"
+
+namespace frichb::core {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// u = a cos(theta) in the first tangential direction.
+Eigen::VectorXd cosine_motion(const HarmonicLayout& layout, double a) {
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(layout.coefficient_count());
+  for (std::size_t k = 0; k < layout.harmonics().size(); ++k)
+    if (layout.harmonics()[k] == 1) u(layout.cos_index(k)) = a;
+  return u;
+}
+
+struct FirstHarmonic {
+  double c1, s1;
+};
+FirstHarmonic first_harmonic(const HarmonicLayout& layout, const Eigen::VectorXd& f) {
+  for (std::size_t k = 0; k < layout.harmonics().size(); ++k)
+    if (layout.harmonics()[k] == 1) return {f(layout.cos_index(k)), f(layout.sin_index(k))};
+  return {0, 0};
+}
+
+class JenkinsClosedForm : public ::testing::TestWithParam<double> {};
+
+// kt = 2e5 N/m, mu N = 2.5 N: slip starts at a = mu N / kt = 1.25e-5 m.
+TEST_P(JenkinsClosedForm, LoopEnergyAndDescribingFunction) {
+  const double kt = 2e5, slip_force = 0.5 * 5.0;
+  auto h = test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1, 2, 3, 4, 5, 6, 7}, 4096);
+  PeriodicTracer tracer(*h.law, layout);
+  const double a = GetParam() * slip_force / kt;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(cosine_motion(layout, a), JacobianMode::kNone, t, &error)) << error;
+  ASSERT_TRUE(t.periodic);
+  const auto [c1, s1] = first_harmonic(layout, t.force_coefficients);
+  // Energy per cycle: closed integral of T du over the traced loop.
+  double energy = 0;
+  const int n = layout.samples();
+  for (int j = 0; j < n; ++j) {
+    const int jn = (j + 1) % n;
+    energy +=
+        0.5 * (t.force(j, 0) + t.force(jn, 0)) * (t.displacement(jn, 0) - t.displacement(j, 0));
+  }
+  if (a <= slip_force / kt) {
+    EXPECT_NEAR(energy, 0.0, 1e-12 * slip_force * a);
+    EXPECT_NEAR(c1, kt * a, 1e-10 * kt * a);
+    EXPECT_NEAR(s1, 0.0, 1e-10 * kt * a);
+    return;
+  }
+  const double expected_energy = 4 * slip_force * (a - slip_force / kt);
+  EXPECT_NEAR(energy, expected_energy, 2e-5 * expected_energy);
+  EXPECT_NEAR(-kPi * a * s1, expected_energy, 2e-5 * expected_energy);  // energy from s1
+  // Describing function: cos(phi) = 1 - 2 mu N / (kt a),
+  //   c1 = kt a / pi (phi - sin(2 phi) / 2),  s1 = -(4 mu N / pi)(1 - mu N / (kt a)).
+  const double phi = std::acos(1 - 2 * slip_force / (kt * a));
+  EXPECT_NEAR(c1, kt * a / kPi * (phi - 0.5 * std::sin(2 * phi)), 2e-5 * kt * a);
+  EXPECT_NEAR(s1, -4 * slip_force / kPi * (1 - slip_force / (kt * a)), 2e-5 * slip_force);
+}
+
+INSTANTIATE_TEST_SUITE_P(AmplitudeOverSlipThreshold, JenkinsClosedForm,
+                         ::testing::Values(0.3, 0.999, 1.2, 2.0, 5.0, 40.0));
+
+TEST(Jenkins, FullStickGivesTheLinearSpringForce) {
+  auto h = test::make_law("jenkins_1d", "{kt: 3.0e5, mu: 0.5, normal_load: 1.0e9}");
+  HarmonicLayout layout({0, 1, 2, 3}, 64);
+  PeriodicTracer tracer(*h.law, layout);
+  Eigen::VectorXd u(7);
+  u << 1e-4, 2e-4, -1e-4, 5e-5, 3e-5, -2e-5, 1e-5;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error));
+  EXPECT_EQ(t.passes, 1);
+  EXPECT_LT((t.force_coefficients - 3e5 * u).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((t.jacobian - 3e5 * Eigen::MatrixXd::Identity(7, 7)).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST(Jenkins, ZeroFrictionGivesNoForce) {
+  auto h = test::make_law("jenkins_1d", "{kt: 3.0e5, mu: 0.0, normal_load: 10.0}");
+  HarmonicLayout layout({0, 1, 3}, 32);
+  PeriodicTracer tracer(*h.law, layout);
+  Eigen::VectorXd u(5);
+  u << 1e-4, 2e-4, -1e-4, 5e-5, 3e-5;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error));
+  EXPECT_EQ(t.force.cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(t.jacobian.cwiseAbs().maxCoeff(), 0.0);
+}
+
+// Central differences of the traced force coefficients, the oracle of the analytic Jacobian.
+Eigen::MatrixXd central_differences(PeriodicTracer& tracer, const Eigen::VectorXd& u) {
+  const Eigen::Index p = u.size();
+  Eigen::MatrixXd j(p, p);
+  const double h = 1e-7 * u.cwiseAbs().maxCoeff();
+  ContactTrace plus, minus;
+  std::string error;
+  for (Eigen::Index q = 0; q < p; ++q) {
+    Eigen::VectorXd up = u, um = u;
+    up(q) += h;
+    um(q) -= h;
+    EXPECT_TRUE(tracer.trace(up, JacobianMode::kNone, plus, &error));
+    EXPECT_TRUE(tracer.trace(um, JacobianMode::kNone, minus, &error));
+    j.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
+  }
+  return j;
+}
+
+Eigen::VectorXd random_motion(Eigen::Index size, double scale, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> dist(-scale, scale);
+  Eigen::VectorXd u(size);
+  for (auto& x : u) x = dist(gen);
+  return u;
+}
+
+TEST(Jenkins, AnalyticJacobianEqualsCentralDifferencesConstantNormalLoad) {
+  auto h = test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1, 2, 3, 4, 5}, 128);
+  PeriodicTracer tracer(*h.law, layout);
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const Eigen::VectorXd u = random_motion(layout.coefficient_count(), 3e-5, seed);
+    ContactTrace t;
+    std::string error;
+    ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+    ASSERT_FALSE(t.used_finite_differences);
+    const Eigen::MatrixXd fd = central_differences(tracer, u);
+    const double scale = fd.cwiseAbs().maxCoeff();
+    EXPECT_GT(scale, 1e3);  // the contact slips: the Jacobian is not trivially zero
+    EXPECT_LT((t.jacobian - fd).cwiseAbs().maxCoeff(), 1e-6 * scale) << "seed " << seed;
+  }
+}
+
+TEST(Jenkins, AnalyticJacobianEqualsCentralDifferencesWithSeparation) {
+  // N = max(0, 2 + 1e5 u_n): the normal motion opens the contact during part of the period.
+  auto h = test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.4, normal_load: 2.0, kn: 1.0e5}");
+  HarmonicLayout layout({0, 1, 2, 3}, 128);
+  PeriodicTracer tracer(*h.law, layout);
+  ASSERT_EQ(tracer.dimension(), 2);
+  Eigen::VectorXd u = random_motion(2 * layout.coefficient_count(), 1e-5, 7);
+  u(layout.coefficient_count() + 1) =
+      4e-5;  // normal first harmonic: separation (4 > 2/1e5*1e5... )
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  const bool separates = (t.force.col(1).array() == 0.0).any();
+  const bool closed = (t.force.col(1).array() > 0.0).any();
+  EXPECT_TRUE(separates && closed) << "the scenario must both open and close the contact";
+  const Eigen::MatrixXd fd = central_differences(tracer, u);
+  const double scale = fd.cwiseAbs().maxCoeff();
+  EXPECT_LT((t.jacobian - fd).cwiseAbs().maxCoeff(), 1e-6 * scale) << "analytic\n"
+                                                                   << t.jacobian << "\nfd\n"
+                                                                   << fd;
+  // The normal force equals max(0, N0 + kn u_n) sample by sample.
+  for (int j = 0; j < layout.samples(); ++j)
+    EXPECT_NEAR(t.force(j, 1), std::max(0.0, 2.0 + 1e5 * t.displacement(j, 1)), 1e-12);
+}
+
+TEST(Jenkins, FiniteDifferenceModeAgreesWithAnalytic) {
+  auto h = test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({1, 3, 5}, 64);
+  PeriodicTracer tracer(*h.law, layout);
+  const Eigen::VectorXd u = random_motion(layout.coefficient_count(), 4e-5, 11);
+  ContactTrace analytic, fd;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, analytic, &error));
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kFiniteDifference, fd, &error));
+  EXPECT_TRUE(fd.used_finite_differences);
+  const double scale = analytic.jacobian.cwiseAbs().maxCoeff();
+  EXPECT_LT((analytic.jacobian - fd.jacobian).cwiseAbs().maxCoeff(), 1e-5 * scale);
+}
+
+TEST(Jenkins, SlippingMotionBecomesPeriodicInTwoPasses) {
+  auto h = test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1}, 64);
+  PeriodicTracer tracer(*h.law, layout);
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(cosine_motion(layout, 1e-4), JacobianMode::kAnalytic, t, &error));
+  EXPECT_TRUE(t.periodic);
+  EXPECT_LE(t.passes, 3);
+}
+
+}  // namespace
+}  // namespace frichb::core
