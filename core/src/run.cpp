@@ -99,6 +99,11 @@ int run_scene(const RunRequest& request) {
   } catch (const PluginError& e) {
     spdlog::error("{}: {}", request.scene_file.string(), e.what());
     return kExitInvalidInput;
+  } catch (const std::exception& e) {
+    // Anything else while reading input (yaml-cpp conversions, file system) is still bad
+    // input, not an internal failure.
+    spdlog::error("{}: {}", request.scene_file.string(), e.what());
+    return kExitInvalidInput;
   }
   if (request.validate_only) {
     spdlog::info("{}: valid ({} contact{}, provider '{}', plugins loaded: {})",

@@ -195,6 +195,9 @@ Scene load_scene(const fs::path& file) {
   scene.file = file;
   YamlContext ctx{file.string()};
   {
+    std::error_code ec;
+    if (fs::is_directory(file, ec))
+      throw SceneError(file.string(), 0, 0, "", "is a folder, not a scene file");
     std::ifstream probe(file);
     if (!probe) throw SceneError(file.string(), 0, 0, "", "cannot open the scene file");
   }
@@ -233,7 +236,8 @@ Scene load_scene(const fs::path& file) {
              "expected a map naming DOFs, e.g. {blade: 0, damper: [3, 4, 5]}");
   for (const auto& kv : dofs) {
     NodeSpec node;
-    node.name = kv.first.as<std::string>();
+    if (!kv.first.IsScalar()) ctx.fail(kv.first, "structure.dofs", "a DOF name must be plain text");
+    node.name = kv.first.Scalar();
     const std::string path = "structure.dofs." + node.name;
     if (node.name == "ground") ctx.fail(kv.first, path, "'ground' is reserved");
     auto read_index = [&](const YAML::Node& n) {

@@ -161,7 +161,8 @@ class ParamBuilder {
     for (const auto& s : schema) names.emplace_back(s.name);
     if (is_map) {
       for (const auto& kv : node) {
-        const std::string key = kv.first.as<std::string>();
+        if (!kv.first.IsScalar()) ctx_.fail(kv.first, path, "a key must be plain text");
+        const std::string key = kv.first.Scalar();
         if (std::find(ignored.begin(), ignored.end(), key) != ignored.end()) continue;
         if (std::find(names.begin(), names.end(), key) == names.end()) {
           std::vector<std::string> all = names;

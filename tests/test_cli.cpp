@@ -1,0 +1,408 @@
+// End-to-end tests of the frichb program: the real executable (FRICHB_EXE) run on scenes
+// written to a fresh temporary folder, output and exit status captured.
+//
+// Every bad scene is the quick-start scene with exactly one thing wrong; each must be refused
+// with exit code 2 and a message naming the file, the key path and (where there is one) the
+// line:column, before any output folder is created.
+//
+// Needs the built plugins (frichb_jenkins_1d, frichb_lumped) and the test-only plugins of
+// tests/plugins (target frichb_test_plugins).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "frichb/plugin/abi.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::ContainsRegex;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+const fs::path kQuickstart =
+    fs::path(FRICHB_SOURCE_DIR) / "configs" / "quickstart_friction_oscillator.yaml";
+const fs::path kTestPluginDir = FRICHB_TEST_PLUGIN_DIR;
+
+struct Result {
+  int code = -1;
+  std::string output;  // stdout and stderr, interleaved
+};
+
+std::string quoted(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+std::string quoted(const fs::path& p) {
+  return quoted(p.string());
+}
+
+// Runs `frichb <args>` through the shell (args already quoted), optionally in `cwd`.
+Result frichb(const std::string& args, const fs::path& cwd = {}) {
+  std::string command;
+  if (!cwd.empty()) command = "cd " + quoted(cwd) + " && ";
+  command += quoted(std::string(FRICHB_EXE)) + " " + args + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) throw std::runtime_error("popen failed: " + command);
+  Result r;
+  std::array<char, 4096> buffer{};
+  std::size_t n = 0;
+  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0)
+    r.output.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  r.code = (status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error("cannot read " + file.string());
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// `text` with the single occurrence of `from` replaced by `to` (throws unless exactly one).
+std::string replace_once(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  if (at == std::string::npos || text.find(from, at + 1) != std::string::npos)
+    throw std::runtime_error("'" + from + "' does not occur exactly once in the scene");
+  return text.replace(at, from.size(), to);
+}
+
+// "line:column" (1-based) of the first character after the single occurrence of `prefix`.
+std::string location_after(const std::string& text, const std::string& prefix) {
+  const auto at = text.find(prefix);
+  if (at == std::string::npos || text.find(prefix, at + 1) != std::string::npos)
+    throw std::runtime_error("'" + prefix + "' does not occur exactly once in the scene");
+  const std::size_t pos = at + prefix.size();
+  const std::size_t line_start = text.rfind('\n', pos == 0 ? 0 : pos - 1);
+  const std::size_t column = line_start == std::string::npos ? pos + 1 : pos - line_start;
+  const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n');
+  return std::to_string(line) + ":" + std::to_string(column);
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    // Hermetic search path: only the plugins beside the program (and a scene's plugin_paths).
+    unsetenv("FRICHB_PLUGIN_PATH");
+  }
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("frichb_test_cli_" + std::to_string(getpid()) + "_" + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    quickstart_ = read_text(kQuickstart);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  fs::path write_scene(const std::string& file_name, const std::string& text) const {
+    const fs::path file = dir_ / file_name;
+    std::ofstream(file) << text;
+    return file;
+  }
+
+  // Runs `frichb run SCENE -o DIR` on `text` and checks the refusal common to every bad scene:
+  // exit code 2, the file named, nothing written. Returns the program's output.
+  std::string expect_refused(const std::string& file_name, const std::string& text) {
+    const fs::path scene = write_scene(file_name, text);
+    const fs::path out = dir_ / "out";
+    const Result r = frichb("run " + quoted(scene) + " -o " + quoted(out));
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_THAT(r.output, HasSubstr(scene.string()));
+    EXPECT_FALSE(fs::exists(out)) << "the output folder was created for a refused scene";
+    for (const auto& entry : fs::directory_iterator(dir_))
+      EXPECT_EQ(entry.path(), scene) << "unexpected file written: " << entry.path();
+    // `validate` refuses it the same way.
+    const Result v = frichb("validate " + quoted(scene));
+    EXPECT_EQ(v.code, 2) << v.output;
+    EXPECT_THAT(v.output, HasSubstr(scene.string()));
+    return r.output;
+  }
+
+  fs::path dir_;
+  std::string quickstart_;
+};
+
+// ---------------------------------------------------------------------------------------
+// Bad input: exit code 2, a precise message, no output folder
+// ---------------------------------------------------------------------------------------
+
+TEST_F(Cli, TheQuickstartTextIsWhatTheseTestsAssume) {
+  // Guard: the edits below rely on these lines of configs/quickstart_friction_oscillator.yaml.
+  for (const char* line :
+       {"law: jenkins_1d", "kt: 2.0e5", "mu: 0.5", "masses: [0.1]", "samples_per_period: 128",
+        "max_harmonic: 7", "name: friction_oscillator"})
+    EXPECT_THAT(quickstart_, HasSubstr(line));
+}
+
+TEST_F(Cli, MalformedYaml) {
+  const std::string text = replace_once(quickstart_, "masses: [0.1]", "masses: [0.1");
+  const fs::path scene = dir_ / "malformed.yaml";
+  const std::string out = expect_refused("malformed.yaml", text);
+  EXPECT_THAT(out, HasSubstr("malformed YAML"));
+  EXPECT_THAT(out, ContainsRegex(scene.string() + ":[0-9]+:[0-9]+: malformed YAML"));
+  // The reported line is at or just after the unclosed bracket (yaml-cpp notices the missing
+  // ']' on the next token).
+  const std::string prefix = scene.string() + ":";
+  const auto at = out.find(prefix);
+  ASSERT_NE(at, std::string::npos);
+  const int line = std::stoi(out.substr(at + prefix.size()));
+  const int bracket_line = std::stoi(location_after(text, "masses: "));
+  EXPECT_GE(line, bracket_line);
+  EXPECT_LE(line, bracket_line + 2);
+}
+
+TEST_F(Cli, UnknownPluginSuggestsTheClosestName) {
+  const std::string text = replace_once(quickstart_, "law: jenkins_1d", "law: jenkins_1dd");
+  const fs::path scene = dir_ / "unknown_plugin.yaml";
+  const std::string out = expect_refused("unknown_plugin.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "law: ") +
+                             ": contacts[0].law: unknown plugin 'jenkins_1dd'"));
+  EXPECT_THAT(out, HasSubstr("did you mean 'jenkins_1d'"));
+  EXPECT_THAT(out, HasSubstr("lumped"));  // the list of available plugins
+}
+
+TEST_F(Cli, WrongType) {
+  const std::string text = replace_once(quickstart_, "kt: 2.0e5", "kt: abc");
+  const fs::path scene = dir_ / "wrong_type.yaml";
+  const std::string out = expect_refused("wrong_type.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "kt: ") +
+                             ": contacts[0].params.kt: expected a finite number, got 'abc'"));
+}
+
+TEST_F(Cli, OutOfRangeValue) {
+  const std::string text = replace_once(quickstart_, "mu: 0.5", "mu: -0.1");
+  const fs::path scene = dir_ / "out_of_range.yaml";
+  const std::string out = expect_refused("out_of_range.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "mu: ") +
+                             ": contacts[0].params.mu: value -0.1 violates mu >= 0"));
+}
+
+TEST_F(Cli, UnknownKeyInACoreSection) {
+  const std::string text =
+      replace_once(quickstart_, "samples_per_period: 128", "samples_per_periodd: 128");
+  const fs::path scene = dir_ / "unknown_key.yaml";
+  const std::string out = expect_refused("unknown_key.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "max_harmonic: 7\n  ") +
+                             ": harmonic_balance.samples_per_periodd: unknown key"));
+  EXPECT_THAT(out, HasSubstr("did you mean 'samples_per_period'"));
+}
+
+TEST_F(Cli, UnknownKeyAtTheTopLevel) {
+  const std::string text = replace_once(quickstart_, "\nname: friction_oscillator",
+                                        "\nname: friction_oscillator\noutputs: {plots: false}");
+  const fs::path scene = dir_ / "unknown_top_key.yaml";
+  const std::string out = expect_refused("unknown_top_key.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "friction_oscillator\n") +
+                             ": outputs: unknown key"));
+  EXPECT_THAT(out, HasSubstr("did you mean 'output'"));
+}
+
+TEST_F(Cli, MissingRequiredValue) {
+  const std::string text = replace_once(quickstart_, "{kt: 2.0e5, mu: 0.5", "{mu: 0.5");
+  const fs::path scene = dir_ / "missing_required.yaml";
+  const std::string out = expect_refused("missing_required.yaml", text);
+  // Located at the params map that lacks it.
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "params: ") +
+                             ": contacts[0].params.kt: missing required value"));
+  EXPECT_THAT(out, HasSubstr("N/m"));
+}
+
+TEST_F(Cli, SamplesPerPeriodBelowTwiceTheHighestHarmonicPlusOne) {
+  // max_harmonic 7 needs at least 15 samples.
+  const std::string text =
+      replace_once(quickstart_, "samples_per_period: 128", "samples_per_period: 14");
+  const fs::path scene = dir_ / "aliasing.yaml";
+  const std::string out = expect_refused("aliasing.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "samples_per_period: ") +
+                             ": harmonic_balance.samples_per_period: value 14 violates"));
+  EXPECT_THAT(out, HasSubstr("2 * max_harmonic + 1 = 15"));
+
+  // The bound itself is accepted.
+  const fs::path ok =
+      write_scene("aliasing_ok.yaml",
+                  replace_once(quickstart_, "samples_per_period: 128", "samples_per_period: 15"));
+  const Result r = frichb("validate " + quoted(ok));
+  EXPECT_EQ(r.code, 0) << r.output;
+}
+
+TEST_F(Cli, MissingSceneFile) {
+  const fs::path scene = dir_ / "no_such_scene.yaml";
+  const fs::path out = dir_ / "out";
+  const Result r = frichb("run " + quoted(scene) + " -o " + quoted(out));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(scene.string() + ": cannot open the scene file"));
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_TRUE(fs::is_empty(dir_));
+  const Result v = frichb("validate " + quoted(scene));
+  EXPECT_EQ(v.code, 2) << v.output;
+  EXPECT_THAT(v.output, HasSubstr("cannot open the scene file"));
+}
+
+TEST_F(Cli, PluginOfAnotherAbi) {
+  ASSERT_TRUE(fs::is_regular_file(kTestPluginDir / "frichb_test_wrong_abi.so"))
+      << "build the target frichb_test_plugins";
+  std::string text =
+      replace_once(quickstart_, "\nname: friction_oscillator",
+                   "\nname: friction_oscillator\nplugin_paths: [" + kTestPluginDir.string() + "]");
+  text = replace_once(text, "law: jenkins_1d", "law: wrong_abi_law");
+  const fs::path scene = dir_ / "wrong_abi.yaml";
+  const std::string out = expect_refused("wrong_abi.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "law: ") +
+                             ": contacts[0].law: plugin "));
+  EXPECT_THAT(out, HasSubstr((kTestPluginDir / "frichb_test_wrong_abi.so").string()));
+  EXPECT_THAT(out, HasSubstr("ABI 99."));
+  EXPECT_THAT(out, HasSubstr("ABI " + std::to_string(FRICHB_ABI_MAJOR) + "."));
+}
+
+// Known core bug (see the test report): a non-scalar map key makes `kv.first.as<std::string>()`
+// throw YAML::BadConversion, which run_scene() does not catch: exit 4 and a message without the
+// file name. Likewise a scene path that is a folder. Enable once fixed.
+TEST_F(Cli, NonScalarKeyIsInvalidInput) {
+  const std::string text = replace_once(quickstart_, "  samples_per_period: 128",
+                                        "  samples_per_period: 128\n  [a, b]: 1");
+  const fs::path scene = dir_ / "non_scalar_key.yaml";
+  const std::string out = expect_refused("non_scalar_key.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "128\n  ")));
+  EXPECT_THAT(out, HasSubstr("harmonic_balance"));
+}
+
+TEST_F(Cli, SceneThatIsAFolderIsInvalidInput) {
+  const fs::path scene = dir_ / "folder.yaml";
+  fs::create_directories(scene);
+  const Result r = frichb("validate " + quoted(scene));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(scene.string()));
+}
+
+// ---------------------------------------------------------------------------------------
+// Good paths and the command line
+// ---------------------------------------------------------------------------------------
+
+TEST_F(Cli, HelpListsTheVerbs) {
+  const Result r = frichb("--help");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("frichb run SCENE.yaml"));
+  EXPECT_THAT(r.output, HasSubstr("frichb validate SCENE.yaml"));
+  EXPECT_THAT(r.output, HasSubstr("frichb plugins"));
+  EXPECT_THAT(r.output, HasSubstr("frichb describe NAME"));
+  EXPECT_THAT(r.output, HasSubstr("Exit codes"));
+}
+
+TEST_F(Cli, VersionPrintsTheVersionAndAbi) {
+  const Result r = frichb("--version");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, ContainsRegex("^frichb [0-9]+\\.[0-9]+\\.[0-9]+"));
+  EXPECT_THAT(r.output, HasSubstr("(plugin ABI " + std::to_string(FRICHB_ABI_MAJOR) + "." +
+                                  std::to_string(FRICHB_ABI_MINOR) + ")"));
+}
+
+TEST_F(Cli, PluginsListsTheBuiltInPlugins) {
+  const Result r = frichb("plugins");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("jenkins_1d  [contact_law] 1.0.0"));
+  EXPECT_THAT(r.output, HasSubstr("lumped  [structure] 1.0.0"));
+  EXPECT_THAT(r.output, HasSubstr("frichb_jenkins_1d.so"));
+  // Test-only plugins live outside the default search path.
+  EXPECT_THAT(r.output, Not(HasSubstr("wrong_abi_law")));
+  EXPECT_THAT(r.output, Not(HasSubstr("duplicate_law")));
+}
+
+TEST_F(Cli, DescribePrintsTheParameterTable) {
+  const Result r = frichb("describe jenkins_1d");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("jenkins_1d 1.0.0 [contact_law]"));
+  EXPECT_THAT(r.output, HasSubstr("| key | type | unit | default | allowed | description |"));
+  EXPECT_THAT(r.output, HasSubstr("| `kt` | real | N/m | required | > 0 |"));
+  EXPECT_THAT(r.output, HasSubstr("| `mu` | real | - | required | >= 0 |"));
+  EXPECT_THAT(r.output, HasSubstr("| `normal_load` | real | N | 0 | >= 0 |"));
+
+  const Result scene = frichb("describe scene");
+  EXPECT_EQ(scene.code, 0) << scene.output;
+  EXPECT_THAT(scene.output, HasSubstr("| `samples_per_period` | integer |"));
+}
+
+TEST_F(Cli, DescribeAnUnknownPluginIsInvalidInput) {
+  const Result r = frichb("describe jenkins_1dd");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("unknown plugin 'jenkins_1dd'"));
+  EXPECT_THAT(r.output, HasSubstr("did you mean 'jenkins_1d'"));
+}
+
+TEST_F(Cli, ValidateTheQuickstartWritesNothing) {
+  const Result r = frichb("validate " + quoted(kQuickstart), dir_);
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(kQuickstart.string() + ": valid"));
+  EXPECT_TRUE(fs::is_empty(dir_)) << "validate wrote into the working folder";
+  const fs::path out = dir_ / "out";
+  const Result with_o = frichb("validate " + quoted(kQuickstart) + " -o " + quoted(out), dir_);
+  EXPECT_EQ(with_o.code, 0) << with_o.output;
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+TEST_F(Cli, RunTheQuickstartWritesResponseAndSummary) {
+  const fs::path out = dir_ / "quickstart";
+  const Result r = frichb("run " + quoted(kQuickstart) + " -o " + quoted(out), dir_);
+  ASSERT_EQ(r.code, 0) << r.output;
+  ASSERT_TRUE(fs::is_regular_file(out / "response.csv")) << r.output;
+  ASSERT_TRUE(fs::is_regular_file(out / "summary.json")) << r.output;
+
+  std::istringstream csv(read_text(out / "response.csv"));
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_THAT(header, HasSubstr("frequency_hz"));
+  EXPECT_THAT(header, HasSubstr("blade_amplitude_m"));
+  std::size_t rows = 0;
+  for (std::string line; std::getline(csv, line);)
+    if (!line.empty()) ++rows;
+  EXPECT_GT(rows, 10u);
+
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary.at("termination").at("reached_end"), true);
+  EXPECT_EQ(summary.at("points").get<std::size_t>(), rows);
+  EXPECT_THAT(read_text(out / "summary.json"), HasSubstr("\"reached_end\": true"));
+
+  // Only the output folder was written: no staging folder left behind, nothing in the cwd.
+  for (const auto& entry : fs::directory_iterator(dir_))
+    EXPECT_EQ(entry.path(), out) << "unexpected entry " << entry.path();
+}
+
+TEST_F(Cli, BadCommandLinesExitWithOne) {
+  const Result verb = frichb("frobnicate");
+  EXPECT_EQ(verb.code, 1) << verb.output;
+  EXPECT_THAT(verb.output, HasSubstr("unknown verb 'frobnicate'"));
+
+  const Result none = frichb("");
+  EXPECT_EQ(none.code, 1) << none.output;
+  EXPECT_THAT(none.output, HasSubstr("Usage:"));
+
+  const Result missing_arg = frichb("run");
+  EXPECT_EQ(missing_arg.code, 1) << missing_arg.output;
+  EXPECT_THAT(missing_arg.output, HasSubstr("expected one scene file"));
+
+  const Result bad_option = frichb("--no-such-option");
+  EXPECT_EQ(bad_option.code, 1) << bad_option.output;
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+}  // namespace
