@@ -472,12 +472,33 @@ nlohmann::json scene_to_json(const Scene& scene) {
   return j;
 }
 
-std::vector<std::pair<std::string, std::vector<frichb_param_spec>>> core_schemas() {
-  return {{"(top level)", top_schema()},           {"structure", structure_schema()},
-          {"excitation", excitation_schema()},     {"contacts[]", contact_schema()},
-          {"contacts[].frame", frame_schema()},    {"harmonic_balance", harmonic_balance_schema()},
-          {"continuation", continuation_schema()}, {"continuation.frequency", frequency_schema()},
-          {"continuation.step", step_schema()},    {"output", output_schema()}};
+std::vector<CoreSection> core_schemas() {
+  return {
+      {"(top level)", top_schema(),
+       "Sections: `structure`, `excitation`, `contacts`, `harmonic_balance`, `continuation` "
+       "(required), `output`."},
+      {"structure", structure_schema(),
+       "`params`: the provider's parameters (see Structure providers below). `dofs`: a map "
+       "naming the DOFs the scene refers to, `name: index` for a scalar DOF or "
+       "`name: [i, j, k]` for a node of 2-3 DOFs (indices 0-based in the provider's numbering)."},
+      {"excitation", excitation_schema(),
+       "`excitation` is a top-level list; each entry is one harmonic force "
+       "`amplitude * cos(harmonic * w t + phase)` along `direction`."},
+      {"contacts[]", contact_schema(),
+       "`params`: the law's parameters (see Contact laws below). `frame`: the local directions "
+       "(below). The relative displacement is u = frame . (x_B - x_A), B the second side; the "
+       "contact force acts +f on B and -f on A."},
+      {"contacts[].frame", frame_schema(),
+       "Each vector has one entry per DOF of the sides' nodes and is normalised. A 1-DOF node "
+       "defaults to tangent1 = [1]. A law uses tangent2 when it is 2D tangential and normal "
+       "when its normal load varies."},
+      {"harmonic_balance", harmonic_balance_schema(),
+       "Give `harmonics` or `max_harmonic`. Every excited harmonic must be kept."},
+      {"continuation", continuation_schema(), "Sub-maps `frequency` (required) and `step`."},
+      {"continuation.frequency", frequency_schema(), ""},
+      {"continuation.step", step_schema(),
+       "Arclength steps in the frequency unit; displacements are scaled (see docs/theory.md)."},
+      {"output", output_schema(), "`response` defaults to every node of `structure.dofs`."}};
 }
 
 }  // namespace frichb::core

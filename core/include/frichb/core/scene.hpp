@@ -111,7 +111,12 @@ void bind_plugins(Scene& scene, const Registry& registry);
 // The validated scene, defaults filled in, for summary.json.
 nlohmann::json scene_to_json(const Scene& scene);
 
-// The core's section schemas, for the generated scene reference: (section path, schema).
-std::vector<std::pair<std::string, std::vector<frichb_param_spec>>> core_schemas();
+// The core's section schemas, for the generated scene reference.
+struct CoreSection {
+  std::string path;  // e.g. "continuation.frequency"
+  std::vector<frichb_param_spec> schema;
+  std::string note;  // keys validated by hand, in prose
+};
+std::vector<CoreSection> core_schemas();
 
 }  // namespace frichb::core
