@@ -387,6 +387,25 @@ TEST_F(Cli, RunTheQuickstartWritesResponseAndSummary) {
     EXPECT_EQ(entry.path(), out) << "unexpected entry " << entry.path();
 }
 
+TEST_F(Cli, ARerunReplacesItsOwnOutputsAndKeepsOtherFiles) {
+  const fs::path out = dir_ / "rerun";
+  ASSERT_EQ(frichb("run " + quoted(kQuickstart) + " -o " + quoted(out)).code, 0);
+  ASSERT_TRUE(fs::is_directory(out / "loops"));
+  std::ofstream(out / "notes.txt") << "mine";
+  // Second run without loops and plots: the old loops and plot must not survive beside it.
+  std::string text = quickstart_;
+  const std::string loops = "  friction_loops_at: [330.0, 400.0]\n  plots: true\n";
+  ASSERT_NE(text.find(loops), std::string::npos);
+  text.replace(text.find(loops), loops.size(), "  plots: false\n");
+  const fs::path scene = write_scene("no_loops.yaml", text);
+  const Result r = frichb("run " + quoted(scene) + " -o " + quoted(out));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::is_regular_file(out / "response.csv"));
+  EXPECT_FALSE(fs::exists(out / "loops"));
+  EXPECT_FALSE(fs::exists(out / "response.png"));
+  EXPECT_EQ(read_text(out / "notes.txt"), "mine");
+}
+
 TEST_F(Cli, BadCommandLinesExitWithOne) {
   const Result verb = frichb("frobnicate");
   EXPECT_EQ(verb.code, 1) << verb.output;

@@ -168,6 +168,61 @@ TEST(Jenkins, AnalyticJacobianEqualsCentralDifferencesWithSeparation) {
     EXPECT_NEAR(t.force(j, 1), std::max(0.0, 2.0 + 1e5 * t.displacement(j, 1)), 1e-12);
 }
 
+TEST(Jenkins, InitialGapClosesOnlyBeyondTheGap) {
+  // N = max(0, kn (u_n - g0)) with g0 = 1e-5 m: u_n = 2.1e-5 cos(theta) closes ~0.35 of the time.
+  auto h = test::make_law("jenkins_1d", "{kt: 1.0e5, mu: 0.3, kn: 2.0e5, gap: 1.0e-5}");
+  HarmonicLayout layout({0, 1, 2, 3}, 96);
+  PeriodicTracer tracer(*h.law, layout);
+  ASSERT_EQ(tracer.components(), (std::vector<int>{0, 2}));
+  // The reference force is zero: an open contact carries no preload.
+  EXPECT_EQ(tracer.reference_force().norm(), 0.0);
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(2 * layout.coefficient_count());
+  u(2) = 3e-5;                                 // tangential sin(theta)
+  u(layout.coefficient_count() + 1) = 2.1e-5;  // normal cos(theta); no sample on the kink
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  int closed = 0;
+  for (int j = 0; j < layout.samples(); ++j) {
+    const double un = t.displacement(j, 1);
+    EXPECT_NEAR(t.force(j, 1), std::max(0.0, 2e5 * (un - 1e-5)), 1e-12);
+    EXPECT_LE(std::abs(t.force(j, 0)), 0.3 * t.force(j, 1) + 1e-12);  // Coulomb bound
+    if (un > 1e-5) ++closed;
+  }
+  // closed while cos(theta) > 1e-5 / 2.1e-5: a fraction acos(0.476) / pi = 0.342 of the period
+  EXPECT_NEAR(closed, 0.342 * layout.samples(), 2);
+  const Eigen::MatrixXd fd = central_differences(tracer, u);
+  EXPECT_LT((t.jacobian - fd).cwiseAbs().maxCoeff(), 1e-6 * fd.cwiseAbs().maxCoeff());
+}
+
+TEST(Jenkins, GapAndPreloadTogetherAreRefused) {
+  try {
+    test::make_law("jenkins_1d", "{kt: 1.0e5, mu: 0.3, kn: 2.0e5, gap: 1.0e-5, normal_load: 1}");
+    FAIL() << "a gap with a preload must be refused";
+  } catch (const PluginError& e) {
+    EXPECT_NE(std::string(e.what()).find("either normal_load (preload) or gap"), std::string::npos);
+  }
+}
+
+TEST(Jenkins, JacobianFollowsTheWarmUpSlipToAStaticOffset) {
+  // A mean offset far beyond mu N / kt slips once during the first pass, then the small
+  // oscillation sticks forever: the forces depend on U through that warm-up slip, and the
+  // Jacobian must too (e.g. d mean force / d offset = 0), checked by central differences.
+  auto h = test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1, 2}, 64);
+  PeriodicTracer tracer(*h.law, layout);
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(layout.coefficient_count());
+  u(0) = 1e-3;  // static offset, 80 times mu N / kt
+  u(1) = 4e-6;  // cosine amplitude below the reversal threshold 2 mu N / kt
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  EXPECT_TRUE(t.periodic);
+  const Eigen::MatrixXd fd = central_differences(tracer, u);
+  EXPECT_NEAR(fd(0, 0), 0.0, 1e-6 * 2e5);  // the mean force stays at mu N whatever U0
+  EXPECT_LT((t.jacobian - fd).cwiseAbs().maxCoeff(), 1e-6 * fd.cwiseAbs().maxCoeff());
+}
+
 TEST(Jenkins, FiniteDifferenceModeAgreesWithAnalytic) {
   auto h = test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
   HarmonicLayout layout({1, 3, 5}, 64);

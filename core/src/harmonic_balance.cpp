@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace frichb::core {
 
@@ -31,13 +32,15 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
                                                      : JacobianMode::kFiniteDifference) {
   kept_dofs_ = collect_kept_dofs(scene);
   const std::size_t n_dofs = structure.dof_count();
+  YAML::Node root = scene.root;  // non-const: a missing key then gives an undefined node
+  const YamlContext ctx{scene.file.string()};
   for (const auto& node : scene.structure.nodes)
     for (std::size_t d : node.dofs)
       if (d >= n_dofs)
-        throw SceneError(scene.file.string(), 0, 0, "structure.dofs." + node.name,
-                         "DOF " + std::to_string(d) + " does not exist: provider '" +
-                             scene.structure.provider + "' has " + std::to_string(n_dofs) +
-                             " DOFs (0.." + std::to_string(n_dofs - 1) + ")");
+        ctx.fail(root["structure"]["dofs"][node.name], "structure.dofs." + node.name,
+                 "DOF " + std::to_string(d) + " does not exist: provider '" +
+                     scene.structure.provider + "' has " + std::to_string(n_dofs) + " DOFs (0.." +
+                     std::to_string(n_dofs - 1) + ")");
   // Without cyclic symmetry every temporal harmonic has harmonic index 0.
   structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, std::vector<int>{0});
   const auto kept = static_cast<Eigen::Index>(kept_dofs_.size());
@@ -57,10 +60,10 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
           comps[a] == 0 ? spec.tangent1 : (comps[a] == 1 ? spec.tangent2 : spec.normal);
       if (dir.empty()) {
         static const char* names[] = {"tangent1", "tangent2", "normal"};
-        throw SceneError(scene.file.string(), 0, 0,
-                         "contacts." + spec.name + ".frame." + names[comps[a]],
-                         "law '" + spec.law + "' with these params uses the " + names[comps[a]] +
-                             " direction: give frame." + names[comps[a]]);
+        const std::size_t index = static_cast<std::size_t>(&spec - scene.contacts.data());
+        ctx.fail(root["contacts"][index], "contacts[" + std::to_string(index) + "].frame",
+                 "law '" + spec.law + "' with these params uses the " + names[comps[a]] +
+                     " direction: give frame." + names[comps[a]]);
       }
       auto add_side = [&](const std::string& side, double sign) {
         if (side == "ground") return;
@@ -87,7 +90,10 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     const auto k = static_cast<std::size_t>(std::find(h.begin(), h.end(), e.harmonic) - h.begin());
     const auto& dofs = scene.structure.find(e.node)->dofs;
     // amplitude cos(n w t + phase) = Re(amplitude e^{i phase} e^{i n w t})
-    const std::complex<double> a = std::polar(e.amplitude, e.phase);
+    // A static force (n = 0) has no phase but its sign: amplitude cos(phase).
+    const std::complex<double> a = e.harmonic == 0
+                                       ? std::complex<double>(e.amplitude * std::cos(e.phase))
+                                       : std::polar(e.amplitude, e.phase);
     for (std::size_t d = 0; d < dofs.size(); ++d)
       excitation_[k](kept_index(dofs[d])) += a * e.direction[d];
   }
@@ -239,6 +245,7 @@ std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(const Eigen::V
   bool ok = true;
   std::string message;
   gather_forces(y, forces, nullptr, &message, ok);
+  if (!ok) throw std::runtime_error("response recovery: " + message);
   const auto& h = layout_.harmonics();
   std::vector<Eigen::VectorXcd> out;
   Eigen::MatrixXcd r;

@@ -57,7 +57,13 @@ Aft::Aft(const HarmonicLayout& layout) : layout_(layout) {
   std::lock_guard<std::mutex> lock(fftw_planner_mutex());
   forward_ = fftw_plan_dft_r2c_1d(n, real_buffer_, spectrum_, FFTW_ESTIMATE);
   backward_ = fftw_plan_dft_c2r_1d(n, spectrum_, real_buffer_, FFTW_ESTIMATE);
-  if (!forward_ || !backward_) throw std::runtime_error("FFTW could not make a plan");
+  if (!forward_ || !backward_) {
+    if (forward_) fftw_destroy_plan(forward_);
+    if (backward_) fftw_destroy_plan(backward_);
+    fftw_free(real_buffer_);
+    fftw_free(spectrum_);
+    throw std::runtime_error("FFTW could not make a plan");
+  }
 }
 
 Aft::~Aft() {

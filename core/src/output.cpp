@@ -13,7 +13,8 @@ namespace frichb::core {
 
 namespace fs = std::filesystem;
 
-StagedOutput::StagedOutput(fs::path final_directory) : final_(std::move(final_directory)) {
+StagedOutput::StagedOutput(fs::path final_directory, std::vector<std::string> managed)
+    : final_(std::move(final_directory)), managed_(std::move(managed)) {
   const fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
   fs::create_directories(parent);
   staging_ = parent / ("." + final_.filename().string() + ".partial-" + std::to_string(getpid()));
@@ -35,6 +36,7 @@ fs::path StagedOutput::path(const fs::path& relative) const {
 
 void StagedOutput::commit() {
   fs::create_directories(final_);
+  for (const auto& name : managed_) fs::remove_all(final_ / name);
   for (const auto& entry : fs::recursive_directory_iterator(staging_)) {
     const fs::path target = final_ / fs::relative(entry.path(), staging_);
     if (entry.is_directory()) {

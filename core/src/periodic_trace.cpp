@@ -46,6 +46,15 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
       u_now[components_[a]] = u(j, a);
       u_prev[components_[a]] = u(jp, a);
     }
+    if (derivative) {
+      // A law may write only its nonzero entries: start every step from zero blocks.
+      df_dun.setZero();
+      df_dup.setZero();
+      df_ds.setZero();
+      ds_dun.setZero();
+      ds_dup.setZero();
+      ds_ds.setZero();
+    }
     if (!law_.step(state.data(), u_prev, u_now, f, next.data(), derivative ? &tangents : nullptr,
                    error))
       return false;
@@ -85,47 +94,40 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
   out.derivative_passes = 0;
   out.periodic = true;
   out.diagnostic.clear();
-  // Value passes: iterate the period map until the state repeats.
+  // The derivative is carried through the very passes that produce the value, from the
+  // U-independent initial state: the Jacobian is then the derivative of the computed forces
+  // even where the warm-up itself depends on U (e.g. a slip to a static offset followed by
+  // stick). Passes end when the state and, if carried, its derivative repeat.
+  std::vector<Eigen::MatrixXd> dforce;
+  Eigen::MatrixXd dstate, dstart;
+  if (with_derivative) {
+    dforce.assign(static_cast<std::size_t>(dimension()), Eigen::MatrixXd::Zero(n, p));
+    dstate = Eigen::MatrixXd::Zero(s, p);
+  }
   for (;;) {
     start = state;
-    if (!run_period(out.displacement, state, nullptr, out.force, nullptr, error)) return false;
+    if (with_derivative) dstart = dstate;
+    if (!run_period(out.displacement, state, with_derivative ? &dstate : nullptr, out.force,
+                    with_derivative ? &dforce : nullptr, error))
+      return false;
     ++out.passes;
     const double change = s ? (state - start).cwiseAbs().maxCoeff() : 0.0;
     const double scale = std::max(u_scale, s ? state.cwiseAbs().maxCoeff() : 0.0);
-    if (change <= tol * scale) break;
+    const double dchange = with_derivative && s ? (dstate - dstart).cwiseAbs().maxCoeff() : 0.0;
+    const double dscale = with_derivative && s ? std::max(1.0, dstate.cwiseAbs().maxCoeff()) : 1.0;
+    if (change <= tol * scale && dchange <= tol * dscale) break;
     if (out.passes >= options_.max_passes) {
       out.periodic = false;
       out.diagnostic = "state did not repeat after " + std::to_string(out.passes) +
-                       " passes (last change " + std::to_string(change / scale) + " relative)";
+                       " passes (last relative change " + std::to_string(change / scale) +
+                       (with_derivative ? ", of its derivative " + std::to_string(dchange / dscale)
+                                        : std::string()) +
+                       ")";
       break;
     }
   }
-  if (!with_derivative) {
-    transform_forces(out, nullptr);
-    return true;
-  }
-  // Derivative passes from the periodic state: the fixed point of dS <- Phi dS + dS/dU.
-  std::vector<Eigen::MatrixXd> dforce(static_cast<std::size_t>(dimension()),
-                                      Eigen::MatrixXd::Zero(n, p));
-  Eigen::MatrixXd dstate = Eigen::MatrixXd::Zero(s, p), dstart;
-  const Eigen::VectorXd periodic_state = state;
-  for (;;) {
-    dstart = dstate;
-    state = periodic_state;
-    if (!run_period(out.displacement, state, &dstate, out.force, &dforce, error)) return false;
-    ++out.derivative_passes;
-    if (s == 0) break;
-    const double change = (dstate - dstart).cwiseAbs().maxCoeff();
-    if (change <= tol * std::max(1.0, dstate.cwiseAbs().maxCoeff())) break;
-    if (out.derivative_passes >= options_.max_passes) {
-      out.periodic = false;
-      out.diagnostic += (out.diagnostic.empty() ? "" : "; ") +
-                        std::string("state derivative did not repeat after ") +
-                        std::to_string(out.derivative_passes) + " passes";
-      break;
-    }
-  }
-  transform_forces(out, &dforce);
+  if (with_derivative) out.derivative_passes = out.passes;
+  transform_forces(out, with_derivative ? &dforce : nullptr);
   return true;
 }
 

@@ -166,8 +166,10 @@ ContactLawInstance::ContactLawInstance(std::shared_ptr<const LoadedPlugin> plugi
   traits_.struct_size = sizeof(traits_);
   api_->traits(instance_, &traits_);
   if (traits_.tangential_dimensions < 0 || traits_.tangential_dimensions > 2 ||
-      traits_.state_size < 0)
+      traits_.state_size < 0) {
+    api_->destroy(instance_);  // the destructor does not run for a throwing constructor
     throw PluginError("contact law '" + plugin_->name() + "' reports invalid traits");
+  }
 }
 
 ContactLawInstance::~ContactLawInstance() {

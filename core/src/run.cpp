@@ -146,6 +146,14 @@ int run_scene(const RunRequest& request) {
     for (int i = 0; i <= 256; ++i) {
       const double w = w_from + (w_to - w_from) * i / 256.0;
       const Eigen::VectorXd u0 = model->linear_response(w);
+      if (!u0.allFinite()) {
+        spdlog::error(
+            "{}: the contact-free response is not finite at {} {} (harmonic 0 with a "
+            "rigid-body mode, or an undamped resonance): ground the structure, drop "
+            "harmonic 0, or add damping",
+            request.scene_file.string(), w / unit, unit_name(C.unit));
+        return kExitInvalidInput;
+      }
       if (u0.size()) peak = std::max(peak, u0.cwiseAbs().maxCoeff());
     }
     if (peak == 0.0) peak = 1e-6;
@@ -244,7 +252,8 @@ int run_scene(const RunRequest& request) {
     // ---- outputs ----
     fs::path out_dir = request.output_directory;
     if (out_dir.empty()) out_dir = fs::path("out") / scene.file.stem();
-    StagedOutput out(out_dir);
+    StagedOutput out(out_dir,
+                     {"response.csv", "response.gp", "response.png", "summary.json", "loops"});
     write_csv(out.path("response.csv"), header, rows);
 
     // Friction loops: every crossing of each requested frequency, solved exactly there.
@@ -289,7 +298,7 @@ int run_scene(const RunRequest& request) {
             for (Eigen::Index a = 0; a < trace.force.cols(); ++a) r.push_back(trace.force(jj, a));
             lrows.push_back(std::move(r));
           }
-          const std::string base = "loops/" + contact.name + "_" + format_number(f_req) +
+          const std::string base = "loops/" + contact.name + "_" + format_number(f_req, 10) +
                                    unit_name(C.unit).substr(0, 2) + "_" + std::to_string(crossing);
           const fs::path csv = out.path(base + ".csv");
           write_csv(csv, lh, lrows);

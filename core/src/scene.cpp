@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <numbers>
@@ -338,6 +340,14 @@ Scene load_scene(const fs::path& file) {
     ContactSpec contact;
     contact.name = v.text("name");
     contact.law = v.text("law");
+    const bool safe_name = !contact.name.empty() && contact.name[0] != '.' &&
+                           std::all_of(contact.name.begin(), contact.name.end(), [](char ch) {
+                             return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' ||
+                                    ch == '-' || ch == '.';
+                           });
+    if (!safe_name)
+      ctx.fail(c["name"], path + ".name",
+               "'" + contact.name + "': use letters, digits, '_', '-' and '.' (it names files)");
     if (!contact_names.insert(contact.name).second)
       ctx.fail(c["name"], path + ".name", "contact name '" + contact.name + "' is used twice");
     const auto sides = v.texts("between");
@@ -486,8 +496,10 @@ std::vector<CoreSection> core_schemas() {
        "`amplitude * cos(harmonic * w t + phase)` along `direction`."},
       {"contacts[]", contact_schema(),
        "`params`: the law's parameters (see Contact laws below). `frame`: the local directions "
-       "(below). The relative displacement is u = frame . (x_B - x_A), B the second side; the "
-       "contact force acts +f on B and -f on A."},
+       "(below). The relative displacement is u = frame . (x_B - x_A), B the second side. The "
+       "law's force f (spring-like: +kt u when stuck) enters the equations of motion as "
+       "M x'' + C x' + K x + f_nl = f_ext with f_nl = +f on B and -f on A (seed eq. 2.13): "
+       "the contact pushes B back by -f."},
       {"contacts[].frame", frame_schema(),
        "Each vector has one entry per DOF of the sides' nodes and is normalised. A 1-DOF node "
        "defaults to tangent1 = [1]. A law uses tangent2 when it is 2D tangential and normal "

@@ -13,7 +13,10 @@ namespace frichb::core {
 
 class StagedOutput {
  public:
-  explicit StagedOutput(std::filesystem::path final_directory);
+  // `managed`: top-level names (files or folders) this output owns in the final folder;
+  // commit() removes them there first, so nothing of an earlier run is left beside the new
+  // files. Other files in the final folder are never touched.
+  StagedOutput(std::filesystem::path final_directory, std::vector<std::string> managed);
   ~StagedOutput();
   StagedOutput(const StagedOutput&) = delete;
   StagedOutput& operator=(const StagedOutput&) = delete;
@@ -26,6 +29,7 @@ class StagedOutput {
 
  private:
   std::filesystem::path final_, staging_;
+  std::vector<std::string> managed_;
   bool committed_ = false;
 };
 

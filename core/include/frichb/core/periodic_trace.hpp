@@ -7,10 +7,11 @@
 // layout and, on request, dF/dU ((d*C) x (d*C), column-major Eigen matrix).
 //
 // Periodicity: the period is traced repeatedly from the law's initial state until the state
-// at the start of a pass repeats at its end (relative tolerance), then the derivative is
-// propagated in further passes until it repeats too (the derivative of the periodic fixed
-// point). A contact that never slips keeps its initial state, so its mean tangential force
-// is kt times the mean relative displacement (docs/theory.md, "full stick convention").
+// at the start of a pass repeats at its end (relative tolerance) and, when the Jacobian is
+// requested, until the derivative of the state carried through the same passes repeats too:
+// the Jacobian is the exact derivative of the computed periodic forces, warm-up included.
+// A contact that never slips keeps its initial state, so its mean tangential force is kt
+// times the mean relative displacement (docs/theory.md, "full stick convention").
 //
 // The force entering the equations is the law's force minus its force at u = 0 in the
 // initial state (the preload balanced by the static equilibrium the unknowns are measured
@@ -38,8 +39,8 @@ struct ContactTrace {
   Eigen::MatrixXd force;               // N x d, raw law force samples (N)
   Eigen::VectorXd force_coefficients;  // d*C, of (force - reference force)
   Eigen::MatrixXd jacobian;            // d*C x d*C when requested
-  int passes = 0;                      // passes until the state repeated
-  int derivative_passes = 0;           // further passes until its derivative repeated
+  int passes = 0;                      // passes until the state (and its derivative) repeated
+  int derivative_passes = 0;           // of those, passes that carried the derivative
   bool periodic = true;                // false: max_passes reached (the diagnostic says so)
   bool used_finite_differences = false;
   std::string diagnostic;
