@@ -243,17 +243,25 @@ inline const char* build_tag() {
 #endif
 }
 
-template <class Law>
-struct ContactLawTrampolines {
+// Creation and destruction shared by every plugin kind: Impl derives from Base and is
+// constructed from the validated parameters of `schema`.
+template <class Base, class Impl>
+struct Lifecycle {
   static const std::vector<frichb_param_spec>* schema;
   static frichb_status create(const frichb_param_value* params, size_t n, void** instance,
                               char* message, size_t capacity) {
     return guarded(message, capacity, [&] {
       if (n != schema->size()) throw std::invalid_argument("parameter count differs from schema");
-      *instance = static_cast<ContactLaw*>(new Law(Params(schema->data(), n, params)));
+      *instance = static_cast<Base*>(new Impl(Params(schema->data(), n, params)));
     });
   }
-  static void destroy(void* instance) { delete static_cast<ContactLaw*>(instance); }
+  static void destroy(void* instance) { delete static_cast<Base*>(instance); }
+};
+template <class Base, class Impl>
+const std::vector<frichb_param_spec>* Lifecycle<Base, Impl>::schema = nullptr;
+
+template <class Law>
+struct ContactLawTrampolines : Lifecycle<ContactLaw, Law> {
   static void traits(const void* instance, frichb_contact_law_traits* out) {
     *out = static_cast<const ContactLaw*>(instance)->traits();
   }
@@ -269,20 +277,9 @@ struct ContactLawTrampolines {
     });
   }
 };
-template <class Law>
-const std::vector<frichb_param_spec>* ContactLawTrampolines<Law>::schema = nullptr;
 
 template <class Provider>
-struct StructureTrampolines {
-  static const std::vector<frichb_param_spec>* schema;
-  static frichb_status create(const frichb_param_value* params, size_t n, void** instance,
-                              char* message, size_t capacity) {
-    return guarded(message, capacity, [&] {
-      if (n != schema->size()) throw std::invalid_argument("parameter count differs from schema");
-      *instance = static_cast<StructureProvider*>(new Provider(Params(schema->data(), n, params)));
-    });
-  }
-  static void destroy(void* instance) { delete static_cast<StructureProvider*>(instance); }
+struct StructureTrampolines : Lifecycle<StructureProvider, Provider> {
   static size_t dof_count(const void* instance) {
     return static_cast<const StructureProvider*>(instance)->dof_count();
   }
@@ -294,8 +291,6 @@ struct StructureTrampolines {
     });
   }
 };
-template <class Provider>
-const std::vector<frichb_param_spec>* StructureTrampolines<Provider>::schema = nullptr;
 
 template <class Law>
 const frichb_plugin_descriptor* contact_law_descriptor(
