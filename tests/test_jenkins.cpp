@@ -237,6 +237,28 @@ TEST(Jenkins, FiniteDifferenceModeAgreesWithAnalytic) {
   EXPECT_LT((analytic.jacobian - fd.jacobian).cwiseAbs().maxCoeff(), 1e-5 * scale);
 }
 
+TEST(Jenkins, ALawWithoutTangentsFallsBackToFiniteDifferences) {
+  const Registry test_plugins({FRICHB_TEST_PLUGIN_DIR});
+  auto plugin = test_plugins.load("tangentless_jenkins", FRICHB_KIND_CONTACT_LAW);
+  const ParamValues values = validate_params(YAML::Load("{kt: 2.0e5, slip_force: 2.5}"),
+                                             plugin->schema(), "params", YamlContext{"<test>"});
+  ContactLawInstance tangentless(plugin, values);
+  EXPECT_EQ(tangentless.traits().provides_tangent, 0);
+  auto reference = test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1, 2, 3}, 64);
+  PeriodicTracer fallback(tangentless, layout), analytic(*reference.law, layout);
+  const Eigen::VectorXd u = random_motion(layout.coefficient_count(), 4e-5, 5);
+  ContactTrace a, b;
+  std::string error;
+  ASSERT_TRUE(fallback.trace(u, JacobianMode::kAnalytic, a, &error)) << error;
+  ASSERT_TRUE(analytic.trace(u, JacobianMode::kAnalytic, b, &error)) << error;
+  EXPECT_TRUE(a.used_finite_differences);
+  EXPECT_FALSE(b.used_finite_differences);
+  EXPECT_LT((a.force_coefficients - b.force_coefficients).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((a.jacobian - b.jacobian).cwiseAbs().maxCoeff(),
+            1e-5 * b.jacobian.cwiseAbs().maxCoeff());
+}
+
 TEST(Jenkins, SlippingMotionBecomesPeriodicInTwoPasses) {
   auto h = test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
   HarmonicLayout layout({0, 1}, 64);
