@@ -12,7 +12,7 @@ packages=(
   nlohmann-json3-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox
-  clang-format
+  clang-format clang-tidy
 )
 
 missing=()

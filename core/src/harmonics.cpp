@@ -53,7 +53,7 @@ double HarmonicLayout::basis(int sample, int coefficient) const {
 Aft::Aft(const HarmonicLayout& layout) : layout_(layout) {
   const int n = layout_.samples();
   real_buffer_ = fftw_alloc_real(static_cast<std::size_t>(n));
-  spectrum_ = fftw_alloc_complex(static_cast<std::size_t>(n / 2 + 1));
+  spectrum_ = fftw_alloc_complex(static_cast<std::size_t>(n) / 2 + 1);
   std::lock_guard<std::mutex> lock(fftw_planner_mutex());
   forward_ = fftw_plan_dft_r2c_1d(n, real_buffer_, spectrum_, FFTW_ESTIMATE);
   backward_ = fftw_plan_dft_c2r_1d(n, spectrum_, real_buffer_, FFTW_ESTIMATE);

@@ -29,7 +29,7 @@ StagedOutput::~StagedOutput() {
 }
 
 fs::path StagedOutput::path(const fs::path& relative) const {
-  const fs::path p = staging_ / relative;
+  fs::path p = staging_ / relative;
   fs::create_directories(p.parent_path());
   return p;
 }

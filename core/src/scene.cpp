@@ -176,6 +176,7 @@ std::vector<double> unit_vector(const std::vector<double>& v, const YAML::Node& 
   norm = std::sqrt(norm);
   if (norm == 0) ctx.fail(node, path, "is the zero vector");
   std::vector<double> out;
+  out.reserve(v.size());
   for (double x : v) out.push_back(x / norm);
   return out;
 }

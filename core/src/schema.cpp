@@ -93,7 +93,7 @@ class ParamBuilder {
       }
       case FRICHB_PARAM_STRING: {
         if (!node.IsScalar()) ctx_.fail(node, path, "expected text, got " + describe_node(node));
-        const std::string s = node.Scalar();
+        const std::string& s = node.Scalar();
         if (spec.choices && !in_choices(s, spec.choices))
           ctx_.fail(node, path,
                     "'" + s + "' is not one of " + std::string(spec.choices) +

@@ -54,7 +54,7 @@ class Lumped final : public frichb::sdk::StructureProvider {
 
     Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> eig(stiffness_, mass_);
     if (eig.info() != Eigen::Success) throw std::runtime_error("eigen-solve failed");
-    const Eigen::VectorXd lambda = eig.eigenvalues();
+    const Eigen::VectorXd& lambda = eig.eigenvalues();
     const double scale = std::max(1.0, lambda.cwiseAbs().maxCoeff());
     frequencies_.resize(n);
     for (Eigen::Index r = 0; r < n; ++r) {

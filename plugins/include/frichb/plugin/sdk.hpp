@@ -347,7 +347,9 @@ const frichb_plugin_descriptor* structure_descriptor(
 }  // namespace detail
 }  // namespace frichb::sdk
 
-// Export macros: NAME is the registry name written as a C identifier (no quotes).
+// Export macros: NAME is the registry name written as a C identifier (no quotes). CLASS is a
+// template argument and NAME is pasted, so neither can be parenthesised.
+// NOLINTBEGIN(bugprone-macro-parentheses)
 #define FRICHB_CONTACT_LAW_PLUGIN(CLASS, NAME, VERSION, SUMMARY, SCHEMA_FN)               \
   extern "C" FRICHB_PLUGIN_EXPORT const char frichb_plugin_name__##NAME = 0;              \
   extern "C" FRICHB_PLUGIN_EXPORT const frichb_plugin_descriptor* frichb_plugin_entry() { \
@@ -361,3 +363,4 @@ const frichb_plugin_descriptor* structure_descriptor(
     return ::frichb::sdk::detail::structure_descriptor<CLASS>(#NAME, VERSION, SUMMARY,    \
                                                               &SCHEMA_FN);                \
   }
+// NOLINTEND(bugprone-macro-parentheses)
