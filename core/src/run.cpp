@@ -106,10 +106,13 @@ int run_scene(const RunRequest& request) {
     return kExitInvalidInput;
   }
   if (request.validate_only) {
-    spdlog::info("{}: valid ({} contact{}, provider '{}', plugins loaded: {})",
-                 request.scene_file.string(), scene.contacts.size(),
-                 scene.contacts.size() == 1 ? "" : "s", scene.structure.provider,
-                 registry->search_path().size() ? "ok" : "none");
+    std::string contacts;
+    for (const auto& c : scene.contacts)
+      contacts += (contacts.empty() ? "" : ", ") + c.name + " (" + c.plugin->name() + " " +
+                  c.plugin->descriptor().version + ")";
+    spdlog::info("{}: valid; structure '{}' {}; contacts: {}", request.scene_file.string(),
+                 scene.structure.plugin->name(), scene.structure.plugin->descriptor().version,
+                 contacts.empty() ? "none" : contacts);
     return kExitOk;
   }
 
