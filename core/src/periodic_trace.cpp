@@ -26,7 +26,8 @@ PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayo
 
 bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state,
                                 Eigen::MatrixXd* dstate, Eigen::MatrixXd& force,
-                                std::vector<Eigen::MatrixXd>* dforce, std::string* error) const {
+                                Eigen::MatrixXd& states, std::vector<Eigen::MatrixXd>* dforce,
+                                std::string* error) const {
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   const int s = state_size_;
   Eigen::VectorXd next(s);
@@ -59,6 +60,7 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
                    error))
       return false;
     for (int a = 0; a < d; ++a) force(j, a) = f[components_[a]];
+    states.row(j) = next.transpose();
     if (derivative) {
       // Chain rule: u_now depends on U through basis row j, u_prev through row j-1.
       dnext = ds_ds.topLeftCorner(s, s) * (*dstate);
@@ -88,6 +90,7 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
   Eigen::VectorXd state(s), start(s);
   law_.initial_state(state.data());
   out.force.resize(n, dimension());
+  out.state.resize(n, s);
   const double u_scale = std::max(out.displacement.cwiseAbs().maxCoeff(), 1e-300);
   const double tol = options_.relative_tolerance;
   out.passes = 0;
@@ -108,7 +111,7 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
     start = state;
     if (with_derivative) dstart = dstate;
     if (!run_period(out.displacement, state, with_derivative ? &dstate : nullptr, out.force,
-                    with_derivative ? &dforce : nullptr, error))
+                    out.state, with_derivative ? &dforce : nullptr, error))
       return false;
     ++out.passes;
     const double change = s ? (state - start).cwiseAbs().maxCoeff() : 0.0;

@@ -37,6 +37,7 @@ struct TraceOptions {
 struct ContactTrace {
   Eigen::MatrixXd displacement;        // N x d, local relative displacement samples (m)
   Eigen::MatrixXd force;               // N x d, raw law force samples (N)
+  Eigen::MatrixXd state;               // N x S, the law's state after each sample (last pass)
   Eigen::VectorXd force_coefficients;  // d*C, of (force - reference force)
   Eigen::MatrixXd jacobian;            // d*C x d*C when requested
   int passes = 0;                      // passes until the state (and its derivative) repeated
@@ -66,8 +67,8 @@ class PeriodicTracer {
  private:
   bool run_passes(ContactTrace& out, bool with_derivative, std::string* error);
   bool run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
-                  Eigen::MatrixXd& force, std::vector<Eigen::MatrixXd>* dforce,
-                  std::string* error) const;
+                  Eigen::MatrixXd& force, Eigen::MatrixXd& states,
+                  std::vector<Eigen::MatrixXd>* dforce, std::string* error) const;
   void transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce);
 
   const ContactLawInstance& law_;
