@@ -1,0 +1,469 @@
+// The hertz_3d law (Hertz stiffnesses kt = c_t sqrt(p), N = c_n p^1.5, coupled friction
+// circle, separation) through the real loader and the periodic tracer: the normal force
+// against its closed form, the analytic Jacobian and the step tangents against central
+// differences, finiteness at zero penetration, the thesis's Fig. 3.6 comparison with
+// constant stiffnesses, mu = 0 and frame invariance.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <iostream>
+#include <numbers>
+#include <random>
+
+#include "frichb/core/periodic_trace.hpp"
+#include "test_support.hpp"
+
+namespace frichb::core {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// Index of the cosine / sine coefficient of harmonic n in component a of U.
+int cos_at(const HarmonicLayout& layout, int a, int n) {
+  for (std::size_t k = 0; k < layout.harmonics().size(); ++k)
+    if (layout.harmonics()[k] == n) return a * layout.coefficient_count() + layout.cos_index(k);
+  throw std::invalid_argument("harmonic not kept");
+}
+int sin_at(const HarmonicLayout& layout, int a, int n) {
+  for (std::size_t k = 0; k < layout.harmonics().size(); ++k)
+    if (layout.harmonics()[k] == n) return a * layout.coefficient_count() + layout.sin_index(k);
+  throw std::invalid_argument("harmonic not kept");
+}
+
+Eigen::VectorXd random_motion(Eigen::Index size, double scale, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> dist(-scale, scale);
+  Eigen::VectorXd u(size);
+  for (auto& x : u) x = dist(gen);
+  return u;
+}
+
+// Central differences of the traced force coefficients, the oracle of the analytic Jacobian.
+Eigen::MatrixXd central_differences(PeriodicTracer& tracer, const Eigen::VectorXd& u) {
+  const Eigen::Index p = u.size();
+  Eigen::MatrixXd j(p, p);
+  const double h = 1e-7 * u.cwiseAbs().maxCoeff();
+  ContactTrace plus, minus;
+  std::string error;
+  for (Eigen::Index q = 0; q < p; ++q) {
+    Eigen::VectorXd up = u, um = u;
+    up(q) += h;
+    um(q) -= h;
+    EXPECT_TRUE(tracer.trace(up, JacobianMode::kNone, plus, &error)) << error;
+    EXPECT_TRUE(tracer.trace(um, JacobianMode::kNone, minus, &error)) << error;
+    j.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
+  }
+  return j;
+}
+
+// The regularised normal force above eps: N = c_n (p^1.5 - eps^1.5 / 8).
+double hertz_normal(double cn, double eps, double p) {
+  return cn * (std::pow(p, 1.5) - std::pow(eps, 1.5) / 8);
+}
+
+// ---------------------------------------------------------------------------------------
+// (1) Normal force proportional to penetration^1.5, zero (with T = 0) when open.
+
+struct NormalCase {
+  const char* params;
+  double gap, p0;
+};
+
+void PrintTo(const NormalCase& c, std::ostream* os) {
+  *os << c.params;
+}
+
+class HertzNormalForce : public ::testing::TestWithParam<NormalCase> {};
+
+TEST_P(HertzNormalForce, IsCoefficientTimesPenetrationToTheThreeHalves) {
+  const NormalCase c = GetParam();
+  const double cn = 3e9, eps = 1e-9;
+  auto h = test::make_law("hertz_3d", c.params);
+  HarmonicLayout layout({0, 1, 2, 3}, 96);
+  PeriodicTracer tracer(*h.law, layout);
+  ASSERT_EQ(tracer.components(), (std::vector<int>{0, 1, 2}));
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * layout.coefficient_count());
+  u(sin_at(layout, 0, 1)) = 8e-6;
+  u(cos_at(layout, 1, 2)) = 5e-6;
+  u(cos_at(layout, 2, 0)) = 1e-6;  // normal mean
+  u(cos_at(layout, 2, 1)) = 4e-6;  // normal first harmonic: opens part of the period
+  u(sin_at(layout, 2, 3)) = 0.7e-6;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  int open = 0, closed = 0;
+  for (int j = 0; j < layout.samples(); ++j) {
+    const double p = t.displacement(j, 2) + c.p0 - c.gap;
+    if (p <= 0) {
+      ++open;
+      EXPECT_EQ(t.force(j, 2), 0.0) << "sample " << j;
+      EXPECT_EQ(t.force(j, 0), 0.0) << "sample " << j;
+      EXPECT_EQ(t.force(j, 1), 0.0) << "sample " << j;
+    } else if (p > eps) {
+      ++closed;
+      const double expected = hertz_normal(cn, eps, p);
+      EXPECT_NEAR(t.force(j, 2), expected, 1e-12 * expected) << "sample " << j;
+    }
+  }
+  EXPECT_GT(open, 5);
+  EXPECT_GT(closed, 5);
+  // The host subtracts the force at u = 0: N(p0) when p0 > 0, nothing with a gap.
+  const double n_ref = c.p0 > 0 ? hertz_normal(cn, eps, c.p0) : 0.0;
+  EXPECT_NEAR(tracer.reference_force()(2), n_ref, 1e-12 * n_ref);
+  EXPECT_EQ(tracer.reference_force().head<2>().norm(), 0.0);
+  const double mean_n = t.force.col(2).mean();
+  EXPECT_NEAR(t.force_coefficients(cos_at(layout, 2, 0)), mean_n - n_ref, 1e-12 * mean_n);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    GapOrStaticPenetration, HertzNormalForce,
+    ::testing::Values(
+        NormalCase{"{normal_coefficient: 3.0e9, tangential_coefficient: 2.0e9, mu: 0.3}", 0, 0},
+        NormalCase{"{normal_coefficient: 3.0e9, tangential_coefficient: 2.0e9, mu: 0.3, "
+                   "gap: 2.0e-6}",
+                   2e-6, 0},
+        NormalCase{"{normal_coefficient: 3.0e9, tangential_coefficient: 2.0e9, mu: 0.3, "
+                   "static_penetration: 2.5e-6}",
+                   0, 2.5e-6}));
+
+TEST(Hertz3d, GapAndStaticPenetrationTogetherAreRefused) {
+  try {
+    test::make_law("hertz_3d",
+                   "{normal_coefficient: 1, tangential_coefficient: 1, mu: 0.3, gap: 1.0e-6, "
+                   "static_penetration: 1.0e-6}");
+    FAIL() << "a gap with a static penetration must be refused";
+  } catch (const PluginError& e) {
+    EXPECT_NE(std::string(e.what()).find("either gap or static_penetration"), std::string::npos);
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// (2) Analytic Jacobian vs central differences: slip and partial separation.
+
+TEST(Hertz3d, AnalyticJacobianEqualsCentralDifferencesWithSlipAndSeparation) {
+  const double eps = 1e-9, mu = 0.5;
+  auto h = test::make_law("hertz_3d",
+                          "{normal_coefficient: 2.0e9, tangential_coefficient: 1.5e9, mu: 0.5}");
+  HarmonicLayout layout({0, 1, 2, 3}, 128);
+  PeriodicTracer tracer(*h.law, layout);
+  const int c = layout.coefficient_count();
+  for (unsigned seed : {1u, 2u, 3u}) {
+    Eigen::VectorXd u = random_motion(3 * c, 1e-5, seed);
+    u.segment(2 * c, c) = random_motion(c, 2e-6, seed + 100);
+    u(cos_at(layout, 2, 0)) = 3e-6;
+    u(cos_at(layout, 2, 1)) = 5e-6;
+    ContactTrace t;
+    std::string error;
+    ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+    ASSERT_FALSE(t.used_finite_differences);
+    ASSERT_TRUE(t.periodic);
+    // The scenario: open part of the period, slip part of it, and no sample within the
+    // regularisation zone or near the opening kink (the differences move samples by ~1e-12).
+    int open = 0, slip = 0;
+    double closest = 1.0;
+    for (int j = 0; j < layout.samples(); ++j) {
+      const double p = t.displacement(j, 2);
+      closest = std::min(closest, std::abs(p));
+      if (p <= 0) ++open;
+      const double n = t.force(j, 2);
+      if (n > 0 && std::abs(std::hypot(t.force(j, 0), t.force(j, 1)) - mu * n) < 1e-12 * n) ++slip;
+    }
+    EXPECT_GT(open, 0) << "seed " << seed;
+    EXPECT_LT(open, layout.samples()) << "seed " << seed;
+    EXPECT_GT(slip, 0) << "seed " << seed;
+    ASSERT_GT(closest, 2 * eps) << "seed " << seed;
+    const Eigen::MatrixXd fd = central_differences(tracer, u);
+    const double scale = fd.cwiseAbs().maxCoeff();
+    const double err = (t.jacobian - fd).cwiseAbs().maxCoeff();
+    std::cout << "[ hertz_3d ] seed " << seed << ": open " << open << "/" << layout.samples()
+              << ", slip " << slip << ", min |p| " << closest
+              << " m, max |J - FD| / max |FD| = " << err / scale << "\n";
+    EXPECT_GT(scale, 1e5);
+    EXPECT_LT(err, 1e-6 * scale) << "seed " << seed;
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// Step-level tangents, all six blocks, against central differences of one step, inside the
+// regularisation zone and above it, sticking and slipping.
+
+struct StepResult {
+  std::array<double, 3> force{};
+  std::array<double, 2> state{};
+  std::array<double, 9> fu{}, fup{};
+  std::array<double, 6> fs{}, su{}, sup{};
+  std::array<double, 4> ss{};
+};
+
+StepResult step(const ContactLawInstance& law, const std::array<double, 2>& w_prev,
+                const std::array<double, 3>& u_now) {
+  StepResult r;
+  const std::array<double, 3> u_prev{0.3e-6, -0.2e-6, 0.1e-6};
+  frichb_step_tangents tg{r.fu.data(), r.fup.data(), r.fs.data(),
+                          r.su.data(), r.sup.data(), r.ss.data()};
+  std::string error;
+  EXPECT_TRUE(law.step(w_prev.data(), u_prev.data(), u_now.data(), r.force.data(), r.state.data(),
+                       &tg, &error))
+      << error;
+  return r;
+}
+
+bool all_finite(const StepResult& r) {
+  auto finite = [](const auto& a) {
+    for (double x : a)
+      if (!std::isfinite(x)) return false;
+    return true;
+  };
+  return finite(r.force) && finite(r.state) && finite(r.fu) && finite(r.fup) && finite(r.fs) &&
+         finite(r.su) && finite(r.sup) && finite(r.ss);
+}
+
+TEST(Hertz3d, StepTangentsEqualCentralDifferencesInAndAboveTheRegularisation) {
+  // eps = 1e-6 m so that a difference step of 1e-13 m resolves the regularised branch.
+  const double eps = 1e-6, mu = 0.5;
+  auto h = test::make_law("hertz_3d",
+                          "{normal_coefficient: 1.0e9, tangential_coefficient: 1.0e9, mu: 0.5, "
+                          "regularization: 1.0e-6}");
+  const double dh = 1e-13;
+  int sticks = 0, slips = 0;
+  for (double p : {0.5 * eps, 0.9 * eps, 3 * eps, 40 * eps}) {
+    for (const std::array<double, 2>& d :
+         {std::array<double, 2>{5e-9, 3e-9}, std::array<double, 2>{4e-6, -3e-6}}) {
+      const std::array<double, 2> w_prev{1e-6, -2e-6};
+      const std::array<double, 3> u{w_prev[0] + d[0], w_prev[1] + d[1], p};
+      const StepResult r = step(*h.law, w_prev, u);
+      const bool slipping =
+          std::abs(std::hypot(r.force[0], r.force[1]) - mu * r.force[2]) < 1e-12 * r.force[2];
+      (slipping ? slips : sticks) += 1;
+      double err_f = 0, scale_f = 0, err_s = 0;
+      // Columns over u_now (3) then w_prev (2).
+      for (int q = 0; q < 5; ++q) {
+        auto up = u, um = u;
+        auto wp = w_prev, wm = w_prev;
+        if (q < 3) {
+          up[q] += dh;
+          um[q] -= dh;
+        } else {
+          wp[q - 3] += dh;
+          wm[q - 3] -= dh;
+        }
+        const StepResult a = step(*h.law, wp, up), b = step(*h.law, wm, um);
+        for (int i = 0; i < 3; ++i) {
+          const double fd = (a.force[i] - b.force[i]) / (2 * dh);
+          const double an = q < 3 ? r.fu[i * 3 + q] : r.fs[i * 2 + (q - 3)];
+          err_f = std::max(err_f, std::abs(fd - an));
+          scale_f = std::max(scale_f, std::abs(fd));
+        }
+        for (int k = 0; k < 2; ++k) {
+          const double fd = (a.state[k] - b.state[k]) / (2 * dh);
+          const double an = q < 3 ? r.su[k * 3 + q] : r.ss[k * 2 + (q - 3)];
+          err_s = std::max(err_s, std::abs(fd - an));
+        }
+      }
+      EXPECT_LT(err_f, 1e-6 * scale_f) << "p = " << p << ", slip " << slipping;
+      EXPECT_LT(err_s, 1e-6) << "p = " << p << ", slip " << slipping;  // dw/du is O(1)
+      for (double x : r.fup) EXPECT_EQ(x, 0.0);
+      for (double x : r.sup) EXPECT_EQ(x, 0.0);
+    }
+  }
+  EXPECT_GT(sticks, 0);
+  EXPECT_GT(slips, 0);
+}
+
+// ---------------------------------------------------------------------------------------
+// (3) Near and at zero penetration: finite tangents; N and kn continuous at eps.
+
+TEST(Hertz3d, TangentsAreFiniteAtZeroPenetrationAndTheRegularisationIsContinuous) {
+  const double cn = 2e9, ct = 1.5e9, eps = 1e-9;
+  auto h = test::make_law("hertz_3d",
+                          "{normal_coefficient: 2.0e9, tangential_coefficient: 1.5e9, mu: 0.5}");
+  for (double p : {0.0, 0.5 * eps, eps, 2 * eps}) {
+    for (const std::array<double, 2>& ut :
+         {std::array<double, 2>{0, 0}, std::array<double, 2>{1e-15, -1e-15},
+          std::array<double, 2>{3e-6, 1e-6}}) {
+      const StepResult r = step(*h.law, {0, 0}, {ut[0], ut[1], p});
+      EXPECT_TRUE(all_finite(r)) << "p = " << p << ", u_t = " << ut[0];
+      if (p == 0) {  // open: no force, released slider
+        EXPECT_EQ(r.force[2], 0.0);
+        EXPECT_EQ(r.state[0], ut[0]);
+      }
+    }
+  }
+  // Continuity at eps of N and kn = dN/du_n (from either side), and their values there:
+  // N(eps) = 7/8 c_n eps^1.5, kn(eps) = 1.5 c_n sqrt(eps), kt(eps) = c_t sqrt(eps).
+  const double below = eps * (1 - 1e-14), above = eps * (1 + 1e-14);
+  const StepResult lo = step(*h.law, {0, 0}, {0, 0, below});
+  const StepResult hi = step(*h.law, {0, 0}, {0, 0, above});
+  const StepResult at = step(*h.law, {0, 0}, {0, 0, eps});
+  const double n_eps = 0.875 * cn * std::pow(eps, 1.5), kn_eps = 1.5 * cn * std::sqrt(eps);
+  EXPECT_NEAR(lo.force[2], hi.force[2], 1e-12 * n_eps);
+  EXPECT_NEAR(lo.fu[8], hi.fu[8], 1e-12 * kn_eps);
+  EXPECT_NEAR(at.force[2], n_eps, 1e-12 * n_eps);
+  EXPECT_NEAR(at.fu[8], kn_eps, 1e-12 * kn_eps);
+  EXPECT_NEAR(lo.fu[0], hi.fu[0], 1e-12 * ct * std::sqrt(eps));  // kt while sticking
+  EXPECT_NEAR(at.fu[0], ct * std::sqrt(eps), 1e-12 * ct * std::sqrt(eps));
+  // The stiffness derivative at p -> 0+ is bounded: d kt / dp = 1.5 c_t / sqrt(eps).
+  const double tiny = 1e-6 * eps;
+  const StepResult z = step(*h.law, {0, 0}, {1e-18, 0, tiny});
+  EXPECT_NEAR(z.fu[0 * 3 + 2], 1e-18 * 1.5 * ct / std::sqrt(eps),
+              1e-5 * 1e-18 * ct / std::sqrt(eps));
+  EXPECT_LT(z.fu[8], 2 * 1.5 * cn * 1.5 * tiny / std::sqrt(eps));  // kn -> 0 continuously
+}
+
+// ---------------------------------------------------------------------------------------
+// (4) Thesis Fig. 3.6: X = sin + 0.5 sin 2 + 0.4 sin 3, Y = 0.6 cos, Z = 0.4 + 0.6 sin(. + pi/4)
+// with Kt = sqrt(Z), Kn = 3 sqrt(Z) / 2 (N = Z^1.5), mu = 0.4, against constant stiffnesses.
+
+struct Loop {
+  double area = 0;    // |closed integral of T1 dT2| in the (T1, T2) plane, N^2
+  double energy = 0;  // closed integral of T . du_t, J: the dissipated energy per cycle
+};
+Loop loop_of(const Eigen::MatrixXd& u, const Eigen::MatrixXd& f) {
+  Loop l;
+  const Eigen::Index n = u.rows();
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const Eigen::Index k = (j + 1) % n;
+    l.area += 0.5 * (f(j, 0) * f(k, 1) - f(k, 0) * f(j, 1));
+    l.energy += 0.5 * (f(j, 0) + f(k, 0)) * (u(k, 0) - u(j, 0)) +
+                0.5 * (f(j, 1) + f(k, 1)) * (u(k, 1) - u(j, 1));
+  }
+  l.area = std::abs(l.area);
+  return l;
+}
+
+// The constant-stiffness coupled law (friction circle, N = max(0, kn Z)), its own loop:
+// the oracle that does not go through the plugin. Three passes from w = 0 (it separates, so
+// the second pass is already periodic).
+Eigen::MatrixXd constant_stiffness_trace(const Eigen::MatrixXd& u, double kt, double kn,
+                                         double mu) {
+  Eigen::MatrixXd f = Eigen::MatrixXd::Zero(u.rows(), 3);
+  double w1 = 0, w2 = 0;
+  for (int pass = 0; pass < 3; ++pass) {
+    for (Eigen::Index j = 0; j < u.rows(); ++j) {
+      const double n = std::max(0.0, kn * u(j, 2));
+      double t1 = 0, t2 = 0;
+      if (n <= 0) {
+        w1 = u(j, 0);
+        w2 = u(j, 1);
+      } else {
+        t1 = kt * (u(j, 0) - w1);
+        t2 = kt * (u(j, 1) - w2);
+        const double m = std::hypot(t1, t2);
+        if (m > mu * n) {
+          t1 *= mu * n / m;
+          t2 *= mu * n / m;
+          w1 = u(j, 0) - t1 / kt;
+          w2 = u(j, 1) - t2 / kt;
+        }
+      }
+      f.row(j) << t1, t2, n;
+    }
+  }
+  return f;
+}
+
+TEST(Hertz3d, ThesisFigure36PassesThroughTheOriginWithALargerLoop) {
+  auto h =
+      test::make_law("hertz_3d", "{normal_coefficient: 1, tangential_coefficient: 1, mu: 0.4}");
+  HarmonicLayout layout({0, 1, 2, 3}, 2048);
+  PeriodicTracer tracer(*h.law, layout);
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * layout.coefficient_count());
+  u(sin_at(layout, 0, 1)) = 1.0;
+  u(sin_at(layout, 0, 2)) = 0.5;
+  u(sin_at(layout, 0, 3)) = 0.4;
+  u(cos_at(layout, 1, 1)) = 0.6;
+  u(cos_at(layout, 2, 0)) = 0.4;
+  u(cos_at(layout, 2, 1)) = 0.6 * std::sin(kPi / 4);  // 0.6 sin(theta + pi/4)
+  u(sin_at(layout, 2, 1)) = 0.6 * std::cos(kPi / 4);
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  ASSERT_TRUE(t.periodic);
+  // Sample 0 is theta = 0: X = 0, Y = 0.6, Z = 0.4 + 0.6 sin(pi/4).
+  EXPECT_NEAR(t.displacement(0, 2), 0.4 + 0.6 * std::sin(kPi / 4), 1e-12);
+
+  // Separation: T = 0 and N = 0 where Z < 0 (the loop passes through the origin).
+  int through_origin = 0;
+  for (int j = 0; j < layout.samples(); ++j)
+    if (t.force(j, 0) == 0.0 && t.force(j, 1) == 0.0 && t.force(j, 2) == 0.0) {
+      ++through_origin;
+      EXPECT_LE(t.displacement(j, 2), 0.0);
+    }
+  // Z < 0 while sin(theta + pi/4) < -2/3: a fraction 1/2 - asin(2/3)/pi = 0.268 of the period.
+  EXPECT_NEAR(through_origin, (0.5 - std::asin(2.0 / 3.0) / kPi) * layout.samples(), 2);
+
+  // Constant reference: the mean over the whole period of eq. 3.2's stiffnesses (0 where
+  // Z < 0), kt = <sqrt(max(Z, 0))>, kn = 3 kt / 2, with the same contact point (N0 = 0).
+  double kt_mean = 0;
+  for (int j = 0; j < layout.samples(); ++j)
+    kt_mean += std::sqrt(std::max(0.0, t.displacement(j, 2)));
+  kt_mean /= layout.samples();
+  const Eigen::MatrixXd fc = constant_stiffness_trace(t.displacement, kt_mean, 1.5 * kt_mean, 0.4);
+  const Loop variable = loop_of(t.displacement, t.force);
+  const Loop constant = loop_of(t.displacement, fc);
+  const double area_ratio = variable.area / constant.area;
+  const double energy_ratio = variable.energy / constant.energy;
+  std::cout << "[ hertz_3d ] Fig. 3.6: mean kt = " << kt_mean << " N/m, kn = " << 1.5 * kt_mean
+            << " N/m; (T1,T2) loop area variable " << variable.area << ", constant "
+            << constant.area << ", ratio " << area_ratio << "; energy per cycle variable "
+            << variable.energy << " J, constant " << constant.energy << " J, ratio " << energy_ratio
+            << "\n";
+  // The thesis reads ~1.5 for the area ratio; this reference gives 1.62 and the
+  // choice of means moves it (closed-part means: 0.87), hence a band, not a value.
+  EXPECT_GT(area_ratio, 1.2);
+  EXPECT_LT(area_ratio, 1.8);
+  EXPECT_GT(energy_ratio, 1.0);  // the variable-stiffness contact dissipates more
+  EXPECT_GT(variable.energy, 0.0);
+}
+
+// ---------------------------------------------------------------------------------------
+// (5) mu = 0 gives no tangential force; rotating the tangential motion rotates the force.
+
+TEST(Hertz3d, ZeroFrictionGivesNoTangentialForce) {
+  auto h = test::make_law("hertz_3d",
+                          "{normal_coefficient: 2.0e9, tangential_coefficient: 1.5e9, mu: 0.0}");
+  HarmonicLayout layout({0, 1, 2, 3}, 64);
+  PeriodicTracer tracer(*h.law, layout);
+  const int c = layout.coefficient_count();
+  Eigen::VectorXd u = random_motion(3 * c, 1e-5, 21);
+  u(cos_at(layout, 2, 0)) = 3e-6;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  EXPECT_EQ(t.force.leftCols(2).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT(t.force.col(2).maxCoeff(), 0.0);
+  EXPECT_EQ(t.jacobian.topRows(2 * c).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(Hertz3d, TangentialForceRotatesWithTheTangentialMotion) {
+  auto h = test::make_law("hertz_3d",
+                          "{normal_coefficient: 2.0e9, tangential_coefficient: 1.5e9, mu: 0.5}");
+  HarmonicLayout layout({0, 1, 2, 3}, 128);
+  PeriodicTracer tracer(*h.law, layout);
+  const int c = layout.coefficient_count();
+  Eigen::VectorXd u = random_motion(3 * c, 1e-5, 4);
+  u(cos_at(layout, 2, 0)) = 3e-6;
+  u(cos_at(layout, 2, 1)) = 5e-6;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kNone, t, &error)) << error;
+  const double scale = t.force.leftCols(2).cwiseAbs().maxCoeff();
+  ASSERT_GT(scale, 0.0);
+  for (double angle : {0.3, 2.0, -1.1}) {
+    const double ca = std::cos(angle), sa = std::sin(angle);
+    Eigen::VectorXd ur = u;
+    ur.segment(0, c) = ca * u.segment(0, c) - sa * u.segment(c, c);
+    ur.segment(c, c) = sa * u.segment(0, c) + ca * u.segment(c, c);
+    ContactTrace tr;
+    ASSERT_TRUE(tracer.trace(ur, JacobianMode::kNone, tr, &error)) << error;
+    for (int j = 0; j < layout.samples(); ++j) {
+      EXPECT_NEAR(tr.force(j, 0), ca * t.force(j, 0) - sa * t.force(j, 1), 1e-12 * scale);
+      EXPECT_NEAR(tr.force(j, 1), sa * t.force(j, 0) + ca * t.force(j, 1), 1e-12 * scale);
+      EXPECT_NEAR(tr.force(j, 2), t.force(j, 2), 1e-12 * t.force.col(2).maxCoeff());
+    }
+  }
+}
+
+}  // namespace
+}  // namespace frichb::core
