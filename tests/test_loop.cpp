@@ -7,6 +7,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <vector>
 
 #include "test_support.hpp"
 
@@ -56,6 +57,61 @@ TEST(Loop, ThesisFigure32SeparatesAndHasAtLeastSixForceHarmonics) {
   EXPECT_GT(summary["dissipated_energy_per_cycle_J"].get<double>(), 0.0);
   // Three harmonics in the motion, at least six significant in the friction force.
   EXPECT_GE(summary["significant_force_harmonics"]["t1"].size(), 6u);
+}
+
+// Area enclosed by the (T1, T2) friction loop of a loop.csv (shoelace formula).
+double tangential_loop_area(const fs::path& csv) {
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::pair<double, double>> points;
+  while (std::getline(in, line)) {
+    std::vector<double> v;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
+    // phase, u_t1, u_t2, u_n, f_t1, f_t2, f_n, status
+    points.emplace_back(v.at(4), v.at(5));
+  }
+  double area = 0;
+  for (std::size_t i = 0; i + 1 < points.size(); ++i)
+    area += points[i].first * points[i + 1].second - points[i + 1].first * points[i].second;
+  return std::abs(0.5 * area);
+}
+
+TEST(Loop, EveryShippedThesisInputRuns) {
+  frichb::test::TempDir dir;
+  int count = 0;
+  for (const auto& entry :
+       fs::directory_iterator(std::string(FRICHB_SOURCE_DIR) + "/configs/friction_loops")) {
+    if (entry.path().extension() != ".yaml") continue;
+    ++count;
+    const auto out = dir.path() / entry.path().stem();
+    ASSERT_EQ(run("loop " + entry.path().string() + " -o " + out.string()), 0) << entry.path();
+    const auto summary = read_json(out / "summary.json");
+    EXPECT_TRUE(summary["periodic"].get<bool>()) << entry.path();
+    EXPECT_GE(summary["dissipated_energy_per_cycle_J"].get<double>(), 0.0) << entry.path();
+  }
+  EXPECT_GE(count, 6);
+}
+
+TEST(Loop, ThesisFigure36VariableStiffnessLoopIsLargerAndPassesThroughTheOrigin) {
+  frichb::test::TempDir dir;
+  const std::string configs = std::string(FRICHB_SOURCE_DIR) + "/configs/friction_loops/";
+  ASSERT_EQ(run("loop " + configs + "fig3_5_2d_variable_stiffness.yaml -o " +
+                (dir.path() / "variable").string()),
+            0);
+  ASSERT_EQ(run("loop " + configs + "fig3_6_constant_stiffness.yaml -o " +
+                (dir.path() / "constant").string()),
+            0);
+  // Separation: the variable-stiffness loop sits at (0, 0) while the contact is open.
+  EXPECT_GT(read_json(dir.path() / "variable" / "summary.json")["fraction_open"].get<double>(),
+            0.1);
+  const double ratio = tangential_loop_area(dir.path() / "variable" / "loop.csv") /
+                       tangential_loop_area(dir.path() / "constant" / "loop.csv");
+  // The thesis reads "approximately 1.5 times"; these inputs give 1.62 (docs/validation.md).
+  EXPECT_GT(ratio, 1.3);
+  EXPECT_LT(ratio, 1.8);
+  std::printf("Fig. 3.6 loop-area ratio variable / constant stiffness: %.3f\n", ratio);
 }
 
 TEST(Loop, BadInputIsRefusedWithItsLocation) {

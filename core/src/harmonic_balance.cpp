@@ -28,6 +28,9 @@ std::vector<std::size_t> collect_kept_dofs(const Scene& scene) {
 
 HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance& structure)
     : layout_(scene.harmonic_balance.harmonics, scene.harmonic_balance.samples_per_period),
+      trace_layout_(
+          scene.harmonic_balance.harmonics,
+          scene.harmonic_balance.samples_per_period * scene.harmonic_balance.trace_oversampling),
       mode_(scene.harmonic_balance.analytic_jacobian ? JacobianMode::kAnalytic
                                                      : JacobianMode::kFiniteDifference) {
   kept_dofs_ = collect_kept_dofs(scene);
@@ -52,7 +55,7 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     ContactModel c;
     c.name = spec.name;
     c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
-    c.tracer = std::make_unique<PeriodicTracer>(*c.law, layout_, trace_options);
+    c.tracer = std::make_unique<PeriodicTracer>(*c.law, trace_layout_, trace_options);
     const auto& comps = c.tracer->components();
     c.gather = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(comps.size()), kept);
     for (std::size_t a = 0; a < comps.size(); ++a) {

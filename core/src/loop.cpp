@@ -284,7 +284,7 @@ int run_loop(const LoopRequest& request) {
       std::ostringstream gp;
       gp << "# gnuplot script written by frichb loop\n"
          << "set terminal pngcairo size " << (d > 1 ? 1400 : 800) << ",600 noenhanced\n"
-         << "set output 'loop.png'\nset datafile separator ','\nset grid\n";
+         << "set output 'loop.png'\nset datafile separator ','\nset grid\nset key below\n";
       const bool two_d = comps.size() >= 2 && comps[1] == 1;
       if (d > 1)
         gp << "set multiplot layout 1,2 title '" << name << " (" << plugin->name() << ")'\n";

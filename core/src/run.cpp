@@ -293,7 +293,7 @@ int run_scene(const RunRequest& request) {
           for (int a : comps) lh.push_back(std::string("u_") + names[a] + "_m");
           for (int a : comps) lh.push_back(std::string("f_") + names[a] + "_N");
           std::vector<std::vector<double>> lrows;
-          const int samples = model->layout().samples();
+          const int samples = static_cast<int>(trace.displacement.rows());
           for (int j = 0; j <= samples; ++j) {  // closed loop: repeat the first sample
             const int jj = j % samples;
             std::vector<double> r = {static_cast<double>(j) / samples};

@@ -92,6 +92,12 @@ const std::vector<frichb_param_spec>& harmonic_balance_schema() {
       Param::text("jacobian", "contact Jacobian: quasi-analytical, or finite differences")
           .defaults_to_text("analytic")
           .choices("analytic|finite_difference"),
+      Param::integer("trace_oversampling",
+                     "trace the contacts on this many times samples_per_period (a return "
+                     "mapping converges to first order in the time step)")
+          .defaults_to(1)
+          .at_least(1)
+          .at_most(64),
       Param::integer("max_trace_passes", "bound on passes over the period for periodicity")
           .defaults_to(200)
           .at_least(1),
@@ -292,6 +298,7 @@ Scene load_scene(const fs::path& file) {
                  std::to_string(2 * max_kept + 1) + " (aliasing)");
   H.analytic_jacobian = hbv.text("jacobian") == "analytic";
   H.max_trace_passes = static_cast<int>(hbv.integer("max_trace_passes"));
+  H.trace_oversampling = static_cast<int>(hbv.integer("trace_oversampling"));
   scene.core_values["harmonic_balance"] = hb.to_json(harmonic_balance_schema());
 
   // excitation

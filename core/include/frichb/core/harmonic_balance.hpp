@@ -71,6 +71,7 @@ class HarmonicBalanceModel final : public CurveProblem {
                      std::string* message, bool& ok) const;
 
   HarmonicLayout layout_;
+  HarmonicLayout trace_layout_;  // the contacts' tracing grid (oversampled layout_)
   JacobianMode mode_;
   std::unique_ptr<ReducedStructure> structure_;
   std::vector<std::size_t> kept_dofs_;

@@ -63,6 +63,7 @@ struct HarmonicBalanceSpec {
   int samples_per_period = 128;
   bool analytic_jacobian = true;
   int max_trace_passes = 200;
+  int trace_oversampling = 1;  // contacts traced on trace_oversampling * samples_per_period
 };
 
 struct ContinuationSpec {

@@ -1,0 +1,151 @@
+// coupled_3d: elastic Coulomb slider in the tangential plane (t1, t2) with an isotropic
+// friction circle, and a constant normal load or one that follows the normal relative
+// displacement, with separation (the 3D coupled law).
+//
+//   N = max(0, N0 + kn (u_n - g0))            (kn = 0: N = N0, constant)
+//   trial T* = kt (u_t - w_prev)               (2-vectors in the tangential plane)
+//   stick  |T*| <= mu N : T = T*,                  w = w_prev
+//   slip   |T*| >  mu N : T = mu N T* / |T*|,      w = u_t - T / kt   (radial return)
+//   separated N = 0     : T = 0,                   w = u_t   (the slider is released)
+// State: w = (w1, w2), the slider (stick-point) position in m.
+//
+// Consistent tangents in slip, with n = T*/|T*| and P = I - n n^T:
+//   dT/du_t = (mu N / |T*|) kt P,   dT/dw_prev = -dT/du_t,   dT/du_n = mu (dN/du_n) n,
+//   dw/du_t = I - dT/du_t / kt,     dw/dw_prev = -dT/dw_prev / kt,   dw/du_n = -dT/du_n / kt.
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "frichb/plugin/sdk.hpp"
+
+namespace {
+
+using frichb::sdk::Param;
+
+std::vector<frichb_param_spec> coupled_schema() {
+  return {
+      Param::real("kt", "N/m", "tangential contact stiffness, isotropic in the tangential plane")
+          .greater_than(0),
+      Param::real("mu", "", "friction coefficient").at_least(0),
+      Param::real("normal_load", "N", "normal load N0 at zero normal displacement (preload)")
+          .defaults_to(0.0)
+          .at_least(0),
+      Param::real("kn", "N/m",
+                  "normal contact stiffness; 0 keeps the normal load constant, > 0 makes it "
+                  "follow the normal relative displacement with separation")
+          .defaults_to(0.0)
+          .at_least(0),
+      Param::real("gap", "m", "initial normal gap g0 (needs kn > 0 and normal_load = 0)")
+          .defaults_to(0.0)
+          .at_least(0),
+  };
+}
+
+class Coupled3d final : public frichb::sdk::ContactLaw {
+ public:
+  explicit Coupled3d(const frichb::sdk::Params& p)
+      : kt_(p.real("kt")),
+        mu_(p.real("mu")),
+        n0_(p.real("normal_load")),
+        kn_(p.real("kn")),
+        gap_(p.real("gap")) {
+    if (gap_ > 0 && kn_ <= 0) throw std::invalid_argument("gap > 0 needs kn > 0");
+    if (gap_ > 0 && n0_ > 0)
+      throw std::invalid_argument("give either normal_load (preload) or gap, not both");
+  }
+
+  frichb_contact_law_traits traits() const override {
+    return frichb::sdk::make_traits(2, kn_ > 0, 2, true);
+  }
+
+  void step(const double* state_prev, const double* /*u_prev*/, const double* u_now,
+            double* force_now, double* state_now,
+            const frichb_step_tangents* tangents) const override {
+    const bool variable = kn_ > 0;
+    const double normal_trial = variable ? n0_ + kn_ * (u_now[2] - gap_) : n0_;
+    const double normal = std::max(0.0, normal_trial);
+    const double dnormal_dun = (variable && normal_trial > 0) ? kn_ : 0.0;
+    const double limit = mu_ * normal;
+    const double trial[2] = {kt_ * (u_now[0] - state_prev[0]), kt_ * (u_now[1] - state_prev[1])};
+    const double trial_norm = std::hypot(trial[0], trial[1]);
+
+    double t[2] = {0, 0}, w[2] = {0, 0};
+    // Partial derivatives of T and w (rows i = t1, t2) with respect to u_t (columns t1, t2),
+    // u_n and w_prev (columns w1, w2).
+    double dt_dut[2][2] = {}, dt_dun[2] = {}, dt_dw[2][2] = {};
+    double dw_dut[2][2] = {}, dw_dun[2] = {}, dw_dw[2][2] = {};
+    if (variable && normal_trial <= 0) {
+      // Separated: no force, and the slider follows so that contact resumes unloaded.
+      for (int i = 0; i < 2; ++i) {
+        w[i] = u_now[i];
+        dw_dut[i][i] = 1;
+      }
+    } else if (trial_norm <= limit) {
+      for (int i = 0; i < 2; ++i) {
+        t[i] = trial[i];
+        w[i] = state_prev[i];
+        dt_dut[i][i] = kt_;
+        dt_dw[i][i] = -kt_;
+        dw_dw[i][i] = 1;
+      }
+    } else {
+      // Radial return onto the friction circle; trial_norm > limit >= 0 here.
+      const double dir[2] = {trial[0] / trial_norm, trial[1] / trial_norm};
+      const double ratio = limit / trial_norm;
+      for (int i = 0; i < 2; ++i) {
+        t[i] = limit * dir[i];
+        w[i] = u_now[i] - t[i] / kt_;
+        dt_dun[i] = mu_ * dnormal_dun * dir[i];
+        dw_dun[i] = -dt_dun[i] / kt_;
+        for (int j = 0; j < 2; ++j) {
+          const double projector = (i == j ? 1.0 : 0.0) - dir[i] * dir[j];
+          dt_dut[i][j] = ratio * kt_ * projector;
+          dt_dw[i][j] = -dt_dut[i][j];
+          dw_dut[i][j] = (i == j ? 1.0 : 0.0) - dt_dut[i][j] / kt_;
+          dw_dw[i][j] = -dt_dw[i][j] / kt_;
+        }
+      }
+    }
+    force_now[0] = t[0];
+    force_now[1] = t[1];
+    force_now[2] = variable ? normal : 0.0;
+    state_now[0] = w[0];
+    state_now[1] = w[1];
+    if (!tangents || !tangents->dforce_du_now) return;
+    double* a = tangents->dforce_du_now;
+    double* su = tangents->dstate_du_now;
+    for (int k = 0; k < 9; ++k) {
+      a[k] = 0;
+      tangents->dforce_du_prev[k] = 0;
+    }
+    for (int k = 0; k < 6; ++k) {
+      su[k] = 0;
+      tangents->dstate_du_prev[k] = 0;
+      tangents->dforce_dstate_prev[k] = 0;
+    }
+    double* fs = tangents->dforce_dstate_prev;  // 3 x 2
+    double* ss = tangents->dstate_dstate_prev;  // 2 x 2
+    for (int i = 0; i < 2; ++i) {
+      for (int j = 0; j < 2; ++j) {
+        a[i * 3 + j] = dt_dut[i][j];
+        fs[i * 2 + j] = dt_dw[i][j];
+        su[i * 3 + j] = dw_dut[i][j];
+        ss[i * 2 + j] = dw_dw[i][j];
+      }
+      a[i * 3 + 2] = dt_dun[i];
+      su[i * 3 + 2] = dw_dun[i];
+    }
+    a[2 * 3 + 2] = variable ? dnormal_dun : 0.0;
+  }
+
+ private:
+  double kt_, mu_, n0_, kn_, gap_;
+};
+
+}  // namespace
+
+FRICHB_CONTACT_LAW_PLUGIN(Coupled3d, coupled_3d, "1.0.0",
+                          "elastic Coulomb slider in the tangential plane with an isotropic "
+                          "friction circle, constant or displacement-dependent normal load with "
+                          "separation",
+                          coupled_schema)

@@ -1,0 +1,135 @@
+// uncoupled_2d: two independent elastic Coulomb sliders (Jenkins elements) in t1 and t2,
+// each limited by the same mu N, with a constant normal load or one that follows the normal
+// relative displacement, with separation. The friction limit is a square, not a circle:
+// |T| may reach sqrt(2) mu N (the common simplification; coupled_3d is the coupled law).
+//
+//   N = max(0, N0 + kn (u_n - g0))            (kn = 0: N = N0, constant)
+//   for i = 1, 2: trial T*_i = kt (u_ti - w_i,prev)
+//   stick  |T*_i| <= mu N : T_i = T*_i,                w_i = w_i,prev
+//   slip   |T*_i| >  mu N : T_i = mu N sign(T*_i),     w_i = u_ti - T_i / kt
+//   separated N = 0       : T = 0,                     w = u_t   (both sliders released)
+// State: w = (w1, w2), the slider (stick-point) positions in m.
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "frichb/plugin/sdk.hpp"
+
+namespace {
+
+using frichb::sdk::Param;
+
+std::vector<frichb_param_spec> uncoupled_schema() {
+  return {
+      Param::real("kt", "N/m", "tangential contact stiffness, the same in t1 and t2")
+          .greater_than(0),
+      Param::real("mu", "", "friction coefficient").at_least(0),
+      Param::real("normal_load", "N", "normal load N0 at zero normal displacement (preload)")
+          .defaults_to(0.0)
+          .at_least(0),
+      Param::real("kn", "N/m",
+                  "normal contact stiffness; 0 keeps the normal load constant, > 0 makes it "
+                  "follow the normal relative displacement with separation")
+          .defaults_to(0.0)
+          .at_least(0),
+      Param::real("gap", "m", "initial normal gap g0 (needs kn > 0 and normal_load = 0)")
+          .defaults_to(0.0)
+          .at_least(0),
+  };
+}
+
+class Uncoupled2d final : public frichb::sdk::ContactLaw {
+ public:
+  explicit Uncoupled2d(const frichb::sdk::Params& p)
+      : kt_(p.real("kt")),
+        mu_(p.real("mu")),
+        n0_(p.real("normal_load")),
+        kn_(p.real("kn")),
+        gap_(p.real("gap")) {
+    if (gap_ > 0 && kn_ <= 0) throw std::invalid_argument("gap > 0 needs kn > 0");
+    if (gap_ > 0 && n0_ > 0)
+      throw std::invalid_argument("give either normal_load (preload) or gap, not both");
+  }
+
+  frichb_contact_law_traits traits() const override {
+    return frichb::sdk::make_traits(2, kn_ > 0, 2, true);
+  }
+
+  void step(const double* state_prev, const double* /*u_prev*/, const double* u_now,
+            double* force_now, double* state_now,
+            const frichb_step_tangents* tangents) const override {
+    const bool variable = kn_ > 0;
+    const double normal_trial = variable ? n0_ + kn_ * (u_now[2] - gap_) : n0_;
+    const double normal = std::max(0.0, normal_trial);
+    const double dnormal_dun = (variable && normal_trial > 0) ? kn_ : 0.0;
+    const double limit = mu_ * normal;
+    const bool separated = variable && normal_trial <= 0;
+
+    // Per direction i: T_i, w_i and their partial derivatives with respect to u_ti, u_n and
+    // w_i,prev (the directions do not interact).
+    double t[2] = {0, 0}, w[2] = {0, 0};
+    double dt_dut[2] = {}, dt_dun[2] = {}, dt_dw[2] = {};
+    double dw_dut[2] = {}, dw_dun[2] = {}, dw_dw[2] = {};
+    for (int i = 0; i < 2; ++i) {
+      const double trial = kt_ * (u_now[i] - state_prev[i]);
+      if (separated) {
+        // Separated: no force, and the slider follows so that contact resumes unloaded.
+        w[i] = u_now[i];
+        dw_dut[i] = 1;
+      } else if (std::abs(trial) <= limit) {
+        t[i] = trial;
+        w[i] = state_prev[i];
+        dt_dut[i] = kt_;
+        dt_dw[i] = -kt_;
+        dw_dw[i] = 1;
+      } else {
+        const double sign = trial > 0 ? 1.0 : -1.0;
+        t[i] = sign * limit;
+        w[i] = u_now[i] - t[i] / kt_;
+        dt_dun[i] = sign * mu_ * dnormal_dun;
+        dw_dut[i] = 1;
+        dw_dun[i] = -dt_dun[i] / kt_;
+      }
+    }
+    force_now[0] = t[0];
+    force_now[1] = t[1];
+    force_now[2] = variable ? normal : 0.0;
+    state_now[0] = w[0];
+    state_now[1] = w[1];
+    if (!tangents || !tangents->dforce_du_now) return;
+    double* a = tangents->dforce_du_now;
+    double* su = tangents->dstate_du_now;
+    for (int k = 0; k < 9; ++k) {
+      a[k] = 0;
+      tangents->dforce_du_prev[k] = 0;
+    }
+    for (int k = 0; k < 6; ++k) {
+      su[k] = 0;
+      tangents->dstate_du_prev[k] = 0;
+      tangents->dforce_dstate_prev[k] = 0;
+    }
+    double* fs = tangents->dforce_dstate_prev;  // 3 x 2
+    double* ss = tangents->dstate_dstate_prev;  // 2 x 2
+    ss[1] = ss[2] = 0;
+    for (int i = 0; i < 2; ++i) {
+      a[i * 3 + i] = dt_dut[i];
+      a[i * 3 + 2] = dt_dun[i];
+      fs[i * 2 + i] = dt_dw[i];
+      su[i * 3 + i] = dw_dut[i];
+      su[i * 3 + 2] = dw_dun[i];
+      ss[i * 2 + i] = dw_dw[i];
+    }
+    a[2 * 3 + 2] = variable ? dnormal_dun : 0.0;
+  }
+
+ private:
+  double kt_, mu_, n0_, kn_, gap_;
+};
+
+}  // namespace
+
+FRICHB_CONTACT_LAW_PLUGIN(Uncoupled2d, uncoupled_2d, "1.0.0",
+                          "two independent elastic Coulomb sliders in t1 and t2 limited by the "
+                          "same mu N (square friction limit), constant or displacement-dependent "
+                          "normal load with separation",
+                          uncoupled_schema)

@@ -1,0 +1,560 @@
+// The coupled 3D law (friction circle, radial return) through the real loader and the periodic
+// tracer, against closed forms and independent oracles: steady circular slip (|T| = mu N and
+// the loop energy 2 pi mu N sqrt(a^2 - (mu N / kt)^2)), equality with jenkins_1d under 1D
+// motion, mu = 0 and full stick, separation, frame invariance, the Coulomb bound, and the
+// analytic Jacobian against central differences.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <numbers>
+#include <random>
+
+#include "frichb/core/periodic_trace.hpp"
+#include "test_support.hpp"
+
+namespace frichb::core {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// Index of the first harmonic's cosine and sine coefficients in a layout that keeps it.
+struct FirstHarmonicIndex {
+  int cos, sin;
+};
+FirstHarmonicIndex first_harmonic_index(const HarmonicLayout& layout) {
+  for (std::size_t k = 0; k < layout.harmonics().size(); ++k)
+    if (layout.harmonics()[k] == 1) return {layout.cos_index(k), layout.sin_index(k)};
+  ADD_FAILURE() << "the layout does not keep harmonic 1";
+  return {0, 0};
+}
+
+// u_t = a (cos(theta), sin(theta)): circular motion in the tangential plane.
+Eigen::VectorXd circular_motion(const HarmonicLayout& layout, double a) {
+  const int c = layout.coefficient_count();
+  const auto [ic, is] = first_harmonic_index(layout);
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(2 * c);
+  u(ic) = a;
+  u(c + is) = a;
+  return u;
+}
+
+Eigen::VectorXd random_motion(Eigen::Index size, double scale, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> dist(-scale, scale);
+  Eigen::VectorXd u(size);
+  for (auto& x : u) x = dist(gen);
+  return u;
+}
+
+// Closed integral of T . du over the traced samples (trapezoids), tangential components only.
+double loop_energy(const ContactTrace& t) {
+  const Eigen::Index n = t.force.rows();
+  double energy = 0;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const Eigen::Index jn = (j + 1) % n;
+    for (int a = 0; a < 2; ++a)
+      energy +=
+          0.5 * (t.force(j, a) + t.force(jn, a)) * (t.displacement(jn, a) - t.displacement(j, a));
+  }
+  return energy;
+}
+
+// Central differences of the traced force coefficients, the oracle of the analytic Jacobian.
+Eigen::MatrixXd central_differences(PeriodicTracer& tracer, const Eigen::VectorXd& u) {
+  const Eigen::Index p = u.size();
+  Eigen::MatrixXd j(p, p);
+  const double h = 1e-7 * u.cwiseAbs().maxCoeff();
+  ContactTrace plus, minus;
+  std::string error;
+  for (Eigen::Index q = 0; q < p; ++q) {
+    Eigen::VectorXd up = u, um = u;
+    up(q) += h;
+    um(q) -= h;
+    EXPECT_TRUE(tracer.trace(up, JacobianMode::kNone, plus, &error)) << error;
+    EXPECT_TRUE(tracer.trace(um, JacobianMode::kNone, minus, &error)) << error;
+    j.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
+  }
+  return j;
+}
+
+// ---------------------------------------------------------------------------------------
+// (1) Steady circular slip, u_t = a (cos(theta), sin(theta)), delta = mu N / kt.
+// Continuous limit: the slider w trails u on a concentric circle of radius r; in slip
+// T = kt (u - w) has |T| = mu N and is parallel to the slider velocity, i.e. tangent to w's
+// circle, so u - w is perpendicular to w: a^2 = r^2 + delta^2. The elastic energy is periodic,
+// so the energy per cycle is the friction work on the slider, mu N times its path length:
+//   E = 2 pi mu N r = 2 pi mu N sqrt(a^2 - delta^2).
+// Sampled at N points (step D = 2 pi / N), the radial return puts u_j - w_j along the CHORD
+// w_{j-1} -> w_j, i.e. the tangent half a step back, not along the tangent at w_j. With
+// s = sin(D/2), c = cos(D/2) the steady discrete orbit is exactly
+//   a^2 = r_d^2 + 2 r_d delta s + delta^2,   r_d = sqrt(a^2 - delta^2 c^2) - delta s,
+// and T_j = mu N e^{i(theta_j + psi)} with sin(psi) = c r_d / a, so that
+//   from the first harmonics: E_h = pi a (c1(T2) - s1(T1)) = 2 pi mu N c r_d,
+//   trapezoidal sum of T . du:  E_t = N sin(D) mu N c r_d.
+// Both tend to E with a first-order error E_h - E = -pi mu N delta D + O(D^2): relative
+// pi delta / (N r), e.g. 4e-4 at a = 4 delta and 3.8e-5 at a = 40 delta with N = 2048.
+// For a <= delta the whole circle sticks: |T| = kt a, E = 0.
+double discrete_slider_radius(double a, double delta, int samples) {
+  const double half = kPi / samples;
+  return std::sqrt(a * a - delta * delta * std::cos(half) * std::cos(half)) -
+         delta * std::sin(half);
+}
+
+class CoupledCircularSlip : public ::testing::TestWithParam<double> {};
+
+TEST_P(CoupledCircularSlip, ForceOnTheFrictionCircleAndLoopEnergy) {
+  const double kt = 2e5, slip_force = 0.5 * 5.0, delta = slip_force / kt;
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  const int n = 2048;
+  HarmonicLayout layout({0, 1, 2, 3}, n);
+  PeriodicTracer tracer(*h.law, layout);
+  ASSERT_EQ(tracer.components(), (std::vector<int>{0, 1}));
+  const double a = GetParam() * delta;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(circular_motion(layout, a), JacobianMode::kNone, t, &error)) << error;
+  ASSERT_TRUE(t.periodic) << t.diagnostic;
+  const double energy = loop_energy(t);
+  const int c = layout.coefficient_count();
+  const auto [ic, is] = first_harmonic_index(layout);
+  const double energy_from_harmonics =
+      kPi * a * (t.force_coefficients(c + ic) - t.force_coefficients(is));
+  if (a <= delta) {
+    for (int j = 0; j < n; ++j)
+      EXPECT_NEAR(t.force.row(j).norm(), kt * a, 1e-9 * kt * a) << "sample " << j;
+    EXPECT_NEAR(energy, 0.0, 1e-12 * slip_force * a);
+    EXPECT_NEAR(energy_from_harmonics, 0.0, 1e-9 * slip_force * a);
+    return;
+  }
+  for (int j = 0; j < n; ++j)
+    EXPECT_NEAR(t.force.row(j).norm(), slip_force, 1e-9 * slip_force) << "sample " << j;
+  // The sampled steady orbit, exactly.
+  const double step = 2 * kPi / n, rd = discrete_slider_radius(a, delta, n);
+  const double discrete_harmonic = 2 * kPi * slip_force * std::cos(step / 2) * rd;
+  const double discrete_trapezoid = n * std::sin(step) * slip_force * std::cos(step / 2) * rd;
+  EXPECT_NEAR(energy_from_harmonics, discrete_harmonic, 1e-9 * discrete_harmonic);
+  EXPECT_NEAR(energy, discrete_trapezoid, 1e-9 * discrete_trapezoid);
+  // The continuous limit, within its first-order sampling error pi mu N delta D (+1%) and
+  // the second-order terms of c (D^2 / 8) and of the trapezoids (D^2 / 6).
+  const double expected = 2 * kPi * slip_force * std::sqrt(a * a - delta * delta);
+  const double bound = 1.01 * kPi * slip_force * delta * step + 0.3 * expected * step * step;
+  EXPECT_NEAR(energy, expected, bound);
+  EXPECT_NEAR(energy_from_harmonics, expected, bound);
+  const double relative = std::abs(energy / expected - 1);
+  if (a >= 40 * delta) {
+    EXPECT_LT(relative, 1e-4);
+  }
+  std::cout << "a / (mu N / kt) = " << GetParam() << ": loop energy vs 2 pi mu N sqrt(a^2 - "
+            << "delta^2) " << relative << ", vs the sampled orbit "
+            << std::abs(energy / discrete_trapezoid - 1) << "\n";
+}
+
+INSTANTIATE_TEST_SUITE_P(AmplitudeOverSlipThreshold, CoupledCircularSlip,
+                         ::testing::Values(0.5, 1.05, 1.5, 4.0, 40.0, 100.0));
+
+TEST(Coupled3d, CircularSlipEnergyConvergesAtFirstOrderInTheSampling) {
+  // The error of the loop energy against 2 pi mu N sqrt(a^2 - delta^2) is pi mu N delta D to
+  // leading order: it halves when N doubles.
+  const double slip_force = 2.5, delta = slip_force / 2e5, a = 4 * delta;
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  const double expected = 2 * kPi * slip_force * std::sqrt(a * a - delta * delta);
+  double previous = 0;
+  for (const int n : {2048, 4096, 8192}) {
+    HarmonicLayout layout({0, 1}, n);
+    PeriodicTracer tracer(*h.law, layout);
+    ContactTrace t;
+    std::string error;
+    ASSERT_TRUE(tracer.trace(circular_motion(layout, a), JacobianMode::kNone, t, &error));
+    const double err = expected - loop_energy(t);
+    EXPECT_NEAR(err, kPi * slip_force * delta * 2 * kPi / n, 0.01 * err) << "N = " << n;
+    if (previous > 0) {
+      EXPECT_NEAR(previous / err, 2.0, 0.01) << "N = " << n;
+    }
+    previous = err;
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// (2) Purely 1D tangential motion: the friction circle meets the t1 axis at +-mu N, so the
+// law is jenkins_1d exactly, for constant and for variable normal load.
+TEST(Coupled3d, OneDimensionalMotionEqualsJenkinsConstantNormalLoad) {
+  const std::string params = "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}";
+  auto coupled = test::make_law("coupled_3d", params);
+  auto jenkins = test::make_law("jenkins_1d", params);
+  HarmonicLayout layout({0, 1, 2, 3, 4, 5}, 128);
+  const int c = layout.coefficient_count();
+  PeriodicTracer tc(*coupled.law, layout), tj(*jenkins.law, layout);
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const Eigen::VectorXd u1 = random_motion(c, 3e-5, seed);
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(2 * c);
+    u.head(c) = u1;
+    ContactTrace a, b;
+    std::string error;
+    ASSERT_TRUE(tc.trace(u, JacobianMode::kAnalytic, a, &error)) << error;
+    ASSERT_TRUE(tj.trace(u1, JacobianMode::kAnalytic, b, &error)) << error;
+    EXPECT_GT(b.force.col(0).cwiseAbs().maxCoeff(), 2.5 - 1e-12) << "the motion must slip";
+    EXPECT_LT((a.force_coefficients.head(c) - b.force_coefficients).cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_EQ(a.force.col(1).cwiseAbs().maxCoeff(), 0.0);
+    // The t1-t1 block of the Jacobian is jenkins_1d's, and T1 does not depend on u_t2.
+    const double scale = b.jacobian.cwiseAbs().maxCoeff();
+    EXPECT_LT((a.jacobian.topLeftCorner(c, c) - b.jacobian).cwiseAbs().maxCoeff(), 1e-12 * scale);
+    EXPECT_LT(a.jacobian.block(0, c, c, c).cwiseAbs().maxCoeff(), 1e-12 * scale);
+  }
+}
+
+TEST(Coupled3d, OneDimensionalMotionEqualsJenkinsVariableNormalLoad) {
+  const std::string params = "{kt: 2.0e5, mu: 0.4, normal_load: 2.0, kn: 1.0e5}";
+  auto coupled = test::make_law("coupled_3d", params);
+  auto jenkins = test::make_law("jenkins_1d", params);
+  HarmonicLayout layout({0, 1, 2, 3}, 128);
+  const int c = layout.coefficient_count();
+  PeriodicTracer tc(*coupled.law, layout), tj(*jenkins.law, layout);
+  ASSERT_EQ(tc.components(), (std::vector<int>{0, 1, 2}));
+  ASSERT_EQ(tj.components(), (std::vector<int>{0, 2}));
+  Eigen::VectorXd uj = random_motion(2 * c, 1e-5, 7);  // (t1, n)
+  uj(c + 1) = 4e-5;  // normal first harmonic: the contact opens during part of the period
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * c);  // (t1, t2 = 0, n)
+  u.head(c) = uj.head(c);
+  u.tail(c) = uj.tail(c);
+  ContactTrace a, b;
+  std::string error;
+  ASSERT_TRUE(tc.trace(u, JacobianMode::kAnalytic, a, &error)) << error;
+  ASSERT_TRUE(tj.trace(uj, JacobianMode::kAnalytic, b, &error)) << error;
+  EXPECT_TRUE((b.force.col(1).array() == 0.0).any() && (b.force.col(1).array() > 0.0).any());
+  EXPECT_LT((a.force_coefficients.head(c) - b.force_coefficients.head(c)).cwiseAbs().maxCoeff(),
+            1e-12);
+  EXPECT_LT((a.force_coefficients.tail(c) - b.force_coefficients.tail(c)).cwiseAbs().maxCoeff(),
+            1e-12);
+  EXPECT_EQ(a.force.col(1).cwiseAbs().maxCoeff(), 0.0);
+  // Jacobian rows and columns (t1, n) against jenkins_1d's.
+  const double scale = b.jacobian.cwiseAbs().maxCoeff();
+  for (int r = 0; r < 2; ++r)
+    for (int q = 0; q < 2; ++q)
+      EXPECT_LT(
+          (a.jacobian.block(2 * r * c, 2 * q * c, c, c) - b.jacobian.block(r * c, q * c, c, c))
+              .cwiseAbs()
+              .maxCoeff(),
+          1e-12 * scale)
+          << "block " << r << ", " << q;
+}
+
+// ---------------------------------------------------------------------------------------
+// (3) Analytic Jacobian against central differences on random multiharmonic 3D motion.
+TEST(Coupled3d, AnalyticJacobianEqualsCentralDifferencesConstantNormalLoad) {
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1, 2, 3, 4, 5}, 128);
+  PeriodicTracer tracer(*h.law, layout);
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const Eigen::VectorXd u = random_motion(tracer.unknown_count(), 3e-5, seed);
+    ContactTrace t;
+    std::string error;
+    ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+    ASSERT_TRUE(t.periodic) << t.diagnostic;
+    ASSERT_FALSE(t.used_finite_differences);
+    // The contact both slips (|T| = mu N) and sticks somewhere in the period.
+    const Eigen::VectorXd magnitude = t.force.rowwise().norm();
+    EXPECT_TRUE((magnitude.array() > 2.5 - 1e-9).any() && (magnitude.array() < 2.4).any());
+    const Eigen::MatrixXd fd = central_differences(tracer, u);
+    const double scale = fd.cwiseAbs().maxCoeff();
+    EXPECT_GT(scale, 1e3);
+    const double err = (t.jacobian - fd).cwiseAbs().maxCoeff() / scale;
+    EXPECT_LT(err, 1e-6) << "seed " << seed;
+    std::cout << "constant N, seed " << seed << ": Jacobian relative error " << err << "\n";
+  }
+}
+
+TEST(Coupled3d, AnalyticJacobianEqualsCentralDifferencesVariableNormalLoad) {
+  // N = max(0, 2 + 1e5 u_n); the second case opens the contact during part of the period.
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.4, normal_load: 2.0, kn: 1.0e5}");
+  HarmonicLayout layout({0, 1, 2, 3}, 128);
+  PeriodicTracer tracer(*h.law, layout);
+  ASSERT_EQ(tracer.dimension(), 3);
+  const int c = layout.coefficient_count();
+  for (const bool separation : {false, true}) {
+    Eigen::VectorXd u = random_motion(3 * c, 1e-5, separation ? 7u : 8u);
+    u.tail(c) *= 0.5;                     // normal variation below the preload ...
+    if (separation) u(2 * c + 1) = 4e-5;  // ... or beyond it: the contact opens
+    ContactTrace t;
+    std::string error;
+    ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+    ASSERT_TRUE(t.periodic) << t.diagnostic;
+    const bool opens = (t.force.col(2).array() == 0.0).any();
+    EXPECT_EQ(opens, separation);
+    EXPECT_TRUE((t.force.col(2).array() > 0.0).any());
+    const Eigen::MatrixXd fd = central_differences(tracer, u);
+    const double scale = fd.cwiseAbs().maxCoeff();
+    const double err = (t.jacobian - fd).cwiseAbs().maxCoeff() / scale;
+    EXPECT_LT(err, 1e-6) << "separation " << separation << "\nanalytic\n"
+                         << t.jacobian << "\nfd\n"
+                         << fd;
+    // The normal load couples into the tangential forces: d T / d U_n is not zero.
+    EXPECT_GT(fd.block(0, 2 * c, 2 * c, c).cwiseAbs().maxCoeff(), 1e-3 * scale);
+    std::cout << "variable N, separation " << separation << ": Jacobian relative error " << err
+              << "\n";
+  }
+}
+
+TEST(Coupled3d, AnalyticJacobianFollowsTheSteadyCircularSlip) {
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1, 2, 3}, 256);
+  PeriodicTracer tracer(*h.law, layout);
+  Eigen::VectorXd u = circular_motion(layout, 4 * 1.25e-5);
+  u += random_motion(u.size(), 2e-6, 4);  // a distorted circle: no symmetric degeneracy
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  const Eigen::MatrixXd fd = central_differences(tracer, u);
+  const double scale = fd.cwiseAbs().maxCoeff();
+  EXPECT_LT((t.jacobian - fd).cwiseAbs().maxCoeff(), 1e-6 * scale);
+}
+
+// ---------------------------------------------------------------------------------------
+// (4) Limits: mu = 0 gives no tangential force, a huge preload gives full stick T = kt u_t.
+TEST(Coupled3d, ZeroFrictionGivesNoTangentialForce) {
+  auto h = test::make_law("coupled_3d", "{kt: 3.0e5, mu: 0.0, normal_load: 10.0}");
+  HarmonicLayout layout({0, 1, 3}, 32);
+  PeriodicTracer tracer(*h.law, layout);
+  const Eigen::VectorXd u = random_motion(tracer.unknown_count(), 1e-4, 3);
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  EXPECT_EQ(t.force.cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(t.jacobian.cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(Coupled3d, ZeroFrictionWithVariableNormalLoadKeepsOnlyTheNormalForce) {
+  auto h = test::make_law("coupled_3d", "{kt: 3.0e5, mu: 0.0, normal_load: 2.0, kn: 1.0e5}");
+  HarmonicLayout layout({0, 1, 3}, 32);
+  PeriodicTracer tracer(*h.law, layout);
+  const Eigen::VectorXd u = random_motion(tracer.unknown_count(), 1e-5, 3);
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  EXPECT_EQ(t.force.leftCols(2).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(t.jacobian.topRows(2 * layout.coefficient_count()).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(Coupled3d, FullStickGivesTheLinearSpringForce) {
+  auto h = test::make_law("coupled_3d", "{kt: 3.0e5, mu: 0.5, normal_load: 1.0e9}");
+  HarmonicLayout layout({0, 1, 2, 3}, 64);
+  PeriodicTracer tracer(*h.law, layout);
+  const Eigen::VectorXd u = random_motion(tracer.unknown_count(), 2e-4, 9);
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  EXPECT_EQ(t.passes, 1);
+  EXPECT_LT((t.force - 3e5 * t.displacement).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((t.force_coefficients - 3e5 * u).cwiseAbs().maxCoeff(), 1e-9);
+  const auto p = tracer.unknown_count();
+  EXPECT_LT((t.jacobian - 3e5 * Eigen::MatrixXd::Identity(p, p)).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+// ---------------------------------------------------------------------------------------
+// (5) Separation: N = max(0, N0 + kn u_n) sample by sample, no tangential force when open;
+// (7) the Coulomb bound |T| <= mu N at every sample.
+TEST(Coupled3d, SeparationGivesNoForceAndTheNormalForceFollowsTheGapLaw) {
+  const double mu = 0.4, n0 = 2.0, kn = 1e5;
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.4, normal_load: 2.0, kn: 1.0e5}");
+  HarmonicLayout layout({0, 1, 2, 3}, 200);
+  PeriodicTracer tracer(*h.law, layout);
+  const int c = layout.coefficient_count();
+  Eigen::VectorXd u = random_motion(3 * c, 1e-5, 21);
+  u(2 * c + 1) = 5e-5;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kNone, t, &error)) << error;
+  int open = 0;
+  for (int j = 0; j < layout.samples(); ++j) {
+    const double normal = std::max(0.0, n0 + kn * t.displacement(j, 2));
+    EXPECT_NEAR(t.force(j, 2), normal, 1e-12) << "sample " << j;
+    if (normal == 0.0) {
+      ++open;
+      EXPECT_EQ(t.force(j, 0), 0.0) << "sample " << j;
+      EXPECT_EQ(t.force(j, 1), 0.0) << "sample " << j;
+    }
+    EXPECT_LE(t.force.row(j).head(2).norm(), mu * t.force(j, 2) + 1e-12) << "sample " << j;
+  }
+  EXPECT_GT(open, 10);
+  EXPECT_LT(open, layout.samples() - 10);
+}
+
+TEST(Coupled3d, InitialGapClosesOnlyBeyondTheGap) {
+  auto h = test::make_law("coupled_3d", "{kt: 1.0e5, mu: 0.3, kn: 2.0e5, gap: 1.0e-5}");
+  HarmonicLayout layout({0, 1, 2, 3}, 96);
+  PeriodicTracer tracer(*h.law, layout);
+  EXPECT_EQ(tracer.reference_force().norm(), 0.0);  // an open contact carries no preload
+  const int c = layout.coefficient_count();
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * c);
+  u(2) = 3e-5;            // t1 sin(theta)
+  u(c + 1) = 2e-5;        // t2 cos(theta)
+  u(2 * c + 1) = 2.1e-5;  // normal cos(theta); no sample on the kink
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  for (int j = 0; j < layout.samples(); ++j) {
+    EXPECT_NEAR(t.force(j, 2), std::max(0.0, 2e5 * (t.displacement(j, 2) - 1e-5)), 1e-12);
+    EXPECT_LE(t.force.row(j).head(2).norm(), 0.3 * t.force(j, 2) + 1e-12);
+  }
+  const Eigen::MatrixXd fd = central_differences(tracer, u);
+  EXPECT_LT((t.jacobian - fd).cwiseAbs().maxCoeff(), 1e-6 * fd.cwiseAbs().maxCoeff());
+}
+
+TEST(Coupled3d, CoulombBoundHoldsAtEverySample) {
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1, 2, 3, 4, 5}, 256);
+  PeriodicTracer tracer(*h.law, layout);
+  for (unsigned seed : {11u, 12u, 13u, 14u}) {
+    ContactTrace t;
+    std::string error;
+    ASSERT_TRUE(tracer.trace(random_motion(tracer.unknown_count(), 5e-5, seed), JacobianMode::kNone,
+                             t, &error))
+        << error;
+    const Eigen::VectorXd magnitude = t.force.rowwise().norm();
+    EXPECT_LE(magnitude.maxCoeff(), 2.5 + 1e-12) << "seed " << seed;
+    EXPECT_GT(magnitude.maxCoeff(), 2.5 - 1e-9) << "seed " << seed << ": the motion must slip";
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// (6) Frame invariance: rotating the tangential motion by an angle rotates the force.
+TEST(Coupled3d, RotatingTheTangentialMotionRotatesTheForce) {
+  for (const std::string params : {"{kt: 2.0e5, mu: 0.5, normal_load: 5.0}",
+                                   "{kt: 2.0e5, mu: 0.4, normal_load: 2.0, kn: 1.0e5}"}) {
+    auto h = test::make_law("coupled_3d", params);
+    HarmonicLayout layout({0, 1, 2, 3}, 128);
+    PeriodicTracer tracer(*h.law, layout);
+    const int c = layout.coefficient_count();
+    Eigen::VectorXd u = random_motion(tracer.unknown_count(), 3e-5, 17);
+    if (tracer.dimension() == 3) u(2 * c + 1) = 3e-5;  // with separation
+    ContactTrace base;
+    std::string error;
+    ASSERT_TRUE(tracer.trace(u, JacobianMode::kNone, base, &error)) << error;
+    for (const double angle : {0.3, kPi / 2, 2.0, -1.1}) {
+      const double co = std::cos(angle), si = std::sin(angle);
+      Eigen::VectorXd v = u;
+      v.head(c) = co * u.head(c) - si * u.segment(c, c);
+      v.segment(c, c) = si * u.head(c) + co * u.segment(c, c);
+      ContactTrace rotated;
+      ASSERT_TRUE(tracer.trace(v, JacobianMode::kNone, rotated, &error)) << error;
+      for (int j = 0; j < layout.samples(); ++j) {
+        const double t1 = co * base.force(j, 0) - si * base.force(j, 1);
+        const double t2 = si * base.force(j, 0) + co * base.force(j, 1);
+        EXPECT_NEAR(rotated.force(j, 0), t1, 1e-12) << params << " angle " << angle;
+        EXPECT_NEAR(rotated.force(j, 1), t2, 1e-12) << params << " angle " << angle;
+        if (tracer.dimension() == 3) {
+          EXPECT_NEAR(rotated.force(j, 2), base.force(j, 2), 1e-12);
+        }
+      }
+    }
+  }
+}
+
+TEST(Coupled3d, GapWithoutNormalStiffnessOrWithPreloadIsRefused) {
+  EXPECT_THROW(test::make_law("coupled_3d", "{kt: 1.0e5, mu: 0.3, gap: 1.0e-5}"), PluginError);
+  try {
+    test::make_law("coupled_3d", "{kt: 1.0e5, mu: 0.3, kn: 2.0e5, gap: 1.0e-5, normal_load: 1}");
+    FAIL() << "a gap with a preload must be refused";
+  } catch (const PluginError& e) {
+    EXPECT_NE(std::string(e.what()).find("either normal_load (preload) or gap"), std::string::npos);
+  }
+}
+
+TEST(Coupled3d, TraitsFollowTheNormalStiffness) {
+  auto constant = test::make_law("coupled_3d", "{kt: 1.0e5, mu: 0.3, normal_load: 1.0}");
+  auto variable = test::make_law("coupled_3d", "{kt: 1.0e5, mu: 0.3, kn: 1.0e5}");
+  EXPECT_EQ(constant.law->traits().tangential_dimensions, 2);
+  EXPECT_EQ(constant.law->traits().uses_normal, 0);
+  EXPECT_EQ(variable.law->traits().uses_normal, 1);
+  EXPECT_EQ(variable.law->traits().state_size, 2);
+  EXPECT_EQ(variable.law->traits().provides_tangent, 1);
+}
+
+// ---------------------------------------------------------------------------------------
+// One step through the real loader: force (3) and state (2) from (state_prev, u_now).
+struct StepResult {
+  Eigen::Vector3d force;
+  Eigen::Vector2d state;
+  // The six ABI blocks, row-major as abi.h defines them.
+  Eigen::Matrix<double, 3, 3, Eigen::RowMajor> df_du, df_dup;
+  Eigen::Matrix<double, 3, 2, Eigen::RowMajor> df_ds;
+  Eigen::Matrix<double, 2, 3, Eigen::RowMajor> ds_du, ds_dup;
+  Eigen::Matrix<double, 2, 2, Eigen::RowMajor> ds_ds;
+};
+StepResult step_law(const ContactLawInstance& law, const Eigen::Vector2d& state_prev,
+                    const Eigen::Vector3d& u_now) {
+  StepResult r;
+  r.df_du.setConstant(7);  // the law must overwrite every entry of every block
+  r.df_dup.setConstant(7);
+  r.df_ds.setConstant(7);
+  r.ds_du.setConstant(7);
+  r.ds_dup.setConstant(7);
+  r.ds_ds.setConstant(7);
+  frichb_step_tangents tangents{r.df_du.data(), r.df_dup.data(), r.df_ds.data(),
+                                r.ds_du.data(), r.ds_dup.data(), r.ds_ds.data()};
+  const double u_prev[3] = {0, 0, 0};
+  std::string error;
+  EXPECT_TRUE(law.step(state_prev.data(), u_prev, u_now.data(), r.force.data(), r.state.data(),
+                       &tangents, &error))
+      << error;
+  return r;
+}
+
+// Every tangent block of one step against central differences of the step itself.
+void expect_step_tangents_match_differences(const ContactLawInstance& law, const Eigen::Vector2d& w,
+                                            const Eigen::Vector3d& u) {
+  const StepResult r = step_law(law, w, u);
+  const double h = 1e-9;
+  for (int j = 0; j < 3; ++j) {
+    Eigen::Vector3d up = u, um = u;
+    up(j) += h;
+    um(j) -= h;
+    const StepResult p = step_law(law, w, up), m = step_law(law, w, um);
+    const Eigen::Vector3d df = (p.force - m.force) / (2 * h);
+    const Eigen::Vector2d ds = (p.state - m.state) / (2 * h);
+    EXPECT_LT((r.df_du.col(j) - df).cwiseAbs().maxCoeff(), 1e-6 * (1 + df.cwiseAbs().maxCoeff()))
+        << "d force / d u_" << j;
+    EXPECT_LT((r.ds_du.col(j) - ds).cwiseAbs().maxCoeff(), 1e-6) << "d state / d u_" << j;
+  }
+  for (int k = 0; k < 2; ++k) {
+    Eigen::Vector2d wp = w, wm = w;
+    wp(k) += h;
+    wm(k) -= h;
+    const StepResult p = step_law(law, wp, u), m = step_law(law, wm, u);
+    const Eigen::Vector3d df = (p.force - m.force) / (2 * h);
+    const Eigen::Vector2d ds = (p.state - m.state) / (2 * h);
+    EXPECT_LT((r.df_ds.col(k) - df).cwiseAbs().maxCoeff(), 1e-6 * (1 + df.cwiseAbs().maxCoeff()))
+        << "d force / d w_" << k;
+    EXPECT_LT((r.ds_ds.col(k) - ds).cwiseAbs().maxCoeff(), 1e-6) << "d state / d w_" << k;
+  }
+  EXPECT_EQ(r.df_dup.cwiseAbs().maxCoeff(), 0.0);  // the law does not use u_prev
+  EXPECT_EQ(r.ds_dup.cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(Coupled3d, EveryStepTangentBlockMatchesDifferencesOfOneStep) {
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.4, normal_load: 2.0, kn: 1.0e5}");
+  const ContactLawInstance& law = *h.law;
+  // N = 2 + 1e5 * 1e-5 = 3, mu N = 1.2 N, mu N / kt = 6e-6 m.
+  const Eigen::Vector3d u(1e-5, -4e-6, 1e-5);
+  expect_step_tangents_match_differences(law, {0, 0}, u);         // both slip
+  expect_step_tangents_match_differences(law, {2e-6, -3e-6}, u);  // slip (t2 alone would stick)
+  expect_step_tangents_match_differences(law, {9e-6, -3e-6}, u);  // stick
+  expect_step_tangents_match_differences(law, {0, 0}, {1e-5, 2e-6, -3e-5});  // separated
+}
+
+TEST(Coupled3d, SeparationReleasesTheSlider) {
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.4, normal_load: 2.0, kn: 1.0e5}");
+  // Open (2 + 1e5 * (-3e-5) < 0): no force, the slider jumps to u_t.
+  const StepResult open = step_law(*h.law, {3e-5, -2e-5}, {1e-5, 2e-5, -3e-5});
+  EXPECT_EQ(open.force, Eigen::Vector3d::Zero());
+  EXPECT_EQ(open.state, Eigen::Vector2d(1e-5, 2e-5));
+  // Closing again (N = 3, mu N = 1.2) 1e-6 m further sticks from the released slider.
+  const StepResult closed = step_law(*h.law, open.state, {1.1e-5, 2e-5, 1e-5});
+  EXPECT_NEAR(closed.force(0), 2e5 * 1e-6, 1e-12);
+  EXPECT_EQ(closed.force(1), 0.0);
+  EXPECT_NEAR(closed.force(2), 3.0, 1e-12);
+  EXPECT_EQ(closed.state, open.state);
+}
+
+}  // namespace
+}  // namespace frichb::core
