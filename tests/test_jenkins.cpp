@@ -195,6 +195,44 @@ TEST(Jenkins, InitialGapClosesOnlyBeyondTheGap) {
   EXPECT_LT((t.jacobian - fd).cwiseAbs().maxCoeff(), 1e-6 * fd.cwiseAbs().maxCoeff());
 }
 
+TEST(Jenkins, NormalForceHarmonicsOfAContactThatSeparatesEqualTheClippedCosine) {
+  // N = max(0, N0 + kn b cos(theta)) with kn b = A > N0: closed on |theta| < alpha,
+  // cos(alpha) = -N0 / A. Fourier coefficients of the clipped cosine A (cos - cos alpha):
+  //   c0 = A/pi (sin a - a cos a),  c1 = A/pi (a - sin a cos a),
+  //   cn = A/pi (sin((n-1)a)/(n-1) + sin((n+1)a)/(n+1) - 2 cos a sin(n a)/n),  sn = 0.
+  const double n0 = 2.0, kn = 1e5, b = 5e-5, A = kn * b;
+  auto h = test::make_law("jenkins_1d", "{kt: 1.0e5, mu: 0.3, normal_load: 2.0, kn: 1.0e5}");
+  HarmonicLayout layout({0, 1, 2, 3, 4, 5, 6, 7}, 8192);
+  PeriodicTracer tracer(*h.law, layout);
+  const int c = layout.coefficient_count();
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(2 * c);
+  u(c + layout.cos_index(1)) = b;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kNone, t, &error)) << error;
+  Aft aft(layout);
+  Eigen::VectorXd normal = t.force.col(1), coefficients(c);
+  aft.to_coefficients(normal.data(), coefficients.data());
+  const double a = std::acos(-n0 / A);
+  auto expected = [&](int n) {
+    if (n == 0) return A / kPi * (std::sin(a) - a * std::cos(a));
+    if (n == 1) return A / kPi * (a - std::sin(a) * std::cos(a));
+    return A / kPi *
+           (std::sin((n - 1) * a) / (n - 1) + std::sin((n + 1) * a) / (n + 1) -
+            2 * std::cos(a) * std::sin(n * a) / n);
+  };
+  for (std::size_t k = 0; k < layout.harmonics().size(); ++k) {
+    const int n = layout.harmonics()[k];
+    EXPECT_NEAR(coefficients(layout.cos_index(k)), expected(n), 2e-6 * A) << "harmonic " << n;
+    if (n > 0) {
+      EXPECT_NEAR(coefficients(layout.sin_index(k)), 0.0, 1e-9 * A);
+    }
+  }
+  // The contact is open over (pi - alpha) / pi of the period.
+  const double open = (t.force.col(1).array() == 0.0).cast<double>().mean();
+  EXPECT_NEAR(open, (kPi - a) / kPi, 2.0 / layout.samples());
+}
+
 TEST(Jenkins, GapAndPreloadTogetherAreRefused) {
   try {
     test::make_law("jenkins_1d", "{kt: 1.0e5, mu: 0.3, kn: 2.0e5, gap: 1.0e-5, normal_load: 1}");

@@ -63,10 +63,12 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
     states.row(j) = next.transpose();
     if (derivative) {
       // Chain rule: u_now depends on U through basis row j, u_prev through row j-1.
-      dnext = ds_ds.topLeftCorner(s, s) * (*dstate);
+      // lazyProduct: these operands are tiny; the GEMM dispatch of operator* costs more than
+      // the arithmetic.
+      dnext.noalias() = ds_ds.topLeftCorner(s, s).lazyProduct(*dstate);
       for (int a = 0; a < d; ++a) {
         auto row = (*dforce)[static_cast<std::size_t>(a)].row(j);
-        row = df_ds.row(components_[a]).head(s) * (*dstate);
+        row.noalias() = df_ds.row(components_[a]).head(s).lazyProduct(*dstate);
         for (int b = 0; b < d; ++b) {
           const int ca = components_[a], cb = components_[b];
           row.segment(b * c, c) += df_dun(ca, cb) * basis_.row(j) + df_dup(ca, cb) * basis_.row(jp);

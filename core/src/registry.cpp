@@ -183,7 +183,9 @@ void ContactLawInstance::initial_state(double* state) const {
 bool ContactLawInstance::step(const double* state_prev, const double* u_prev, const double* u_now,
                               double* force_now, double* state_now,
                               const frichb_step_tangents* tangents, std::string* error) const {
-  char message[kMessageCapacity] = {0};
+  // Called once per time sample: only the first byte is cleared, not the whole buffer.
+  char message[kMessageCapacity];
+  message[0] = '\0';
   if (api_->step(instance_, state_prev, u_prev, u_now, force_now, state_now, tangents, message,
                  kMessageCapacity) == FRICHB_OK)
     return true;

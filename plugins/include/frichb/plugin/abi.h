@@ -117,8 +117,9 @@ typedef struct frichb_contact_law_traits {
 } frichb_contact_law_traits;
 
 /*
- * Consistent tangents of one step, all row-major, S = state_size. Any pointer may be NULL
- * when the host does not need that block; the host passes either all of them or none.
+ * Consistent tangents of one step, all row-major, S = state_size. The host passes either all
+ * six blocks or none (tangents == NULL: value only), and zeroes them before each call: a law
+ * writes its nonzero entries.
  *   dforce_du_now[i*3+j]        = d force_now_i / d u_now_j          (3 x 3)
  *   dforce_du_prev[i*3+j]       = d force_now_i / d u_prev_j         (3 x 3)
  *   dforce_dstate_prev[i*S+k]   = d force_now_i / d state_prev_k     (3 x S)
