@@ -233,6 +233,56 @@ TEST(Jenkins, NormalForceHarmonicsOfAContactThatSeparatesEqualTheClippedCosine) 
   EXPECT_NEAR(open, (kPi - a) / kPi, 2.0 / layout.samples());
 }
 
+TEST(Jenkins, InPhaseNormalLoadVariationFollowsTheClosedFormLoop) {
+  // u_t = a cos(theta), N = N0 + kn b cos(theta) (in phase, never open since kn b < N0), deep
+  // slip. Piecewise closed form of the periodic loop, from theta = 0 (slipping forward):
+  //   stick   (0, th1):   T = mu N(0) - kt a (1 - cos),      cos th1 = (kt a - 2 mu N0 - mu kn b)
+  //                                                                   / (kt a + mu kn b)
+  //   slip    (th1, pi):  T = -mu N(theta)
+  //   stick   (pi, th2):  T = -mu N(pi) + kt a (1 + cos),    cos th2 = (2 mu N0 - mu kn b - kt a)
+  //                                                                   / (kt a - mu kn b)
+  //   slip    (th2, 2pi): T = +mu N(theta)
+  const double kt = 1e5, mu = 0.3, n0 = 2.0, kn = 1e4, b = 1e-4, a = 1e-4;
+  auto normal = [&](double th) { return n0 + kn * b * std::cos(th); };
+  const double th1 = std::acos((kt * a - 2 * mu * n0 - mu * kn * b) / (kt * a + mu * kn * b));
+  const double th2 =
+      2 * kPi - std::acos((2 * mu * n0 - mu * kn * b - kt * a) / (kt * a - mu * kn * b));
+  auto friction = [&](double th) {
+    if (th < th1) return mu * normal(0) - kt * a * (1 - std::cos(th));
+    if (th < kPi) return -mu * normal(th);
+    if (th < th2) return -mu * normal(kPi) + kt * a * (1 + std::cos(th));
+    return mu * normal(th);
+  };
+  auto h = test::make_law("jenkins_1d", "{kt: 1.0e5, mu: 0.3, normal_load: 2.0, kn: 1.0e4}");
+  HarmonicLayout layout({0, 1, 2, 3}, 8192);
+  PeriodicTracer tracer(*h.law, layout);
+  const int c = layout.coefficient_count();
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(2 * c);
+  u(layout.cos_index(1)) = a;
+  u(c + layout.cos_index(1)) = b;
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kNone, t, &error)) << error;
+  double worst = 0, energy = 0, exact_energy = 0;
+  const int n = layout.samples();
+  for (int j = 0; j < n; ++j) {
+    worst = std::max(worst, std::abs(t.force(j, 0) - friction(2 * kPi * j / n)));
+    const int jn = (j + 1) % n;
+    energy +=
+        0.5 * (t.force(j, 0) + t.force(jn, 0)) * (t.displacement(jn, 0) - t.displacement(j, 0));
+  }
+  // Energy of the closed form by fine midpoint quadrature of T du = T (-a sin) dtheta.
+  const int m = 2000000;
+  for (int i = 0; i < m; ++i) {
+    const double th = 2 * kPi * (i + 0.5) / m;
+    exact_energy += friction(th) * (-a * std::sin(th)) * 2 * kPi / m;
+  }
+  // The return mapping is exact at the samples (the reversals fall on samples 0 and N/2).
+  EXPECT_LT(worst, 1e-12) << "worst sample error " << worst << " N";
+  EXPECT_NEAR(energy, exact_energy, 1e-6 * exact_energy);  // trapezoid error ~1e-7
+  EXPECT_GT(exact_energy, 0.0);
+}
+
 TEST(Jenkins, GapAndPreloadTogetherAreRefused) {
   try {
     test::make_law("jenkins_1d", "{kt: 1.0e5, mu: 0.3, kn: 2.0e5, gap: 1.0e-5, normal_load: 1}");
