@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "frichb/core/loop.hpp"
+#include "frichb/core/modes.hpp"
 #include "frichb/core/registry.hpp"
 #include "frichb/core/run.hpp"
 #include "frichb/core/scene.hpp"
@@ -28,6 +29,9 @@ Usage:
   frichb validate SCENE.yaml       check a scene and its plugins' parameters, compute nothing
   frichb loop INPUT.yaml [-o DIR]  trace one contact law under a prescribed relative motion:
                                    DIR/loop.csv, harmonics.csv, summary.json, loop.png
+  frichb modes SCENE.yaml [--rpm R] [-o DIR]
+                                   natural frequencies per harmonic index and the nodal-
+                                   diameter map (ZZENF) with the engine-order excitation at R rpm
   frichb plugins                   list the plugins found on the search path
   frichb describe NAME             parameter table of a plugin (or 'scene' for the core keys)
   frichb reference [-o DIR]        write the scene reference (Markdown) generated from all
@@ -75,7 +79,8 @@ int main(int argc, char** argv) {
   opts.add_options()("help,h", "show this help")("version", "print the version")(
       "log-level", po::value<std::string>(&log_level)->default_value("info"),
       "trace, debug, info, warn, error or off")("output,o", po::value<std::string>(&output),
-                                                "output folder of verbs that write");
+                                                "output folder of verbs that write")(
+      "rpm", po::value<double>(), "rotation speed of `modes` (engine-order excitation), rpm");
   po::options_description hidden;
   hidden.add_options()("args", po::value<std::vector<std::string>>(), "verb and arguments");
   po::options_description all;
@@ -135,6 +140,11 @@ int main(int argc, char** argv) {
     if (verb == "loop") {
       if (!need(1, "one loop input file")) return kExitUsage;
       return run_loop(LoopRequest{args[1], output});
+    }
+    if (verb == "modes") {
+      if (!need(1, "one scene file")) return kExitUsage;
+      ModesRequest request{args[1], output, vm.count("rpm") ? vm["rpm"].as<double>() : 0.0};
+      return run_modes(request);
     }
     if (verb == "plugins") {
       if (!need(0, "no argument")) return kExitUsage;

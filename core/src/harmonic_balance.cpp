@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 namespace frichb::core {
@@ -44,20 +45,41 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
                  "DOF " + std::to_string(d) + " does not exist: provider '" +
                      scene.structure.provider + "' has " + std::to_string(n_dofs) + " DOFs (0.." +
                      std::to_string(n_dofs - 1) + ")");
-  // Without cyclic symmetry every temporal harmonic has harmonic index 0.
-  structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, std::vector<int>{0});
+  // Harmonic index of each kept temporal harmonic; only the indices they excite are built.
+  const int sectors = static_cast<int>(structure.sector_count());
+  if (sectors != scene.cyclic.sectors) {
+    const std::string why =
+        scene.cyclic.enabled()
+            ? "the scene has cyclic.sectors = " + std::to_string(scene.cyclic.sectors) +
+                  " but provider '" + scene.structure.provider + "' models " +
+                  (sectors > 1 ? std::to_string(sectors) + " sectors" : "no cyclic symmetry")
+            : "provider '" + scene.structure.provider + "' models one sector of " +
+                  std::to_string(sectors) + ": add `cyclic: {sectors: " + std::to_string(sectors) +
+                  ", engine_order: m}`";
+    ctx.fail(scene.cyclic.enabled() ? root["cyclic"] : root["structure"], "cyclic", why);
+  }
+  std::vector<int> indices;
+  for (int n : layout_.harmonics()) {
+    harmonic_index_.push_back(scene.cyclic.harmonic_index(n));
+    if (std::find(indices.begin(), indices.end(), harmonic_index_.back()) == indices.end())
+      indices.push_back(harmonic_index_.back());
+  }
+  structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, indices);
   const auto kept = static_cast<Eigen::Index>(kept_dofs_.size());
+  // Gather weights of the sides in the reference sector (offset 0) and in its neighbours
+  // (offsets -1, +1), combined per harmonic with the cyclic phase factors below.
+  std::vector<Eigen::MatrixXd> by_offset;
 
   TraceOptions trace_options;
   trace_options.max_passes = scene.harmonic_balance.max_trace_passes;
-  std::vector<Eigen::MatrixXd> gathers;
   for (const auto& spec : scene.contacts) {
     ContactModel c;
     c.name = spec.name;
     c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
     c.tracer = std::make_unique<PeriodicTracer>(*c.law, trace_layout_, trace_options);
     const auto& comps = c.tracer->components();
-    c.gather = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(comps.size()), kept);
+    const auto d = static_cast<Eigen::Index>(comps.size());
+    std::vector<Eigen::MatrixXd> weights(3, Eigen::MatrixXd::Zero(d, kept));
     for (std::size_t a = 0; a < comps.size(); ++a) {
       const std::vector<double>& dir =
           comps[a] == 0 ? spec.tangent1 : (comps[a] == 1 ? spec.tangent2 : spec.normal);
@@ -68,22 +90,38 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
                  "law '" + spec.law + "' with these params uses the " + names[comps[a]] +
                      " direction: give frame." + names[comps[a]]);
       }
-      auto add_side = [&](const std::string& side, double sign) {
+      auto add_side = [&](const std::string& side, int sector, double sign) {
         if (side == "ground") return;
         const auto& dofs = scene.structure.find(side)->dofs;
+        auto& w = weights[static_cast<std::size_t>(sector + 1)];
         for (std::size_t k = 0; k < dofs.size(); ++k)
-          c.gather(static_cast<Eigen::Index>(a), kept_index(dofs[k])) += sign * dir[k];
+          w(static_cast<Eigen::Index>(a), kept_index(dofs[k])) += sign * dir[k];
       };
-      add_side(spec.side_a, -1.0);
-      add_side(spec.side_b, +1.0);
+      add_side(spec.side_a, spec.sector_a, -1.0);
+      add_side(spec.side_b, spec.sector_b, +1.0);
     }
     c.offset = components_;
     components_ += static_cast<int>(comps.size());
-    gathers.push_back(c.gather);
+    by_offset.resize(3);
+    for (std::size_t o = 0; o < 3; ++o) {
+      Eigen::MatrixXd grown(by_offset[o].rows() + d, kept);
+      grown << by_offset[o], weights[o];
+      by_offset[o] = grown;
+    }
     contacts_.push_back(std::move(c));
   }
-  gather_.resize(components_, kept);
-  for (const auto& c : contacts_) gather_.middleRows(c.offset, c.gather.rows()) = c.gather;
+  // Sector s + o moves like the reference sector delayed by o Delta t: harmonic n of its
+  // displacement is the reference's times e^{-i n m phi o} (seed eqs. 2.7, 2.16-2.17). The
+  // force on a neighbour's node reaches the reference sector through the conjugate factor,
+  // hence G^H for forces (Newton's third law with cyclic symmetry, seed eq. 2.13).
+  const double phi = scene.cyclic.enabled() ? 2.0 * std::numbers::pi / scene.cyclic.sectors : 0.0;
+  for (int n : layout_.harmonics()) {
+    Eigen::MatrixXcd g = Eigen::MatrixXcd::Zero(components_, kept);
+    for (int o = -1; o <= 1 && components_ > 0; ++o)
+      g += std::polar(1.0, -n * scene.cyclic.engine_order * phi * o) *
+           by_offset[static_cast<std::size_t>(o + 1)].cast<std::complex<double>>();
+    gather_.push_back(std::move(g));
+  }
   unknown_count_ = static_cast<Eigen::Index>(components_) * layout_.coefficient_count();
   traces_.resize(contacts_.size());
 
@@ -145,8 +183,8 @@ Eigen::VectorXd HarmonicBalanceModel::linear_response(double w) const {
   Eigen::MatrixXcd r;
   for (std::size_t k = 0; k < h.size(); ++k) {
     if (excitation_[k].cwiseAbs().maxCoeff() == 0.0) continue;
-    structure_->receptance(0, h[k] * w, r);
-    const Eigen::VectorXcd x = gather_ * (r * excitation_[k]);
+    structure_->receptance(harmonic_index_[k], h[k] * w, r);
+    const Eigen::VectorXcd x = gather_[k] * (r * excitation_[k]);
     for (int a = 0; a < components_; ++a) {
       u0(a * c + layout_.cos_index(k)) = x(a).real();
       if (h[k] > 0) u0(a * c + layout_.sin_index(k)) = -x(a).imag();
@@ -181,11 +219,12 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
   const auto& h = layout_.harmonics();
   for (std::size_t k = 0; k < h.size(); ++k) {
     const int hn = h[k];
-    structure_->receptance(0, hn * w, r, &dr);
-    const Eigen::MatrixXcd rc = gather_ * r * gather_.transpose();
-    const Eigen::MatrixXcd drc = static_cast<double>(hn) * (gather_ * dr * gather_.transpose());
-    const Eigen::VectorXcd u0 = gather_ * (r * excitation_[k]);
-    const Eigen::VectorXcd du0 = static_cast<double>(hn) * (gather_ * (dr * excitation_[k]));
+    structure_->receptance(harmonic_index_[k], hn * w, r, &dr);
+    const Eigen::MatrixXcd& g = gather_[k];
+    const Eigen::MatrixXcd rc = g * r * g.adjoint();
+    const Eigen::MatrixXcd drc = static_cast<double>(hn) * (g * dr * g.adjoint());
+    const Eigen::VectorXcd u0 = g * (r * excitation_[k]);
+    const Eigen::VectorXcd du0 = static_cast<double>(hn) * (g * (dr * excitation_[k]));
     if (!rc.allFinite() || !u0.allFinite()) {
       if (message)
         *message = "receptance at harmonic " + std::to_string(hn) + " is singular (" +
@@ -259,9 +298,8 @@ std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(const Eigen::V
       const double fs = h[k] > 0 ? forces(a * c + layout_.sin_index(k)) : 0.0;
       f_local(a) = std::complex<double>(fc, -fs);
     }
-    structure_->receptance(0, h[k] * w, r);
-    out.push_back(r *
-                  (excitation_[k] - gather_.transpose().cast<std::complex<double>>() * f_local));
+    structure_->receptance(harmonic_index_[k], h[k] * w, r);
+    out.push_back(r * (excitation_[k] - gather_[k].adjoint() * f_local));
   }
   return out;
 }

@@ -6,6 +6,7 @@
 #include <boost/dll/library_info.hpp>
 #include <boost/dll/runtime_symbol_info.hpp>
 #include <boost/dll/shared_library.hpp>
+#include <cstddef>
 #include <cstdlib>
 #include <set>
 #include <sstream>
@@ -209,6 +210,14 @@ StructureInstance::~StructureInstance() {
 
 std::size_t StructureInstance::dof_count() const {
   return api_->dof_count(instance_);
+}
+
+std::size_t StructureInstance::sector_count() const {
+  // sector_count came with ABI 1.1: older plugins' tables end before it.
+  const std::size_t needed =
+      offsetof(frichb_structure_api, sector_count) + sizeof(api_->sector_count);
+  if (api_->struct_size < needed || !api_->sector_count) return 1;
+  return api_->sector_count(instance_);
 }
 
 frichb_modal_basis StructureInstance::modal_basis(int harmonic_index,

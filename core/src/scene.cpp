@@ -62,7 +62,24 @@ const std::vector<frichb_param_spec>& contact_schema() {
   static const std::vector<frichb_param_spec> s = {
       Param::text("name", "name of the contact, used in outputs"),
       Param::text("law", "contact-law plugin name (`frichb plugins` lists them)"),
-      Param::text_list("between", "side A and side B: node names or 'ground'").count(2, 2),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& side_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text("node", "node name (a key of structure.dofs) or 'ground'"),
+      Param::integer("sector", "sector offset from the reference sector (cyclic scenes)")
+          .defaults_to(0)
+          .at_least(-1)
+          .at_most(1),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& cyclic_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::integer("sectors", "number of sectors nb of the tuned disk").at_least(2),
+      Param::integer("engine_order", "engine order m of the travelling-wave excitation")
+          .at_least(0),
   };
   return s;
 }
@@ -220,8 +237,9 @@ Scene load_scene(const fs::path& file) {
   YAML::Node root = scene.root;
   if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
 
-  const std::vector<std::string> sections = {"structure",        "excitation",   "contacts",
-                                             "harmonic_balance", "continuation", "output"};
+  const std::vector<std::string> sections = {
+      "structure",    "excitation", "contacts", "harmonic_balance",
+      "continuation", "output",     "cyclic"};
   const auto top = validate_params(root, top_schema(), "", ctx, sections);
   const auto topv = view(top_schema(), top);
   scene.name = topv.text("name");
@@ -231,6 +249,15 @@ Scene load_scene(const fs::path& file) {
     scene.plugin_paths.push_back(path.is_absolute() ? path : file.parent_path() / path);
   }
   scene.core_values = top.to_json(top_schema());
+
+  // cyclic symmetry
+  if (YAML::Node cy = root["cyclic"]; cy) {
+    const auto cv = validate_params(cy, cyclic_schema(), "cyclic", ctx);
+    const auto c = view(cyclic_schema(), cv);
+    scene.cyclic.sectors = static_cast<int>(c.integer("sectors"));
+    scene.cyclic.engine_order = static_cast<int>(c.integer("engine_order"));
+    scene.core_values["cyclic"] = cv.to_json(cyclic_schema());
+  }
 
   // structure
   YAML::Node s = root["structure"];
@@ -343,7 +370,7 @@ Scene load_scene(const fs::path& file) {
     const std::string path = "contacts[" + std::to_string(i) + "]";
     YAML::Node c = cn[i];
     const auto cv = validate_params(c, contact_schema(), path, ctx,
-                                    std::vector<std::string>{"frame", "params"});
+                                    std::vector<std::string>{"between", "frame", "params"});
     const auto v = view(contact_schema(), cv);
     ContactSpec contact;
     contact.name = v.text("name");
@@ -358,24 +385,49 @@ Scene load_scene(const fs::path& file) {
                "'" + contact.name + "': use letters, digits, '_', '-' and '.' (it names files)");
     if (!contact_names.insert(contact.name).second)
       ctx.fail(c["name"], path + ".name", "contact name '" + contact.name + "' is used twice");
-    const auto sides = v.texts("between");
+    YAML::Node bn = c["between"];
+    if (!bn || !bn.IsSequence() || bn.size() != 2)
+      ctx.fail(bn ? bn : c, path + ".between",
+               "expected [side A, side B]: node names, 'ground', or {node: name, sector: +1}");
+    std::string sides[2];
+    int sectors[2] = {0, 0};
+    nlohmann::json between_json = nlohmann::json::array();
+    for (int k = 0; k < 2; ++k) {
+      const std::string side_path = path + ".between[" + std::to_string(k) + "]";
+      YAML::Node sn = bn[k];
+      if (sn.IsScalar()) {
+        sides[k] = sn.Scalar();
+      } else {
+        const auto side_values = validate_params(sn, side_schema(), side_path, ctx);
+        const auto side = view(side_schema(), side_values);
+        sides[k] = side.text("node");
+        sectors[k] = static_cast<int>(side.integer("sector"));
+        if (sectors[k] != 0 && scene.cyclic.sectors < 2)
+          ctx.fail(sn["sector"], side_path + ".sector",
+                   "a neighbouring sector needs a `cyclic: {sectors, engine_order}` section");
+      }
+      between_json.push_back({{"node", sides[k]}, {"sector", sectors[k]}});
+    }
     contact.side_a = sides[0];
     contact.side_b = sides[1];
+    contact.sector_a = sectors[0];
+    contact.sector_b = sectors[1];
+    if (sides[0] == sides[1] && sectors[0] == sectors[1])
+      ctx.fail(bn, path + ".between", "both sides are the same node of the same sector");
     std::size_t components = 0;
     for (int k = 0; k < 2; ++k) {
-      const std::string& side = sides[static_cast<std::size_t>(k)];
+      const std::string& side = sides[k];
       if (side == "ground") continue;
       const NodeSpec* node = scene.structure.find(side);
       if (!node)
-        ctx.fail(c["between"][k], path + ".between[" + std::to_string(k) + "]",
+        ctx.fail(bn[k], path + ".between[" + std::to_string(k) + "]",
                  "'" + side + "' is neither 'ground' nor a key of structure.dofs");
       if (components && node->dofs.size() != components)
-        ctx.fail(c["between"], path + ".between", "the two sides have different DOF counts");
+        ctx.fail(bn, path + ".between", "the two sides have different DOF counts");
       components = node->dofs.size();
     }
     if (components == 0)
-      ctx.fail(c["between"], path + ".between",
-               "a contact needs at least one side that is not ground");
+      ctx.fail(bn, path + ".between", "a contact needs at least one side that is not ground");
     YAML::Node fn = c["frame"];
     const auto fv = validate_params(fn, frame_schema(), path + ".frame", ctx);
     const auto f = view(frame_schema(), fv);
@@ -390,6 +442,7 @@ Scene load_scene(const fs::path& file) {
     if (contact.tangent1.empty() && components == 1) contact.tangent1 = {1.0};
     contact.params = c["params"];
     nlohmann::json cj = cv.to_json(contact_schema());
+    cj["between"] = between_json;
     cj["frame"] = fv.to_json(frame_schema());
     contacts_json.push_back(cj);
     scene.contacts.push_back(std::move(contact));
@@ -502,12 +555,19 @@ std::vector<CoreSection> core_schemas() {
       {"excitation", excitation_schema(),
        "`excitation` is a top-level list; each entry is one harmonic force "
        "`amplitude * cos(harmonic * w t + phase)` along `direction`."},
+      {"cyclic", cyclic_schema(),
+       "Optional: a tuned disk of `sectors` identical sectors under an engine-order excitation. "
+       "The structure provider then models one sector (harmonic indices h = mod(n m, nb)), "
+       "and contacts may join a node of the reference sector to one of its neighbour."},
       {"contacts[]", contact_schema(),
+       "`between`: [side A, side B], each a node name, `ground`, or `{node: name, sector: +1}` "
+       "(sector offset -1, 0 or +1 in cyclic scenes; the map form below). "
        "`params`: the law's parameters (see Contact laws below). `frame`: the local directions "
        "(below). The relative displacement is u = frame . (x_B - x_A), B the second side. The "
        "law's force f (spring-like: +kt u when stuck) enters the equations of motion as "
        "M x'' + C x' + K x + f_nl = f_ext with f_nl = +f on B and -f on A (seed eq. 2.13): "
        "the contact pushes B back by -f."},
+      {"contacts[].between[]", side_schema(), "The map form of a side."},
       {"contacts[].frame", frame_schema(),
        "Each vector has one entry per DOF of the sides' nodes and is normalised. A 1-DOF node "
        "defaults to tangent1 = [1]. A law uses tangent2 when it is 2D tangential and normal "

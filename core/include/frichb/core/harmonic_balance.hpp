@@ -27,8 +27,6 @@ struct ContactModel {
   std::string name;
   std::unique_ptr<ContactLawInstance> law;
   std::unique_ptr<PeriodicTracer> tracer;
-  // gather(a, k): weight of kept DOF k in used local component a (d x kept).
-  Eigen::MatrixXd gather;
   int offset = 0;  // first row of this contact's components in the stacked components
 };
 
@@ -76,7 +74,10 @@ class HarmonicBalanceModel final : public CurveProblem {
   std::unique_ptr<ReducedStructure> structure_;
   std::vector<std::size_t> kept_dofs_;
   std::vector<ContactModel> contacts_;
-  Eigen::MatrixXd gather_;                    // components x kept
+  // Per kept harmonic: u_n = G_n x_n (components x kept DOFs), with the cyclic phase factors of
+  // sides in neighbouring sectors; real and equal for all n without them.
+  std::vector<Eigen::MatrixXcd> gather_;
+  std::vector<int> harmonic_index_;           // per kept harmonic
   std::vector<Eigen::VectorXcd> excitation_;  // per kept harmonic, over kept DOFs
   int components_ = 0;
   Eigen::Index unknown_count_ = 0;

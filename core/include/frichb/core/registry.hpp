@@ -118,6 +118,8 @@ class StructureInstance {
 
   const LoadedPlugin& plugin() const { return *plugin_; }
   std::size_t dof_count() const;
+  // Sectors of a cyclic sector model; 1 for a plain structure (and for ABI 1.0 plugins).
+  std::size_t sector_count() const;
   // Throws PluginError with the plugin's message on failure.
   frichb_modal_basis modal_basis(int harmonic_index, std::span<const std::size_t> kept_dofs);
 

@@ -41,7 +41,8 @@ struct ExcitationSpec {
 struct ContactSpec {
   std::string name;
   std::string law;
-  std::string side_a, side_b;  // node names, or "ground"
+  std::string side_a, side_b;      // node names, or "ground"
+  int sector_a = 0, sector_b = 0;  // sector offsets from the reference sector (cyclic scenes)
   // Unit frame vectors over the sides' node components; empty when not given.
   std::vector<double> tangent1, tangent2, normal;
   YAML::Node params;
@@ -82,6 +83,23 @@ struct ContinuationSpec {
   double to_rad_per_s() const;
 };
 
+// A tuned cyclic disk: nb sectors under engine order m (sectors = 1: no cyclic symmetry).
+struct CyclicSpec {
+  int sectors = 1;
+  int engine_order = 0;
+  bool enabled() const { return sectors > 1; }
+  // Harmonic index h = mod(n m, nb) of temporal harmonic n (0 without cyclic symmetry).
+  int harmonic_index(int n) const { return enabled() ? (n * engine_order) % sectors : 0; }
+  // Nodal diameter excited by harmonic index h: h for h <= nb/2 (backward travelling wave),
+  // nb - h above (forward travelling wave); h = 0 and h = nb/2 are standing (seed §2.2).
+  int nodal_diameter(int h) const { return 2 * h <= sectors ? h : sectors - h; }
+  // '-' backward, '+' forward, ' ' standing (the thesis's Table 5.1 notation).
+  char wave_direction(int h) const {
+    if (h == 0 || 2 * h == sectors) return ' ';
+    return 2 * h < sectors ? '-' : '+';
+  }
+};
+
 struct OutputSpec {
   std::vector<std::string> response;      // node names
   std::vector<double> friction_loops_at;  // in the continuation unit
@@ -96,6 +114,7 @@ struct Scene {
   std::vector<ExcitationSpec> excitation;
   std::vector<ContactSpec> contacts;
   HarmonicBalanceSpec harmonic_balance;
+  CyclicSpec cyclic;
   ContinuationSpec continuation;
   OutputSpec output;
   YAML::Node root;

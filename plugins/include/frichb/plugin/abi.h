@@ -35,7 +35,7 @@ extern "C" {
 #define FRICHB_ABI_MAJOR 1
 #endif
 #ifndef FRICHB_ABI_MINOR
-#define FRICHB_ABI_MINOR 0
+#define FRICHB_ABI_MINOR 1 /* 1.1: frichb_structure_api.sector_count appended */
 #endif
 
 #define FRICHB_PLUGIN_ENTRY_SYMBOL "frichb_plugin_entry"
@@ -188,10 +188,16 @@ typedef struct frichb_structure_api {
   void (*destroy)(void* instance);
   /* Number of DOFs of the (sector) model; DOF indices in the scene run from 0 to this - 1. */
   size_t (*dof_count)(const void* instance);
-  /* Harmonic index h (0 for a structure without cyclic symmetry). Not thread-safe. */
+  /* Harmonic index h (0 for a structure without cyclic symmetry; 0 <= h < sector_count for a
+   * cyclic sector model: the basis of K0 + e^{-i h phi} K1 + e^{i h phi} K1^T and likewise
+   * for M, phi = 2 pi / sectors, K1 coupling a sector's DOFs to the next sector's). Not
+   * thread-safe. */
   frichb_status (*modal_basis)(void* instance, int harmonic_index, const size_t* kept_dofs,
                                size_t n_kept, frichb_modal_basis* basis, char* message,
                                size_t message_capacity);
+  /* ABI 1.1: number of sectors nb of a cyclic sector model, 1 for a plain structure. The host
+   * reads it only when struct_size covers it (a 1.0 plugin is a plain structure). */
+  size_t (*sector_count)(const void* instance);
 } frichb_structure_api;
 
 /* ------------------------------------------------------------------------------------ */

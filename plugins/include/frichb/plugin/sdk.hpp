@@ -196,6 +196,8 @@ class StructureProvider {
  public:
   virtual ~StructureProvider() = default;
   virtual size_t dof_count() const = 0;
+  // Sectors of a cyclic sector model (harmonic indices 0..sectors-1); 1 for a plain structure.
+  virtual size_t sector_count() const { return 1; }
   // The returned pointers must stay valid until the next call or destruction.
   virtual frichb_modal_basis modal_basis(int harmonic_index, const size_t* kept_dofs,
                                          size_t n_kept) = 0;
@@ -283,6 +285,9 @@ struct StructureTrampolines : Lifecycle<StructureProvider, Provider> {
   static size_t dof_count(const void* instance) {
     return static_cast<const StructureProvider*>(instance)->dof_count();
   }
+  static size_t sector_count(const void* instance) {
+    return static_cast<const StructureProvider*>(instance)->sector_count();
+  }
   static frichb_status modal_basis(void* instance, int harmonic_index, const size_t* kept,
                                    size_t n_kept, frichb_modal_basis* basis, char* message,
                                    size_t capacity) {
@@ -327,8 +332,12 @@ const frichb_plugin_descriptor* structure_descriptor(
   using T = StructureTrampolines<Provider>;
   static const std::vector<frichb_param_spec> schema = schema_fn();
   T::schema = &schema;
-  static const frichb_structure_api api = {sizeof(frichb_structure_api), &T::create, &T::destroy,
-                                           &T::dof_count, &T::modal_basis};
+  static const frichb_structure_api api = {sizeof(frichb_structure_api),
+                                           &T::create,
+                                           &T::destroy,
+                                           &T::dof_count,
+                                           &T::modal_basis,
+                                           &T::sector_count};
   static const frichb_plugin_descriptor descriptor = {FRICHB_ABI_MAJOR,
                                                       FRICHB_ABI_MINOR,
                                                       sizeof(frichb_plugin_descriptor),

@@ -1,0 +1,122 @@
+#include "frichb/core/modes.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "frichb/core/output.hpp"
+#include "frichb/core/registry.hpp"
+#include "frichb/core/run.hpp"
+#include "frichb/core/scene.hpp"
+
+namespace frichb::core {
+
+namespace fs = std::filesystem;
+
+int run_modes(const ModesRequest& request) {
+  const std::string file = request.scene_file.string();
+  Scene scene;
+  std::unique_ptr<Registry> registry;
+  try {
+    scene = load_scene(request.scene_file);
+    registry = std::make_unique<Registry>(Registry::default_search_path(scene.plugin_paths));
+    bind_plugins(scene, *registry);
+  } catch (const SceneError& e) {
+    spdlog::error("{}", e.what());
+    return kExitInvalidInput;
+  } catch (const std::exception& e) {
+    spdlog::error("{}: {}", file, e.what());
+    return kExitInvalidInput;
+  }
+  try {
+    StructureInstance structure(scene.structure.plugin, scene.structure.values);
+    const int sectors = static_cast<int>(structure.sector_count());
+    std::vector<std::size_t> kept;
+    for (const auto& node : scene.structure.nodes)
+      kept.insert(kept.end(), node.dofs.begin(), node.dofs.end());
+    CyclicSpec cyclic = scene.cyclic;
+    cyclic.sectors = sectors;
+    std::vector<std::vector<double>> rows;
+    std::vector<std::vector<double>> by_nd(static_cast<std::size_t>(sectors / 2 + 1));
+    for (int h = 0; h < sectors; ++h) {
+      const frichb_modal_basis b = structure.modal_basis(h, kept);
+      for (std::size_t r = 0; r < b.n_modes; ++r) {
+        const double f = b.natural_frequencies[r] / (2 * std::numbers::pi);
+        const char dir = cyclic.wave_direction(h);
+        rows.push_back({static_cast<double>(h), static_cast<double>(cyclic.nodal_diameter(h)),
+                        dir == '-' ? -1.0 : (dir == '+' ? 1.0 : 0.0), static_cast<double>(r + 1),
+                        f});
+        if (2 * h <= sectors) by_nd[static_cast<std::size_t>(h)].push_back(f);
+      }
+    }
+    fs::path out_dir = request.output_directory;
+    if (out_dir.empty())
+      out_dir = fs::path("out") / (request.scene_file.stem().string() + "-modes");
+    StagedOutput out(out_dir,
+                     {"modes.csv", "families.csv", "excitation.csv", "modes.gp", "modes.png"});
+    write_csv(out.path("modes.csv"),
+              {"harmonic_index", "nodal_diameter", "wave", "family", "frequency_hz"}, rows);
+    std::vector<std::vector<double>> excitation;
+    if (request.rpm > 0 && cyclic.enabled()) {
+      for (int n : scene.harmonic_balance.harmonics) {
+        if (n == 0) continue;
+        const int h = cyclic.harmonic_index(n);
+        excitation.push_back({static_cast<double>(n), static_cast<double>(h),
+                              static_cast<double>(cyclic.nodal_diameter(h)),
+                              n * scene.cyclic.engine_order * request.rpm / 60.0});
+      }
+      write_csv(out.path("excitation.csv"),
+                {"n", "harmonic_index", "nodal_diameter", "frequency_hz"}, excitation);
+    }
+    if (scene.output.plots) {
+      // One line per mode family over the nodal diameters 0..nb/2 (families.csv).
+      std::size_t families = 0;
+      for (const auto& f : by_nd) families = std::min(families ? families : f.size(), f.size());
+      std::vector<std::string> fh = {"nodal_diameter"};
+      for (std::size_t r = 0; r < families; ++r)
+        fh.push_back("family" + std::to_string(r + 1) + "_hz");
+      std::vector<std::vector<double>> frows;
+      for (std::size_t nd = 0; nd < by_nd.size(); ++nd) {
+        std::vector<double> row = {static_cast<double>(nd)};
+        row.insert(row.end(), by_nd[nd].begin(), by_nd[nd].begin() + static_cast<long>(families));
+        frows.push_back(std::move(row));
+      }
+      write_csv(out.path("families.csv"), fh, frows);
+      std::ostringstream gp;
+      gp << "# gnuplot script written by frichb modes\n"
+         << "set terminal pngcairo size 1000,700 noenhanced\nset output 'modes.png'\n"
+         << "set datafile separator ','\nset grid\nset key outside right\n"
+         << "set title 'nodal-diameter map (" << sectors << " sectors, engine order "
+         << scene.cyclic.engine_order << ")'\n"
+         << "set xlabel 'nodal diameter'\nset ylabel 'natural frequency [Hz]'\n"
+         << "set xtics 1\nplot ";
+      gp << "for [i=2:" << families + 1
+         << "] 'families.csv' using 1:i with linespoints pt 7 title sprintf('family %d', i - 1)";
+      if (!excitation.empty())
+        gp << ", \\\n     'excitation.csv' using 3:4 with linespoints dt 2 lw 2 lc rgb 'blue' "
+              "title 'EO "
+           << scene.cyclic.engine_order << " at " << request.rpm
+           << " rpm', \\\n     'excitation.csv' using 3:4:(sprintf('%d', $1)) with labels "
+              "offset 1,0.5 notitle";
+      gp << "\n";
+      write_text(out.path("modes.gp"), gp.str());
+      run_gnuplot(out.path("modes.gp"));
+    }
+    out.commit();
+    spdlog::info("{}: {} harmonic indices, {} modes; wrote {}", file, sectors, rows.size(),
+                 out_dir.string());
+    return kExitOk;
+  } catch (const PluginError& e) {
+    spdlog::error("{}: {}", file, e.what());
+    return kExitInvalidInput;
+  } catch (const std::exception& e) {
+    spdlog::error("{}: {}", file, e.what());
+    return kExitInternal;
+  }
+}
+
+}  // namespace frichb::core
