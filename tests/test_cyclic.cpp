@@ -205,5 +205,34 @@ TEST(Cyclic, ModesWritesTheNodalDiameterMapAndTheEngineOrderExcitation) {
   }
 }
 
+TEST(Cyclic, AModalTablePathIsResolvedAgainstTheSceneFolder) {
+  const Registry registry({FRICHB_PLUGIN_DIR});
+  if (!registry.contains("modal_table")) GTEST_SKIP() << "modal_table not built";
+  test::TempDir dir;
+  std::filesystem::create_directories(dir.path() / "model");
+  std::filesystem::copy_file(
+      std::string(FRICHB_SOURCE_DIR) + "/structures/modal_table/example/bladed_disk_4.yaml",
+      dir.path() / "model" / "table.yaml");
+  dir.write("model/scene.yaml", R"(
+cyclic: {sectors: 4, engine_order: 1}
+structure:
+  provider: modal_table
+  params: {file: table.yaml, sectors: 4, dof_count: 3, modal_damping: [0.01]}
+  dofs: {disk: 0, tip: 2}
+excitation: [{dof: tip, amplitude: 1.0}]
+harmonic_balance: {harmonics: [1, 2, 3]}
+continuation: {frequency: {from: 100, to: 500}}
+)");
+  // Run from another folder: `table.yaml` must be found beside the scene, not in the cwd.
+  const std::string command = "cd " + dir.path().string() + " && " + FRICHB_EXE +
+                              " --log-level warn modes model/scene.yaml -o out";
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  std::ifstream modes(dir.path() / "out" / "modes.csv");
+  std::string header, first;
+  std::getline(modes, header);
+  std::getline(modes, first);
+  EXPECT_NE(first.find("199.334"), std::string::npos) << first;
+}
+
 }  // namespace
 }  // namespace frichb::core

@@ -199,7 +199,23 @@ int run_scene(const RunRequest& request) {
       }
       return true;
     };
-    const ContinuationSummary summary = trace_curve(*model, y0, options, progress);
+    // A scene without contacts is linear: its response is sampled on the frequency axis at
+    // the largest step instead of traced (there is nothing to continue).
+    ContinuationSummary summary;
+    if (n == 0) {
+      const int steps = std::max(1, static_cast<int>(std::ceil(span / C.max_step)));
+      for (int i = 0; i <= steps; ++i) {
+        ContinuationPoint p;
+        p.y = Eigen::VectorXd::Constant(1, w_from + (w_to - w_from) * i / steps);
+        p.step = i ? span / steps : 0.0;
+        summary.points.push_back(p);
+      }
+      summary.termination = TerminationType::kReachedEnd;
+      summary.message = "linear scene (no contacts): sampled every " + format_number(span / steps) +
+                        " " + unit_name(C.unit);
+    } else {
+      summary = trace_curve(*model, y0, options, progress);
+    }
     timing["continuation_s"] = seconds_since(t_cont);
     if (summary.reached_end())
       spdlog::info(

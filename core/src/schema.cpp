@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 
 namespace frichb::core {
@@ -59,7 +60,7 @@ class ParamBuilder {
   frichb_param_value defaulted(const frichb_param_spec& spec) {
     frichb_param_value v{};
     v.present = 0;
-    if (spec.type == FRICHB_PARAM_STRING) {
+    if (spec.type == FRICHB_PARAM_STRING || spec.type == FRICHB_PARAM_PATH) {
       v.text = store_text(spec.default_text ? spec.default_text : "");
     } else {
       v.real = spec.default_real;
@@ -99,6 +100,15 @@ class ParamBuilder {
                     "'" + s + "' is not one of " + std::string(spec.choices) +
                         suggestion(s, split_choices(spec.choices)));
         v.text = store_text(s);
+        break;
+      }
+      case FRICHB_PARAM_PATH: {
+        if (!node.IsScalar())
+          ctx_.fail(node, path, "expected a file path, got " + describe_node(node));
+        std::filesystem::path file(node.Scalar());
+        if (file.is_relative() && !ctx_.file.empty() && ctx_.file.front() != '<')
+          file = std::filesystem::path(ctx_.file).parent_path() / file;
+        v.text = store_text(file.lexically_normal().string());
         break;
       }
       case FRICHB_PARAM_REAL_LIST: {
@@ -282,6 +292,7 @@ nlohmann::json value_json(const frichb_param_spec& spec, const frichb_param_valu
     case FRICHB_PARAM_BOOLEAN:
       return v.real != 0.0;
     case FRICHB_PARAM_STRING:
+    case FRICHB_PARAM_PATH:
       return v.text ? std::string(v.text) : std::string();
     case FRICHB_PARAM_REAL_LIST:
       return std::vector<double>(v.reals, v.reals + v.n_reals);
@@ -323,6 +334,8 @@ std::string describe_type(const frichb_param_spec& spec) {
       return "boolean";
     case FRICHB_PARAM_STRING:
       return "text";
+    case FRICHB_PARAM_PATH:
+      return "file path";
     case FRICHB_PARAM_REAL_LIST:
       return "list of reals";
     case FRICHB_PARAM_STRING_LIST:

@@ -65,7 +65,9 @@ typedef enum frichb_param_type {
   FRICHB_PARAM_STRING = 4,      /* text */
   FRICHB_PARAM_REAL_LIST = 5,   /* a list of doubles; element range from min/max */
   FRICHB_PARAM_STRING_LIST = 6, /* a list of scalars read as text */
-  FRICHB_PARAM_RECORD_LIST = 7  /* a list of maps whose keys are described by `fields` */
+  FRICHB_PARAM_RECORD_LIST = 7, /* a list of maps whose keys are described by `fields` */
+  FRICHB_PARAM_PATH = 8         /* ABI 1.1: a file path in `text`; the host resolves a relative
+                                   path against the folder of the scene file that gives it */
 } frichb_param_type;
 
 typedef struct frichb_param_spec {

@@ -50,6 +50,10 @@ class Param {
   static Param text(const char* name, const char* doc) {
     return Param(name, FRICHB_PARAM_STRING, "", doc);
   }
+  // A file path; relative paths reach the plugin resolved against the scene file's folder.
+  static Param path(const char* name, const char* doc) {
+    return Param(name, FRICHB_PARAM_PATH, "", doc);
+  }
   static Param real_list(const char* name, const char* unit, const char* doc) {
     return Param(name, FRICHB_PARAM_REAL_LIST, unit, doc);
   }
