@@ -16,55 +16,36 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "frichb/contact_laws/normal_load.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace {
 
 using frichb::sdk::Param;
+namespace contact_laws = frichb::contact_laws;
 
 std::vector<frichb_param_spec> coupled_schema() {
-  return {
+  return contact_laws::with_normal_load({
       Param::real("kt", "N/m", "tangential contact stiffness, isotropic in the tangential plane")
           .greater_than(0),
       Param::real("mu", "", "friction coefficient").at_least(0),
-      Param::real("normal_load", "N", "normal load N0 at zero normal displacement (preload)")
-          .defaults_to(0.0)
-          .at_least(0),
-      Param::real("kn", "N/m",
-                  "normal contact stiffness; 0 keeps the normal load constant, > 0 makes it "
-                  "follow the normal relative displacement with separation")
-          .defaults_to(0.0)
-          .at_least(0),
-      Param::real("gap", "m", "initial normal gap g0 (needs kn > 0 and normal_load = 0)")
-          .defaults_to(0.0)
-          .at_least(0),
-  };
+  });
 }
 
 class Coupled3d final : public frichb::sdk::ContactLaw {
  public:
   explicit Coupled3d(const frichb::sdk::Params& p)
-      : kt_(p.real("kt")),
-        mu_(p.real("mu")),
-        n0_(p.real("normal_load")),
-        kn_(p.real("kn")),
-        gap_(p.real("gap")) {
-    if (gap_ > 0 && kn_ <= 0) throw std::invalid_argument("gap > 0 needs kn > 0");
-    if (gap_ > 0 && n0_ > 0)
-      throw std::invalid_argument("give either normal_load (preload) or gap, not both");
-  }
+      : kt_(p.real("kt")), mu_(p.real("mu")), normal_(p) {}
 
   frichb_contact_law_traits traits() const override {
-    return frichb::sdk::make_traits(2, kn_ > 0, 2, true);
+    return frichb::sdk::make_traits(2, normal_.variable(), 2, true);
   }
 
   void step(const double* state_prev, const double* /*u_prev*/, const double* u_now,
             double* force_now, double* state_now,
             const frichb_step_tangents* tangents) const override {
-    const bool variable = kn_ > 0;
-    const double normal_trial = variable ? n0_ + kn_ * (u_now[2] - gap_) : n0_;
-    const double normal = std::max(0.0, normal_trial);
-    const double dnormal_dun = (variable && normal_trial > 0) ? kn_ : 0.0;
+    const bool variable = normal_.variable();
+    const auto [normal, dnormal_dun, open] = normal_.at(u_now[2]);
     const double limit = mu_ * normal;
     const double trial[2] = {kt_ * (u_now[0] - state_prev[0]), kt_ * (u_now[1] - state_prev[1])};
     const double trial_norm = std::hypot(trial[0], trial[1]);
@@ -74,7 +55,7 @@ class Coupled3d final : public frichb::sdk::ContactLaw {
     // u_n and w_prev (columns w1, w2).
     double dt_dut[2][2] = {}, dt_dun[2] = {}, dt_dw[2][2] = {};
     double dw_dut[2][2] = {}, dw_dun[2] = {}, dw_dw[2][2] = {};
-    if (variable && normal_trial <= 0) {
+    if (open) {
       // Separated: no force, and the slider follows so that contact resumes unloaded.
       for (int i = 0; i < 2; ++i) {
         w[i] = u_now[i];
@@ -139,7 +120,8 @@ class Coupled3d final : public frichb::sdk::ContactLaw {
   }
 
  private:
-  double kt_, mu_, n0_, kn_, gap_;
+  double kt_, mu_;
+  contact_laws::NormalLoad normal_;
 };
 
 }  // namespace

@@ -10,45 +10,28 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "frichb/contact_laws/normal_load.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace {
 
 using frichb::sdk::Param;
+namespace contact_laws = frichb::contact_laws;
 
 std::vector<frichb_param_spec> jenkins_schema() {
-  return {
+  return contact_laws::with_normal_load({
       Param::real("kt", "N/m", "tangential contact stiffness").greater_than(0),
       Param::real("mu", "", "friction coefficient").at_least(0),
-      Param::real("normal_load", "N", "normal load N0 at zero normal displacement (preload)")
-          .defaults_to(0.0)
-          .at_least(0),
-      Param::real("kn", "N/m",
-                  "normal contact stiffness; 0 keeps the normal load constant, > 0 makes it "
-                  "follow the normal relative displacement with separation")
-          .defaults_to(0.0)
-          .at_least(0),
-      Param::real("gap", "m", "initial normal gap g0 (needs kn > 0 and normal_load = 0)")
-          .defaults_to(0.0)
-          .at_least(0),
-  };
+  });
 }
 
 class Jenkins1d final : public frichb::sdk::ContactLaw {
  public:
   explicit Jenkins1d(const frichb::sdk::Params& p)
-      : kt_(p.real("kt")),
-        mu_(p.real("mu")),
-        n0_(p.real("normal_load")),
-        kn_(p.real("kn")),
-        gap_(p.real("gap")) {
-    if (gap_ > 0 && kn_ <= 0) throw std::invalid_argument("gap > 0 needs kn > 0");
-    if (gap_ > 0 && n0_ > 0)
-      throw std::invalid_argument("give either normal_load (preload) or gap, not both");
-  }
+      : kt_(p.real("kt")), mu_(p.real("mu")), normal_(p) {}
 
   frichb_contact_law_traits traits() const override {
-    return frichb::sdk::make_traits(1, kn_ > 0, 1, true);
+    return frichb::sdk::make_traits(1, normal_.variable(), 1, true);
   }
 
   void step(const double* state_prev, const double* /*u_prev*/, const double* u_now,
@@ -56,17 +39,15 @@ class Jenkins1d final : public frichb::sdk::ContactLaw {
             const frichb_step_tangents* tangents) const override {
     const double ut = u_now[0];
     const double w_prev = state_prev[0];
-    const bool variable = kn_ > 0;
-    const double normal_trial = variable ? n0_ + kn_ * (u_now[2] - gap_) : n0_;
-    const double normal = std::max(0.0, normal_trial);
-    const double dnormal_dun = (variable && normal_trial > 0) ? kn_ : 0.0;
+    const bool variable = normal_.variable();
+    const auto [normal, dnormal_dun, open] = normal_.at(u_now[2]);
     const double limit = mu_ * normal;
     const double trial = kt_ * (ut - w_prev);
 
     double t = 0, w = 0;
     // Partial derivatives of T and w with respect to (u_t, u_n, w_prev).
     double dt_dut = 0, dt_dun = 0, dt_dw = 0, dw_dut = 0, dw_dun = 0, dw_dw = 0;
-    if (variable && normal_trial <= 0) {
+    if (open) {
       // Separated: no force, and the slider follows so that contact resumes unloaded.
       t = 0;
       w = ut;
@@ -111,7 +92,8 @@ class Jenkins1d final : public frichb::sdk::ContactLaw {
   }
 
  private:
-  double kt_, mu_, n0_, kn_, gap_;
+  double kt_, mu_;
+  contact_laws::NormalLoad normal_;
 };
 
 }  // namespace

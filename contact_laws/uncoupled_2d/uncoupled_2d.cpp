@@ -13,57 +13,38 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "frichb/contact_laws/normal_load.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace {
 
 using frichb::sdk::Param;
+namespace contact_laws = frichb::contact_laws;
 
 std::vector<frichb_param_spec> uncoupled_schema() {
-  return {
+  return contact_laws::with_normal_load({
       Param::real("kt", "N/m", "tangential contact stiffness, the same in t1 and t2")
           .greater_than(0),
       Param::real("mu", "", "friction coefficient").at_least(0),
-      Param::real("normal_load", "N", "normal load N0 at zero normal displacement (preload)")
-          .defaults_to(0.0)
-          .at_least(0),
-      Param::real("kn", "N/m",
-                  "normal contact stiffness; 0 keeps the normal load constant, > 0 makes it "
-                  "follow the normal relative displacement with separation")
-          .defaults_to(0.0)
-          .at_least(0),
-      Param::real("gap", "m", "initial normal gap g0 (needs kn > 0 and normal_load = 0)")
-          .defaults_to(0.0)
-          .at_least(0),
-  };
+  });
 }
 
 class Uncoupled2d final : public frichb::sdk::ContactLaw {
  public:
   explicit Uncoupled2d(const frichb::sdk::Params& p)
-      : kt_(p.real("kt")),
-        mu_(p.real("mu")),
-        n0_(p.real("normal_load")),
-        kn_(p.real("kn")),
-        gap_(p.real("gap")) {
-    if (gap_ > 0 && kn_ <= 0) throw std::invalid_argument("gap > 0 needs kn > 0");
-    if (gap_ > 0 && n0_ > 0)
-      throw std::invalid_argument("give either normal_load (preload) or gap, not both");
-  }
+      : kt_(p.real("kt")), mu_(p.real("mu")), normal_(p) {}
 
   frichb_contact_law_traits traits() const override {
-    return frichb::sdk::make_traits(2, kn_ > 0, 2, true);
+    return frichb::sdk::make_traits(2, normal_.variable(), 2, true);
   }
 
   void step(const double* state_prev, const double* /*u_prev*/, const double* u_now,
             double* force_now, double* state_now,
             const frichb_step_tangents* tangents) const override {
-    const bool variable = kn_ > 0;
-    const double normal_trial = variable ? n0_ + kn_ * (u_now[2] - gap_) : n0_;
-    const double normal = std::max(0.0, normal_trial);
-    const double dnormal_dun = (variable && normal_trial > 0) ? kn_ : 0.0;
+    const bool variable = normal_.variable();
+    const auto [normal, dnormal_dun, open] = normal_.at(u_now[2]);
     const double limit = mu_ * normal;
-    const bool separated = variable && normal_trial <= 0;
+    const bool separated = open;
 
     // Per direction i: T_i, w_i and their partial derivatives with respect to u_ti, u_n and
     // w_i,prev (the directions do not interact).
@@ -123,7 +104,8 @@ class Uncoupled2d final : public frichb::sdk::ContactLaw {
   }
 
  private:
-  double kt_, mu_, n0_, kn_, gap_;
+  double kt_, mu_;
+  contact_laws::NormalLoad normal_;
 };
 
 }  // namespace
