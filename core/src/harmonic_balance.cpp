@@ -93,7 +93,8 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
       auto add_side = [&](const std::string& side, int sector, double sign) {
         if (side == "ground") return;
         const auto& dofs = scene.structure.find(side)->dofs;
-        auto& w = weights[static_cast<std::size_t>(sector + 1)];
+        const int slot = sector + 1;  // offsets -1, 0, +1 -> slots 0, 1, 2
+        auto& w = weights[static_cast<std::size_t>(slot)];
         for (std::size_t k = 0; k < dofs.size(); ++k)
           w(static_cast<Eigen::Index>(a), kept_index(dofs[k])) += sign * dir[k];
       };
@@ -117,9 +118,11 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   const double phi = scene.cyclic.enabled() ? 2.0 * std::numbers::pi / scene.cyclic.sectors : 0.0;
   for (int n : layout_.harmonics()) {
     Eigen::MatrixXcd g = Eigen::MatrixXcd::Zero(components_, kept);
-    for (int o = -1; o <= 1 && components_ > 0; ++o)
-      g += std::polar(1.0, -n * scene.cyclic.engine_order * phi * o) *
-           by_offset[static_cast<std::size_t>(o + 1)].cast<std::complex<double>>();
+    for (int slot = 0; slot < 3 && components_ > 0; ++slot) {
+      const int offset = slot - 1;
+      g += std::polar(1.0, -n * scene.cyclic.engine_order * phi * offset) *
+           by_offset[static_cast<std::size_t>(slot)].cast<std::complex<double>>();
+    }
     gather_.push_back(std::move(g));
   }
   unknown_count_ = static_cast<Eigen::Index>(components_) * layout_.coefficient_count();
