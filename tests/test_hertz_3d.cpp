@@ -17,6 +17,9 @@
 namespace frichb::core {
 namespace {
 
+using test::central_differences;
+using test::random_motion;
+
 constexpr double kPi = std::numbers::pi;
 
 // Index of the cosine / sine coefficient of harmonic n in component a of U.
@@ -29,32 +32,6 @@ int sin_at(const HarmonicLayout& layout, int a, int n) {
   for (std::size_t k = 0; k < layout.harmonics().size(); ++k)
     if (layout.harmonics()[k] == n) return a * layout.coefficient_count() + layout.sin_index(k);
   throw std::invalid_argument("harmonic not kept");
-}
-
-Eigen::VectorXd random_motion(Eigen::Index size, double scale, unsigned seed) {
-  std::mt19937 gen(seed);
-  std::uniform_real_distribution<double> dist(-scale, scale);
-  Eigen::VectorXd u(size);
-  for (auto& x : u) x = dist(gen);
-  return u;
-}
-
-// Central differences of the traced force coefficients, the oracle of the analytic Jacobian.
-Eigen::MatrixXd central_differences(PeriodicTracer& tracer, const Eigen::VectorXd& u) {
-  const Eigen::Index p = u.size();
-  Eigen::MatrixXd j(p, p);
-  const double h = 1e-7 * u.cwiseAbs().maxCoeff();
-  ContactTrace plus, minus;
-  std::string error;
-  for (Eigen::Index q = 0; q < p; ++q) {
-    Eigen::VectorXd up = u, um = u;
-    up(q) += h;
-    um(q) -= h;
-    EXPECT_TRUE(tracer.trace(up, JacobianMode::kNone, plus, &error)) << error;
-    EXPECT_TRUE(tracer.trace(um, JacobianMode::kNone, minus, &error)) << error;
-    j.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
-  }
-  return j;
 }
 
 // The regularised normal force above eps: N = c_n (p^1.5 - eps^1.5 / 8).

@@ -13,6 +13,9 @@
 namespace frichb::core {
 namespace {
 
+using test::central_differences;
+using test::random_motion;
+
 constexpr double kPi = std::numbers::pi;
 
 // u = a cos(theta) in the first tangential direction.
@@ -98,32 +101,6 @@ TEST(Jenkins, ZeroFrictionGivesNoForce) {
   ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error));
   EXPECT_EQ(t.force.cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ(t.jacobian.cwiseAbs().maxCoeff(), 0.0);
-}
-
-// Central differences of the traced force coefficients, the oracle of the analytic Jacobian.
-Eigen::MatrixXd central_differences(PeriodicTracer& tracer, const Eigen::VectorXd& u) {
-  const Eigen::Index p = u.size();
-  Eigen::MatrixXd j(p, p);
-  const double h = 1e-7 * u.cwiseAbs().maxCoeff();
-  ContactTrace plus, minus;
-  std::string error;
-  for (Eigen::Index q = 0; q < p; ++q) {
-    Eigen::VectorXd up = u, um = u;
-    up(q) += h;
-    um(q) -= h;
-    EXPECT_TRUE(tracer.trace(up, JacobianMode::kNone, plus, &error));
-    EXPECT_TRUE(tracer.trace(um, JacobianMode::kNone, minus, &error));
-    j.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
-  }
-  return j;
-}
-
-Eigen::VectorXd random_motion(Eigen::Index size, double scale, unsigned seed) {
-  std::mt19937 gen(seed);
-  std::uniform_real_distribution<double> dist(-scale, scale);
-  Eigen::VectorXd u(size);
-  for (auto& x : u) x = dist(gen);
-  return u;
 }
 
 TEST(Jenkins, AnalyticJacobianEqualsCentralDifferencesConstantNormalLoad) {

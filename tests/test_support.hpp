@@ -11,6 +11,11 @@
 #include <memory>
 #include <string>
 
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "frichb/core/periodic_trace.hpp"
 #include "frichb/core/registry.hpp"
 #include "frichb/core/schema.hpp"
 
@@ -59,5 +64,33 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// Uniformly random coefficients in [-scale, scale] (a random multiharmonic motion).
+inline Eigen::VectorXd random_motion(Eigen::Index size, double scale, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> dist(-scale, scale);
+  Eigen::VectorXd u(size);
+  for (auto& x : u) x = dist(gen);
+  return u;
+}
+
+// Central differences of the traced force coefficients with respect to the displacement
+// coefficients: the independent oracle of the analytic contact Jacobian.
+inline Eigen::MatrixXd central_differences(core::PeriodicTracer& tracer, const Eigen::VectorXd& u) {
+  const Eigen::Index p = u.size();
+  Eigen::MatrixXd j(p, p);
+  const double h = 1e-7 * u.cwiseAbs().maxCoeff();
+  core::ContactTrace plus, minus;
+  std::string error;
+  for (Eigen::Index q = 0; q < p; ++q) {
+    Eigen::VectorXd up = u, um = u;
+    up(q) += h;
+    um(q) -= h;
+    EXPECT_TRUE(tracer.trace(up, core::JacobianMode::kNone, plus, &error)) << error;
+    EXPECT_TRUE(tracer.trace(um, core::JacobianMode::kNone, minus, &error)) << error;
+    j.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
+  }
+  return j;
+}
 
 }  // namespace frichb::test

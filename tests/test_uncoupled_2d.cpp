@@ -16,19 +16,14 @@
 namespace frichb::core {
 namespace {
 
+using test::central_differences;
+using test::random_motion;
+
 using test::expect_step_tangents_match_differences;
 using test::step_law;
 using test::StepResult;
 
 constexpr double kPi = std::numbers::pi;
-
-Eigen::VectorXd random_motion(Eigen::Index size, double scale, unsigned seed) {
-  std::mt19937 gen(seed);
-  std::uniform_real_distribution<double> dist(-scale, scale);
-  Eigen::VectorXd u(size);
-  for (auto& x : u) x = dist(gen);
-  return u;
-}
 
 // Closed integral of T . du over the traced samples (trapezoids), tangential components only.
 double loop_energy(const ContactTrace& t) {
@@ -41,24 +36,6 @@ double loop_energy(const ContactTrace& t) {
           0.5 * (t.force(j, a) + t.force(jn, a)) * (t.displacement(jn, a) - t.displacement(j, a));
   }
   return energy;
-}
-
-// Central differences of the traced force coefficients, the oracle of the analytic Jacobian.
-Eigen::MatrixXd central_differences(PeriodicTracer& tracer, const Eigen::VectorXd& u) {
-  const Eigen::Index p = u.size();
-  Eigen::MatrixXd j(p, p);
-  const double h = 1e-7 * u.cwiseAbs().maxCoeff();
-  ContactTrace plus, minus;
-  std::string error;
-  for (Eigen::Index q = 0; q < p; ++q) {
-    Eigen::VectorXd up = u, um = u;
-    up(q) += h;
-    um(q) -= h;
-    EXPECT_TRUE(tracer.trace(up, JacobianMode::kNone, plus, &error)) << error;
-    EXPECT_TRUE(tracer.trace(um, JacobianMode::kNone, minus, &error)) << error;
-    j.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
-  }
-  return j;
 }
 
 // Under a constant normal load the two directions are two jenkins_1d elements.
