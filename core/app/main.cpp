@@ -43,8 +43,10 @@ Exit codes: 0 ok; 1 bad command line; 2 invalid input (scene, plugin, file);
             4 internal error.
 Plugins are searched in <frichb dir>/../lib/frichb/plugins, the install prefix,
 $FRICHB_PLUGIN_PATH (':'-separated) and the scene's plugin_paths.
+Documentation: docs/getting-started.md and docs/scene-reference.md.
 
-Options)";
+Options:
+)";
 
 std::string scene_reference(const Registry& registry) {
   std::string md =
