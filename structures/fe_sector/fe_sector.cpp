@@ -1,0 +1,642 @@
+// fe_sector: one sector of a tuned bladed disk given by its finite-element mass and stiffness
+// matrices (Matrix Market files exported from an FE code), with cyclic symmetry over `sectors`
+// sectors. The sector's left boundary DOFs are the right boundary DOFs of the previous sector,
+// paired in order: right DOF j of sector s is left DOF j of sector s+1. With FricHB's
+// convention (sector s+1 moves like sector s times e^{-i h phi}, phi = 2 pi / sectors) the
+// left boundary of sector s follows its right boundary as
+//   x_left(s) = x_right(s-1) = e^{+i h phi} x_right(s),
+// so x = T_h q with q the independent DOFs (all but the left ones) and
+//   K_h = T_h^H K T_h,  M_h = T_h^H M T_h  (Hermitian; real for h = 0 and h = sectors/2),
+// which is K0 + e^{-i h phi} K1 + e^{i h phi} K1^T of the ABI on the independent DOFs. The
+// lowest `modes` eigenpairs of (K_h, M_h) come from a dense solve for small sectors, or from
+// Spectra's shift-invert Lanczos on the real symmetric embedding [[Re, -Im], [Im, Re]] of the
+// Hermitian pair followed by a Rayleigh-Ritz step that recovers complex modes. Modes are
+// mass-normalised (Phi^H M_h Phi = I) and expanded to every sector DOF with T_h.
+#include <Spectra/MatOp/SparseSymMatProd.h>
+#include <Spectra/SymGEigsShiftSolver.h>
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <complex>
+#include <cstddef>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "frichb/plugin/sdk.hpp"
+
+namespace {
+
+using frichb::sdk::Param;
+using cd = std::complex<double>;
+using Eigen::Index;
+template <class S>
+using SpMat = Eigen::SparseMatrix<S>;
+template <class S>
+using Mat = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// Independent DOFs up to which `solver: auto` solves densely.
+constexpr Index kDenseLimit = 200;
+
+std::vector<frichb_param_spec> fe_sector_schema() {
+  return {
+      Param::path("mass",
+                  "Matrix Market file of the sector mass matrix (real symmetric, every DOF of "
+                  "the sector including both boundaries); relative to the scene file's folder"),
+      Param::path("stiffness", "Matrix Market file of the sector stiffness matrix, same DOFs"),
+      Param::integer("sectors",
+                     "number of identical sectors nb of the full disk (1: no cyclic "
+                     "symmetry); harmonic indices run from 0 to nb - 1")
+          .at_least(1)
+          .at_most(1.0e6)
+          .defaults_to(1),
+      Param::real_list("left_dofs", "",
+                       "DOF indices (0-based matrix rows) of the left cyclic boundary; left DOF j "
+                       "of sector s+1 is right DOF j of sector s")
+          .at_least(0)
+          .optional(),
+      Param::real_list("right_dofs", "",
+                       "DOF indices (0-based) of the right cyclic boundary, paired in order with "
+                       "left_dofs")
+          .at_least(0)
+          .optional(),
+      Param::integer("modes", "number of lowest modes kept per harmonic index").at_least(1),
+      Param::real_list("modal_damping", "",
+                       "modal damping ratio: one value for every mode, or one per kept mode (the "
+                       "same for every harmonic index; default: undamped)")
+          .at_least(0)
+          .optional(),
+      Param::text("solver",
+                  "eigen-solver: dense, sparse (Spectra shift-invert Lanczos) or auto (dense up "
+                  "to 200 independent DOFs)")
+          .choices("auto|dense|sparse")
+          .defaults_to_text("auto"),
+  };
+}
+
+// ---------------------------------------------------------------------------------------
+// Matrix Market
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+bool blank(const std::string& line) {
+  return std::all_of(line.begin(), line.end(),
+                     [](unsigned char c) { return std::isspace(c) != 0; });
+}
+
+// A real Matrix Market matrix (coordinate or array; real or integer; general or symmetric),
+// with symmetric storage expanded to both triangles and repeated coordinates summed.
+SpMat<double> read_market(const std::string& file, const std::string& what) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  std::ifstream in(file);
+  if (!fs::is_regular_file(fs::path(file), ec) || !in) {
+    std::string where;
+    if (fs::path(file).is_relative()) {
+      const fs::path cwd = fs::current_path(ec);
+      where = " (a relative path is relative to the current working directory" +
+              (ec ? std::string() : ", here '" + cwd.string() + "'") + ")";
+    }
+    throw std::invalid_argument("cannot open the " + what + " matrix file '" + file + "'" + where);
+  }
+  long line_no = 0;
+  auto fail = [&](const std::string& message) {
+    throw std::invalid_argument(what + " matrix " + file + ":" + std::to_string(line_no) + ": " +
+                                message);
+  };
+  std::string line;
+  std::getline(in, line);
+  ++line_no;
+  std::istringstream header(line);
+  std::string banner, object, format, field, symmetry;
+  header >> banner >> object >> format >> field >> symmetry;
+  if (banner != "%%MatrixMarket")
+    fail("not a Matrix Market file (the first line must start with %%MatrixMarket)");
+  object = lower(object);
+  format = lower(format);
+  field = lower(field);
+  symmetry = lower(symmetry);
+  if (object != "matrix") fail("object '" + object + "' is not 'matrix'");
+  if (format != "coordinate" && format != "array")
+    fail("format '" + format + "' is neither 'coordinate' nor 'array'");
+  if (field != "real" && field != "integer" && field != "double")
+    fail("field '" + field + "' is not supported (real or integer only)");
+  if (symmetry != "general" && symmetry != "symmetric")
+    fail("symmetry '" + symmetry + "' is not supported (general or symmetric only)");
+  const bool symmetric = symmetry == "symmetric";
+  const bool coordinate = format == "coordinate";
+
+  auto next_line = [&]() -> bool {
+    while (std::getline(in, line)) {
+      ++line_no;
+      if (!line.empty() && line[0] == '%') continue;
+      if (blank(line)) continue;
+      return true;
+    }
+    return false;
+  };
+  auto parse_index = [&](const char*& p, long long count, const char* name) {
+    char* end = nullptr;
+    errno = 0;
+    const long long v = std::strtoll(p, &end, 10);
+    if (end == p || errno != 0) fail(std::string("expected an integer ") + name);
+    if (v < 1 || v > count)
+      fail(std::string(name) + " " + std::to_string(v) + " is outside [1, " +
+           std::to_string(count) + "]");
+    p = end;
+    return v - 1;
+  };
+  auto parse_value = [&](const char*& p) {
+    char* end = nullptr;
+    const double v = std::strtod(p, &end);
+    if (end == p || !std::isfinite(v)) fail("expected a finite number");
+    p = end;
+    return v;
+  };
+
+  if (!next_line()) fail("the size line is missing");
+  long long rows = 0, cols = 0, entries = 0;
+  {
+    std::istringstream size(line);
+    size >> rows >> cols;
+    if (coordinate) size >> entries;
+    if (!size || rows < 1 || cols < 1 || entries < 0)
+      fail("bad size line '" + line + "' (expected rows, columns" +
+           (coordinate ? std::string(" and entry count") : std::string()) + ")");
+    if (rows > 2147483647LL || cols > 2147483647LL) fail("the matrix is too large");
+  }
+  if (symmetric && rows != cols)
+    fail("a symmetric matrix must be square, not " + std::to_string(rows) + " x " +
+         std::to_string(cols));
+
+  std::vector<Eigen::Triplet<double>> triplets;
+  bool upper = false, lower_part = false;
+  auto add = [&](long long i, long long j, double v) {
+    const auto r = static_cast<Index>(i), c = static_cast<Index>(j);
+    triplets.emplace_back(r, c, v);
+    if (symmetric && i != j) {
+      triplets.emplace_back(c, r, v);
+      (i < j ? upper : lower_part) = true;
+    }
+  };
+  if (coordinate) {
+    triplets.reserve(static_cast<std::size_t>(symmetric ? 2 * entries : entries));
+    for (long long e = 0; e < entries; ++e) {
+      if (!next_line())
+        fail("the file ends after " + std::to_string(e) + " of " + std::to_string(entries) +
+             " entries");
+      const char* p = line.c_str();
+      const long long i = parse_index(p, rows, "row");
+      const long long j = parse_index(p, cols, "column");
+      add(i, j, parse_value(p));
+    }
+    if (upper && lower_part)
+      throw std::invalid_argument(
+          what + " matrix " + file +
+          ": a symmetric Matrix Market file must list one triangle only, this one lists "
+          "entries on both sides of the diagonal");
+  } else {
+    // Column-major; symmetric arrays give the lower triangle, diagonal included.
+    for (long long j = 0; j < cols; ++j)
+      for (long long i = symmetric ? j : 0; i < rows; ++i) {
+        if (!next_line()) fail("the file ends before all array values were read");
+        const char* p = line.c_str();
+        const double v = parse_value(p);
+        if (v != 0.0) add(i, j, v);
+      }
+  }
+  SpMat<double> a(static_cast<Index>(rows), static_cast<Index>(cols));
+  a.setFromTriplets(triplets.begin(), triplets.end());
+  a.makeCompressed();
+  return a;
+}
+
+// Refuses a non-square or unsymmetric matrix; returns the exactly symmetric (A + A^T) / 2.
+SpMat<double> checked_symmetric(const SpMat<double>& a, const std::string& what,
+                                const std::string& file) {
+  if (a.rows() != a.cols())
+    throw std::invalid_argument("the " + what + " matrix '" + file + "' is " +
+                                std::to_string(a.rows()) + " x " + std::to_string(a.cols()) +
+                                ", not square");
+  const SpMat<double> at = a.transpose();
+  const SpMat<double> d = a - at;
+  double largest = 0.0;
+  for (Index k = 0; k < a.outerSize(); ++k)
+    for (SpMat<double>::InnerIterator it(a, k); it; ++it)
+      largest = std::max(largest, std::abs(it.value()));
+  double worst = 0.0;
+  Index wr = 0, wc = 0;
+  for (Index k = 0; k < d.outerSize(); ++k)
+    for (SpMat<double>::InnerIterator it(d, k); it; ++it)
+      if (std::abs(it.value()) > worst) {
+        worst = std::abs(it.value());
+        wr = it.row();
+        wc = it.col();
+      }
+  if (worst > 1e-8 * largest) {
+    std::ostringstream m;
+    m.precision(6);
+    m << "the " << what << " matrix '" << file << "' is not symmetric: entries (" << wr + 1 << ", "
+      << wc + 1 << ") = " << a.coeff(wr, wc) << " and (" << wc + 1 << ", " << wr + 1
+      << ") = " << a.coeff(wc, wr) << " (1-based) differ by more than 1e-8 times its largest "
+      << "entry " << largest;
+    throw std::invalid_argument(m.str());
+  }
+  SpMat<double> s = 0.5 * (a + at);
+  s.makeCompressed();
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------
+// Eigen-solvers
+
+// (A - sigma B)^{-1} x by a sparse LDL^T factorisation (A - sigma B is positive definite for
+// a positive semi-definite A, positive definite B and sigma < 0).
+class ShiftInvertLdlt {
+ public:
+  using Scalar = double;
+  ShiftInvertLdlt(const SpMat<double>& a, const SpMat<double>& b) : a_(a), b_(b) {}
+  Index rows() const { return a_.rows(); }
+  Index cols() const { return a_.cols(); }
+  void set_shift(double sigma) {
+    const SpMat<double> shifted = a_ - sigma * b_;
+    ldlt_.compute(shifted);
+    if (ldlt_.info() != Eigen::Success)
+      throw std::runtime_error("the sparse factorisation of K_h - sigma M_h failed");
+  }
+  void perform_op(const double* x_in, double* y_out) const {
+    Eigen::Map<const Eigen::VectorXd> x(x_in, a_.rows());
+    Eigen::Map<Eigen::VectorXd> y(y_out, a_.rows());
+    y = ldlt_.solve(x);
+  }
+
+ private:
+  const SpMat<double>& a_;
+  const SpMat<double>& b_;
+  Eigen::SimplicialLDLT<SpMat<double>> ldlt_;
+};
+
+// Real symmetric embedding [[Re, -Im], [Im, Re]] of a Hermitian matrix: (a; b) is an
+// eigenvector of the embedded pair iff a + i b is one of the Hermitian pair.
+SpMat<double> embed(const SpMat<cd>& a) {
+  const Index m = a.rows();
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(static_cast<std::size_t>(4 * a.nonZeros()));
+  for (Index k = 0; k < a.outerSize(); ++k)
+    for (SpMat<cd>::InnerIterator it(a, k); it; ++it) {
+      const Index r = it.row(), c = it.col();
+      const double re = it.value().real(), im = it.value().imag();
+      t.emplace_back(r, c, re);
+      t.emplace_back(r + m, c + m, re);
+      if (im != 0.0) {
+        t.emplace_back(r, c + m, -im);
+        t.emplace_back(r + m, c, im);
+      }
+    }
+  SpMat<double> e(2 * m, 2 * m);
+  e.setFromTriplets(t.begin(), t.end());
+  e.makeCompressed();
+  return e;
+}
+
+// The `nev` lowest eigenpairs of the real symmetric pair (a, b) by shift-invert Lanczos.
+Mat<double> spectra_lowest(const SpMat<double>& a, const SpMat<double>& b, Index nev, int h) {
+  // A small negative shift keeps A - sigma B positive definite even with rigid-body modes.
+  double ratio = 0.0;
+  for (Index i = 0; i < a.rows(); ++i)
+    if (b.coeff(i, i) > 0.0) ratio = std::max(ratio, a.coeff(i, i) / b.coeff(i, i));
+  const double sigma = -1e-10 * std::max(ratio, 1e-300);
+  ShiftInvertLdlt op(a, b);
+  Spectra::SparseSymMatProd<double> bop(b);
+  const Index ncv = std::min(a.rows(), std::max(2 * nev + 1, nev + 20));
+  Spectra::SymGEigsShiftSolver<ShiftInvertLdlt, Spectra::SparseSymMatProd<double>,
+                               Spectra::GEigsMode::ShiftInvert>
+      solver(op, bop, nev, ncv, sigma);
+  solver.init();
+  const Index converged =
+      solver.compute(Spectra::SortRule::LargestMagn, 1000, 1e-12, Spectra::SortRule::SmallestAlge);
+  if (solver.info() != Spectra::CompInfo::Successful)
+    throw std::runtime_error(
+        "the sparse eigen-solver (Spectra) did not converge for harmonic "
+        "index " +
+        std::to_string(h) + ": " + std::to_string(converged) + " of " + std::to_string(nev) +
+        " eigenpairs converged");
+  return solver.eigenvectors();
+}
+
+// Lowest k eigenpairs of the Hermitian pair (kh, mh) in the span of v (an invariant subspace
+// spanned by eigenvectors, possibly with complex-dependent columns): an M-orthonormal basis
+// of span(v) followed by a Rayleigh-Ritz step.
+template <class S>
+void rayleigh_ritz(const SpMat<S>& kh, const SpMat<S>& mh, const Mat<S>& v, Index k, int h,
+                   Eigen::VectorXd& lambda, Mat<S>& modes) {
+  Mat<S> g = v.adjoint() * (mh * v);
+  g = (0.5 * (g + g.adjoint())).eval();
+  const Eigen::SelfAdjointEigenSolver<Mat<S>> ge(g);
+  const Eigen::VectorXd& gv = ge.eigenvalues();
+  const double top = gv.maxCoeff();
+  std::vector<Index> keep;
+  for (Index i = 0; i < gv.size(); ++i)
+    if (gv(i) > 1e-9 * top) keep.push_back(i);
+  if (static_cast<Index>(keep.size()) < k)
+    throw std::runtime_error("harmonic index " + std::to_string(h) + ": the sparse solver found " +
+                             std::to_string(keep.size()) + " independent modes of the " +
+                             std::to_string(k) + " requested (use solver: dense)");
+  Mat<S> basis(v.cols(), static_cast<Index>(keep.size()));
+  for (std::size_t c = 0; c < keep.size(); ++c)
+    basis.col(static_cast<Index>(c)) = ge.eigenvectors().col(keep[c]) / std::sqrt(gv(keep[c]));
+  const Mat<S> u = v * basis;
+  Mat<S> hk = u.adjoint() * (kh * u);
+  hk = (0.5 * (hk + hk.adjoint())).eval();
+  const Eigen::SelfAdjointEigenSolver<Mat<S>> he(hk);
+  lambda = he.eigenvalues().head(k);
+  modes = u * he.eigenvectors().leftCols(k);
+}
+
+// ---------------------------------------------------------------------------------------
+
+class FeSector final : public frichb::sdk::StructureProvider {
+ public:
+  explicit FeSector(const frichb::sdk::Params& p)
+      : sectors_(static_cast<int>(p.integer("sectors"))),
+        modes_(static_cast<Index>(p.integer("modes"))),
+        solver_(p.text("solver")),
+        ratios_(p.reals("modal_damping")) {
+    const std::string mass_file = p.text("mass"), stiffness_file = p.text("stiffness");
+    mass_ = checked_symmetric(read_market(mass_file, "mass"), "mass", mass_file);
+    stiffness_ =
+        checked_symmetric(read_market(stiffness_file, "stiffness"), "stiffness", stiffness_file);
+    if (mass_.rows() != stiffness_.rows())
+      throw std::invalid_argument("the mass matrix has " + std::to_string(mass_.rows()) +
+                                  " DOFs but the stiffness matrix " +
+                                  std::to_string(stiffness_.rows()) +
+                                  ": both must cover the same sector DOFs");
+    read_boundary(p.reals("left_dofs"), p.reals("right_dofs"));
+    const Index n = mass_.rows(), m = independent_count();
+    if (modes_ > m)
+      throw std::invalid_argument("modes = " + std::to_string(modes_) + " exceeds the " +
+                                  std::to_string(m) + " independent DOFs of a sector (" +
+                                  std::to_string(n) + " DOFs less " + std::to_string(left_.size()) +
+                                  " on the left boundary)");
+    if (ratios_.size() > 1 && static_cast<Index>(ratios_.size()) != modes_)
+      throw std::invalid_argument(
+          "modal_damping has " + std::to_string(ratios_.size()) +
+          " values; give 1 or one per kept mode (modes = " + std::to_string(modes_) + ")");
+  }
+
+  size_t dof_count() const override { return static_cast<size_t>(mass_.rows()); }
+  size_t sector_count() const override { return static_cast<size_t>(sectors_); }
+
+  frichb_modal_basis modal_basis(int harmonic_index, const size_t* kept, size_t n_kept) override {
+    if (harmonic_index < 0 || harmonic_index >= sectors_)
+      throw std::invalid_argument(
+          "harmonic index " + std::to_string(harmonic_index) + " is outside [0, " +
+          std::to_string(sectors_) +
+          "): the fe_sector model has sectors = " + std::to_string(sectors_));
+    for (size_t i = 0; i < n_kept; ++i)
+      if (kept[i] >= dof_count())
+        throw std::out_of_range("DOF " + std::to_string(kept[i]) +
+                                " does not exist (the sector matrices have " +
+                                std::to_string(dof_count()) + " DOFs)");
+    if (harmonic_index != solved_h_) {
+      solved_h_ = -1;
+      solve(harmonic_index);
+      solved_h_ = harmonic_index;
+    }
+    const cd e = left_phase(harmonic_index);
+    const auto rows = static_cast<Index>(n_kept);
+    rows_real_.resize(rows, modes_);
+    rows_imag_.resize(rows, modes_);
+    for (Index i = 0; i < rows; ++i) {
+      const size_t dof = kept[static_cast<size_t>(i)];
+      const Index q = column_[dof];
+      const cd factor = is_left_[dof] ? e : cd(1.0, 0.0);
+      for (Index r = 0; r < modes_; ++r) {
+        const cd value = factor * modes_q_(q, r);
+        rows_real_(i, r) = value.real();
+        rows_imag_(i, r) = value.imag();
+      }
+    }
+    frichb_modal_basis b{};
+    b.struct_size = sizeof(b);
+    b.n_modes = static_cast<size_t>(modes_);
+    b.natural_frequencies = frequencies_.data();
+    b.modal_damping = damping_.data();
+    b.mode_rows_real = rows_real_.data();
+    b.mode_rows_imag = real_ ? nullptr : rows_imag_.data();
+    b.residual_flexibility = nullptr;  // truncated modal basis, no static correction yet
+    return b;
+  }
+
+ private:
+  Index independent_count() const { return mass_.rows() - static_cast<Index>(left_.size()); }
+
+  static std::vector<Index> dof_list(const std::vector<double>& values, const char* name, Index n) {
+    std::vector<Index> out;
+    out.reserve(values.size());
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const double v = values[i];
+      const std::string at = std::string(name) + "[" + std::to_string(i) + "]";
+      if (v != std::floor(v))
+        throw std::invalid_argument(at + " = " + std::to_string(v) +
+                                    " is not an integer DOF index");
+      if (v >= static_cast<double>(n))
+        throw std::invalid_argument(at + " = DOF " + std::to_string(static_cast<long long>(v)) +
+                                    " is outside [0, " + std::to_string(n) +
+                                    ") (the sector matrices have " + std::to_string(n) +
+                                    " DOFs; indices are 0-based)");
+      out.push_back(static_cast<Index>(v));
+    }
+    return out;
+  }
+
+  void read_boundary(const std::vector<double>& left, const std::vector<double>& right) {
+    const Index n = mass_.rows();
+    if (left.size() != right.size())
+      throw std::invalid_argument("left_dofs has " + std::to_string(left.size()) +
+                                  " entries but right_dofs has " + std::to_string(right.size()) +
+                                  ": they are paired in order and must have the same length");
+    left_ = dof_list(left, "left_dofs", n);
+    right_ = dof_list(right, "right_dofs", n);
+    // 0: interior, 1: left, 2: right.
+    std::vector<int> role(static_cast<std::size_t>(n), 0);
+    for (int side = 1; side <= 2; ++side) {
+      const auto& list = side == 1 ? left_ : right_;
+      const char* name = side == 1 ? "left_dofs" : "right_dofs";
+      for (const Index d : list) {
+        int& r = role[static_cast<std::size_t>(d)];
+        if (r == side)
+          throw std::invalid_argument("DOF " + std::to_string(d) + " appears twice in " + name);
+        if (r != 0)
+          throw std::invalid_argument("DOF " + std::to_string(d) +
+                                      " is in both left_dofs and right_dofs");
+        r = side;
+      }
+    }
+    // Independent DOFs: every DOF but the left ones, in ascending order.
+    column_.assign(static_cast<std::size_t>(n), 0);
+    is_left_.assign(static_cast<std::size_t>(n), false);
+    Index q = 0;
+    for (Index d = 0; d < n; ++d)
+      if (role[static_cast<std::size_t>(d)] != 1) column_[static_cast<std::size_t>(d)] = q++;
+    for (std::size_t j = 0; j < left_.size(); ++j) {
+      const auto d = static_cast<std::size_t>(left_[j]);
+      column_[d] = column_[static_cast<std::size_t>(right_[j])];
+      is_left_[d] = true;
+    }
+  }
+
+  // e^{+i h phi}: x_left = e^{+i h phi} x_right; exactly +-1 where the problem is real.
+  cd left_phase(int h) const {
+    if (h == 0) return {1.0, 0.0};
+    if (2 * h == sectors_) return {-1.0, 0.0};
+    return std::polar(1.0, 2.0 * std::numbers::pi * h / sectors_);
+  }
+
+  template <class S>
+  SpMat<S> constraint(S e) const {
+    const Index n = mass_.rows();
+    std::vector<Eigen::Triplet<S>> t;
+    t.reserve(static_cast<std::size_t>(n));
+    for (Index d = 0; d < n; ++d) {
+      const auto k = static_cast<std::size_t>(d);
+      t.emplace_back(d, column_[k], is_left_[k] ? e : S(1.0));
+    }
+    SpMat<S> tm(n, independent_count());
+    tm.setFromTriplets(t.begin(), t.end());
+    return tm;
+  }
+
+  template <class S>
+  static SpMat<S> project(const SpMat<double>& a, const SpMat<S>& t) {
+    const SpMat<S> at = a.template cast<S>() * t;
+    const SpMat<S> th = t.adjoint();
+    SpMat<S> p = th * at;
+    const SpMat<S> ph = p.adjoint();
+    SpMat<S> hermitian = 0.5 * (p + ph);
+    hermitian.makeCompressed();
+    return hermitian;
+  }
+
+  bool use_dense(Index size, Index nev) const {
+    if (solver_ == "dense") return true;
+    const bool feasible = nev + 1 < size;
+    if (solver_ == "sparse") {
+      if (!feasible)
+        throw std::invalid_argument("solver: sparse cannot compute " + std::to_string(modes_) +
+                                    " modes of a sector with " +
+                                    std::to_string(independent_count()) +
+                                    " independent DOFs; use solver: dense or fewer modes");
+      return false;
+    }
+    return independent_count() <= kDenseLimit || !feasible;
+  }
+
+  template <class S>
+  void solve_as(int h, S e, Eigen::VectorXd& lambda, Mat<S>& modes) const {
+    const SpMat<S> t = constraint<S>(e);
+    const SpMat<S> kh = project<S>(stiffness_, t), mh = project<S>(mass_, t);
+    constexpr bool complex = std::is_same_v<S, cd>;
+    const Index m = kh.rows();
+    const Index nev = complex ? std::min(2 * modes_ + 2, 2 * m) : modes_;
+    if (use_dense(complex ? 2 * m : m, nev)) {
+      const Mat<S> kd(kh), md(mh);
+      const Eigen::GeneralizedSelfAdjointEigenSolver<Mat<S>> eig(kd, md);
+      if (eig.info() != Eigen::Success)
+        throw std::runtime_error("harmonic index " + std::to_string(h) +
+                                 ": the dense eigen-solve failed (is the mass matrix positive "
+                                 "definite on the independent DOFs?)");
+      lambda = eig.eigenvalues().head(modes_);
+      modes = eig.eigenvectors().leftCols(modes_);
+      return;
+    }
+    if constexpr (complex) {
+      const SpMat<double> ke = embed(kh), me = embed(mh);
+      const Mat<double> w = spectra_lowest(ke, me, nev, h);
+      Mat<cd> v(m, w.cols());
+      v.real() = w.topRows(m);
+      v.imag() = w.bottomRows(m);
+      rayleigh_ritz<cd>(kh, mh, v, modes_, h, lambda, modes);
+    } else {
+      const Mat<double> w = spectra_lowest(kh, mh, nev, h);
+      rayleigh_ritz<double>(kh, mh, w, modes_, h, lambda, modes);
+    }
+  }
+
+  void solve(int h) {
+    const cd e = left_phase(h);
+    real_ = e.imag() == 0.0;
+    Eigen::VectorXd lambda;
+    if (real_) {
+      Mat<double> modes;
+      solve_as<double>(h, e.real(), lambda, modes);
+      modes_q_ = modes.cast<cd>();
+    } else {
+      solve_as<cd>(h, e, lambda, modes_q_);
+    }
+    // Deterministic phase: each mode's largest component is real and positive.
+    for (Index r = 0; r < modes_q_.cols(); ++r) {
+      Index top = 0;
+      modes_q_.col(r).cwiseAbs().maxCoeff(&top);
+      const cd pivot = modes_q_(top, r);
+      if (std::abs(pivot) > 0.0) modes_q_.col(r) *= std::conj(pivot) / std::abs(pivot);
+      if (real_) modes_q_.col(r) = modes_q_.col(r).real().cast<cd>();
+    }
+    // Eigenvalues: a small negative one is round-off of a rigid-body mode.
+    double scale = 0.0;
+    for (Index i = 0; i < stiffness_.rows(); ++i)
+      if (mass_.coeff(i, i) > 0.0)
+        scale = std::max(scale, stiffness_.coeff(i, i) / mass_.coeff(i, i));
+    frequencies_.resize(modes_);
+    for (Index r = 0; r < modes_; ++r) {
+      if (lambda(r) < -1e-8 * scale)
+        throw std::runtime_error("negative eigenvalue " + std::to_string(lambda(r)) +
+                                 " at harmonic index " + std::to_string(h) +
+                                 ": the stiffness matrix is not positive semi-definite");
+      frequencies_(r) = std::sqrt(std::max(0.0, lambda(r)));
+    }
+    damping_ = RowMajor::Zero(modes_, modes_);
+    if (!ratios_.empty())
+      for (Index r = 0; r < modes_; ++r)
+        damping_(r, r) =
+            2.0 * ratios_[ratios_.size() == 1 ? 0 : static_cast<std::size_t>(r)] * frequencies_(r);
+  }
+
+  int sectors_;
+  Index modes_;
+  std::string solver_;
+  std::vector<double> ratios_;
+  SpMat<double> mass_, stiffness_;
+  std::vector<Index> left_, right_;
+  std::vector<Index> column_;  // per sector DOF: its independent DOF (a left DOF: its partner's)
+  std::vector<bool> is_left_;
+
+  // The most recent harmonic index's solution (independent DOFs x modes).
+  int solved_h_ = -1;
+  bool real_ = true;
+  Mat<cd> modes_q_;
+  Eigen::VectorXd frequencies_;
+  RowMajor damping_, rows_real_, rows_imag_;
+};
+
+}  // namespace
+
+FRICHB_STRUCTURE_PLUGIN(FeSector, fe_sector, "1.0.0",
+                        "one sector of a bladed disk from FE mass and stiffness matrices (Matrix "
+                        "Market) with cyclic boundary DOFs; lowest modes per harmonic index",
+                        fe_sector_schema)

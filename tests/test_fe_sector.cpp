@@ -1,0 +1,539 @@
+// fe_sector structure provider through the real loader. The test builds a small FE-like
+// sector itself (a 2D spring lattice "disk ring segment" with consistent bar masses, grounded
+// at the hub row, and a blade chain), writes its M and K as Matrix Market files, and assembles
+// the FULL disk (boundary DOFs merged) for the oracles:
+//  (1) the union over harmonic indices of the sector's modes is the full disk's spectrum, and
+//      each harmonic index's lowest modes are in it;
+//  (2) a sector mode expanded as x_s = phi e^{-i h s phi} is a mode of the full disk, and its
+//      left boundary equals the previous sector's right boundary (the lumped_cyclic
+//      convention), while the opposite phase is not;
+//  (3) Phi^H M_h Phi = I and Phi^H K_h Phi = W^2, K_h = K0 + e^{-i h phi} K1 + e^{i h phi} K1^T
+//      with K0, K1 the full disk's blocks; R_h(W) D_h(W) = I with all modes kept;
+//  (4) the Spectra (sparse) path agrees with the dense path on a 400-DOF sector;
+//  (5) bad files, matrices, boundary lists, mode counts and indices are refused by message.
+// Needs frichb_fe_sector built in FRICHB_PLUGIN_DIR.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <complex>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <numbers>
+#include <numeric>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "frichb/core/reduced_structure.hpp"
+#include "frichb/core/registry.hpp"
+#include "frichb/core/schema.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+using frichb::core::PluginError;
+using frichb::core::ReducedStructure;
+using frichb::core::StructureInstance;
+using ::testing::HasSubstr;
+using cd = std::complex<double>;
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// A 2D lattice of scalar DOFs: `rows` radial rows x (cols + 1) columns; column 0 is the left
+// cyclic boundary (owned by the previous sector: no mass, no vertical springs of its own),
+// column `cols` the right one. Springs: horizontal, vertical and one diagonal direction (so
+// the sector has no mirror symmetry and h differs from nb - h), hub row grounded, a blade
+// chain on the top row. Horizontal bars carry consistent masses (off-diagonal M entries).
+struct Sector {
+  int n = 0;
+  Eigen::MatrixXd k, m;
+  std::vector<int> left, right;
+  std::vector<int> independent;  // local DOF -> index among the non-left DOFs, -1 for left
+  int m_count = 0;
+
+  Sector(int rows, int cols, int blade, bool grounded, unsigned seed) {
+    auto node = [cols](int r, int c) { return r * (cols + 1) + c; };
+    n = rows * (cols + 1) + blade;
+    k = Eigen::MatrixXd::Zero(n, n);
+    m = Eigen::MatrixXd::Zero(n, n);
+    std::mt19937 gen(seed);
+    std::uniform_real_distribution<double> u(0.5, 1.5);
+    auto spring = [&](int a, int b, double value) {
+      k(a, a) += value;
+      if (b >= 0) {
+        k(b, b) += value;
+        k(a, b) -= value;
+        k(b, a) -= value;
+      }
+    };
+    auto bar_mass = [&](int a, int b, double value) {
+      m(a, a) += value / 3.0;
+      m(b, b) += value / 3.0;
+      m(a, b) += value / 6.0;
+      m(b, a) += value / 6.0;
+    };
+    for (int r = 0; r < rows; ++r)
+      for (int c = 0; c <= cols; ++c) {
+        const int a = node(r, c);
+        if (c > 0) m(a, a) += 0.01 * u(gen);
+        if (c < cols) {
+          spring(a, node(r, c + 1), 1.0e6 * u(gen));
+          bar_mass(a, node(r, c + 1), 0.004 * u(gen));
+        }
+        if (r + 1 < rows && c > 0) spring(a, node(r + 1, c), 8.0e5 * u(gen));
+        if (r + 1 < rows && c < cols) spring(a, node(r + 1, c + 1), 3.0e5 * u(gen));
+        if (r == 0 && c > 0 && grounded) spring(a, -1, 2.0e6 * u(gen));
+      }
+    for (int b = 0; b < blade; ++b) {
+      const int a = rows * (cols + 1) + b;
+      m(a, a) += 0.005 * u(gen);
+      spring(a, b == 0 ? node(rows - 1, cols / 2) : a - 1, 4.0e5 * u(gen));
+    }
+    for (int r = 0; r < rows; ++r) {
+      left.push_back(node(r, 0));
+      right.push_back(node(r, cols));
+    }
+    independent.assign(static_cast<std::size_t>(n), -1);
+    for (int d = 0; d < n; ++d)
+      if (std::find(left.begin(), left.end(), d) == left.end())
+        independent[static_cast<std::size_t>(d)] = m_count++;
+  }
+
+  // Global DOF of local DOF d of sector s in a disk of nb sectors (nb * m_count DOFs).
+  int global(int s, int d, int nb) const {
+    const auto it = std::find(left.begin(), left.end(), d);
+    if (it == left.end()) return s * m_count + independent[static_cast<std::size_t>(d)];
+    const int partner = right[static_cast<std::size_t>(it - left.begin())];
+    return ((s - 1 + nb) % nb) * m_count + independent[static_cast<std::size_t>(partner)];
+  }
+
+  void assemble(int nb, Eigen::MatrixXd& kf, Eigen::MatrixXd& mf) const {
+    kf = Eigen::MatrixXd::Zero(nb * m_count, nb * m_count);
+    mf = kf;
+    for (int s = 0; s < nb; ++s)
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b) {
+          kf(global(s, a, nb), global(s, b, nb)) += k(a, b);
+          mf(global(s, a, nb), global(s, b, nb)) += m(a, b);
+        }
+  }
+
+  // The ABI's harmonic matrices on the independent DOFs from the full disk's blocks:
+  // A0 = block(s, s), A1 = block(s, s+1) (three sectors make them distinct).
+  void harmonic(int h, int nb, Eigen::MatrixXcd& kh, Eigen::MatrixXcd& mh) const {
+    Eigen::MatrixXd kf, mf;
+    assemble(3, kf, mf);
+    const cd e = std::polar(1.0, -2.0 * std::numbers::pi * h / nb);
+    auto form = [&](const Eigen::MatrixXd& f) -> Eigen::MatrixXcd {
+      const Eigen::MatrixXd a0 = f.block(0, 0, m_count, m_count);
+      const Eigen::MatrixXd a1 = f.block(0, m_count, m_count, m_count);
+      return a0.cast<cd>() + e * a1.cast<cd>() + std::conj(e) * a1.transpose().cast<cd>();
+    };
+    kh = form(kf);
+    mh = form(mf);
+  }
+
+  std::vector<std::size_t> independent_dofs() const {
+    std::vector<std::size_t> out;
+    for (int d = 0; d < n; ++d)
+      if (independent[static_cast<std::size_t>(d)] >= 0) out.push_back(static_cast<std::size_t>(d));
+    return out;
+  }
+  std::vector<std::size_t> all_dofs() const {
+    std::vector<std::size_t> out(static_cast<std::size_t>(n));
+    std::iota(out.begin(), out.end(), std::size_t{0});
+    return out;
+  }
+};
+
+// Matrix Market text: K as symmetric (lower triangle), M as general, as exporters do.
+std::string market(const Eigen::MatrixXd& a, bool symmetric) {
+  std::ostringstream out;
+  out.precision(17);
+  std::vector<std::string> lines;
+  for (Eigen::Index c = 0; c < a.cols(); ++c)
+    for (Eigen::Index r = symmetric ? c : 0; r < a.rows(); ++r)
+      if (a(r, c) != 0.0) {
+        std::ostringstream l;
+        l.precision(17);
+        l << r + 1 << " " << c + 1 << " " << a(r, c) << "\n";
+        lines.push_back(l.str());
+      }
+  out << "%%MatrixMarket matrix coordinate real " << (symmetric ? "symmetric" : "general")
+      << "\n% written by test_fe_sector\n"
+      << a.rows() << " " << a.cols() << " " << lines.size() << "\n";
+  for (const auto& l : lines) out << l;
+  return out.str();
+}
+
+template <class T>
+std::string list(const std::vector<T>& v) {
+  std::ostringstream out;
+  out << "[";
+  for (std::size_t i = 0; i < v.size(); ++i) out << (i ? ", " : "") << v[i];
+  out << "]";
+  return out.str();
+}
+
+struct Provider {
+  frichb::core::ParamValues values;
+  std::unique_ptr<StructureInstance> instance;
+};
+
+Provider make_provider(const std::string& params_yaml) {
+  auto plugin = frichb::test::built_plugins().load("fe_sector", FRICHB_KIND_STRUCTURE);
+  Provider p;
+  p.values = frichb::core::validate_params(YAML::Load(params_yaml), plugin->schema(), "params",
+                                           frichb::core::YamlContext{"<test>"});
+  p.instance = std::make_unique<StructureInstance>(plugin, p.values);
+  return p;
+}
+
+// A sector written to a temporary folder, and the params of a provider reading it.
+struct Files {
+  frichb::test::TempDir dir;
+  std::string mass, stiffness;
+  explicit Files(const Sector& s) {
+    mass = dir.write("sector_m.mtx", market(s.m, false)).string();
+    stiffness = dir.write("sector_k.mtx", market(s.k, true)).string();
+  }
+  std::string params(const Sector& s, int sectors, int modes, const std::string& extra = "") const {
+    return "{mass: '" + mass + "', stiffness: '" + stiffness +
+           "', sectors: " + std::to_string(sectors) + ", left_dofs: " + list(s.left) +
+           ", right_dofs: " + list(s.right) + ", modes: " + std::to_string(modes) + extra + "}";
+  }
+};
+
+Eigen::MatrixXcd mode_rows(const frichb_modal_basis& b, std::size_t n_kept) {
+  const auto rows = static_cast<Eigen::Index>(n_kept), cols = static_cast<Eigen::Index>(b.n_modes);
+  Eigen::MatrixXcd phi = Eigen::Map<const RowMajor>(b.mode_rows_real, rows, cols).cast<cd>();
+  if (b.mode_rows_imag) phi.imag() = Eigen::Map<const RowMajor>(b.mode_rows_imag, rows, cols);
+  return phi;
+}
+
+Eigen::VectorXd full_frequencies(const Sector& s, int nb) {
+  Eigen::MatrixXd kf, mf;
+  s.assemble(nb, kf, mf);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> full(kf, mf);
+  EXPECT_EQ(full.info(), Eigen::Success);
+  return full.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+}
+
+// ---------------------------------------------------------------------------------------
+
+TEST(FeSector, ReportsSectorsAndDofs) {
+  const Sector s(3, 4, 4, true, 1);
+  const Files f(s);
+  auto p = make_provider(f.params(s, 7, 3));
+  EXPECT_EQ(p.instance->sector_count(), 7U);
+  EXPECT_EQ(p.instance->dof_count(), static_cast<std::size_t>(s.n));
+}
+
+// (1) All modes kept: the union over h is the whole full-disk spectrum.
+TEST(FeSector, UnionOfHarmonicSpectraIsTheFullDiskSpectrum) {
+  const Sector s(3, 4, 4, true, 2);  // 19 DOFs, 16 independent
+  const Files f(s);
+  for (int nb : {1, 2, 5, 6}) {
+    auto p = make_provider(f.params(s, nb, s.m_count));
+    std::vector<double> union_w;
+    for (int h = 0; h < nb; ++h) {
+      const frichb_modal_basis b = p.instance->modal_basis(h, s.all_dofs());
+      ASSERT_EQ(b.n_modes, static_cast<std::size_t>(s.m_count));
+      union_w.insert(union_w.end(), b.natural_frequencies, b.natural_frequencies + b.n_modes);
+    }
+    std::sort(union_w.begin(), union_w.end());
+    const Eigen::VectorXd full = full_frequencies(s, nb);
+    ASSERT_EQ(static_cast<Eigen::Index>(union_w.size()), full.size());
+    double worst = 0.0;
+    for (Eigen::Index r = 0; r < full.size(); ++r) {
+      const double err = std::abs(union_w[static_cast<std::size_t>(r)] - full(r)) / full(r);
+      worst = std::max(worst, err);
+      EXPECT_LT(err, 1e-9) << "nb = " << nb << ", mode " << r;
+    }
+    std::printf("[ measured ] nb = %d: %zu frequencies %.6g..%.6g rad/s, worst relative %.2e\n", nb,
+                union_w.size(), union_w.front(), union_w.back(), worst);
+  }
+}
+
+// (1b) A few modes per h: each is a full-disk frequency, the lowest of all is among them.
+TEST(FeSector, LowestModesOfEachHarmonicIndexAreFullDiskModes) {
+  const Sector s(4, 5, 5, true, 3);
+  const Files f(s);
+  const int nb = 7;
+  auto p = make_provider(f.params(s, nb, 3));
+  const Eigen::VectorXd full = full_frequencies(s, nb);
+  double worst = 0.0, lowest = 1e300;
+  for (int h = 0; h < nb; ++h) {
+    const frichb_modal_basis b = p.instance->modal_basis(h, s.all_dofs());
+    ASSERT_EQ(b.n_modes, 3U);
+    for (std::size_t r = 0; r < 3; ++r) {
+      const double w = b.natural_frequencies[r];
+      lowest = std::min(lowest, w);
+      const double err = (full.array() - w).abs().minCoeff() / w;
+      worst = std::max(worst, err);
+      EXPECT_LT(err, 1e-9) << "h = " << h << ", mode " << r;
+    }
+  }
+  EXPECT_NEAR(lowest, full(0), 1e-9 * full(0));
+  std::printf("[ measured ] 3 modes x %d harmonic indices in the full spectrum: worst %.2e\n", nb,
+              worst);
+}
+
+// (2) Convention: x_s = phi e^{-i h s phi} is a full-disk mode whose left boundary is the
+// previous sector's right boundary; the opposite phase e^{+i h s phi} is not a mode.
+TEST(FeSector, SectorModesAreFullDiskModesWithTheCyclicConvention) {
+  const Sector s(3, 4, 4, true, 4);
+  const Files f(s);
+  const int nb = 7;
+  auto p = make_provider(f.params(s, nb, 4));
+  Eigen::MatrixXd kf, mf;
+  s.assemble(nb, kf, mf);
+  const double phi = 2.0 * std::numbers::pi / nb;
+  double worst_residual = 0.0, worst_seam = 0.0, least_wrong = 1e300;
+  for (int h = 0; h < nb; ++h) {
+    const frichb_modal_basis b = p.instance->modal_basis(h, s.all_dofs());
+    const Eigen::MatrixXcd modes = mode_rows(b, s.all_dofs().size());
+    EXPECT_EQ(b.mode_rows_imag == nullptr, h == 0) << "h = " << h;
+    for (std::size_t r = 0; r < b.n_modes; ++r) {
+      const double lambda = b.natural_frequencies[r] * b.natural_frequencies[r];
+      for (double sign : {1.0, -1.0}) {
+        Eigen::VectorXcd x = Eigen::VectorXcd::Zero(kf.rows());
+        std::vector<bool> set(static_cast<std::size_t>(kf.rows()), false);
+        double seam = 0.0;
+        for (int sec = 0; sec < nb; ++sec)
+          for (int d = 0; d < s.n; ++d) {
+            const int g = s.global(sec, d, nb);
+            const cd value =
+                modes(d, static_cast<Eigen::Index>(r)) * std::polar(1.0, -sign * h * sec * phi);
+            if (set[static_cast<std::size_t>(g)]) seam = std::max(seam, std::abs(x(g) - value));
+            x(g) = value;
+            set[static_cast<std::size_t>(g)] = true;
+          }
+        const Eigen::VectorXcd kx = kf.cast<cd>() * x;
+        const double residual = (kx - lambda * (mf.cast<cd>() * x)).norm() / kx.norm();
+        if (sign > 0) {
+          worst_residual = std::max(worst_residual, residual);
+          worst_seam = std::max(worst_seam, seam / modes.col(static_cast<Eigen::Index>(r)).norm());
+          EXPECT_LT(residual, 1e-9) << "h = " << h << ", mode " << r;
+        } else if (2 * h % nb != 0) {
+          least_wrong = std::min(least_wrong, std::max(residual, seam));
+        }
+      }
+    }
+  }
+  EXPECT_LT(worst_seam, 1e-12);
+  EXPECT_GT(least_wrong, 1e-3) << "the opposite phase convention must fail";
+  std::printf(
+      "[ measured ] full-disk residual of expanded modes %.2e, seam mismatch %.2e; the "
+      "opposite phase misses by >= %.2e\n",
+      worst_residual, worst_seam, least_wrong);
+}
+
+// (3) Mass normalisation against the ABI's M_h and K_h, modal damping, and with all modes
+// kept the receptance inverts D_h(W) = K_h - W^2 M_h (undamped, off resonance).
+TEST(FeSector, MassNormalisedModesAndReceptanceInvertTheHarmonicDynamicStiffness) {
+  const Sector s(3, 4, 4, true, 5);
+  const Files f(s);
+  const int nb = 6;
+  const auto kept = s.independent_dofs();
+  const auto nk = static_cast<Eigen::Index>(kept.size());
+  {
+    auto p = make_provider(f.params(s, nb, 5, ", modal_damping: [0.02]"));
+    double worst = 0.0;
+    for (int h = 0; h < nb; ++h) {
+      Eigen::MatrixXcd kh, mh;
+      s.harmonic(h, nb, kh, mh);
+      const frichb_modal_basis b = p.instance->modal_basis(h, kept);
+      const Eigen::MatrixXcd modes = mode_rows(b, kept.size());
+      EXPECT_EQ(b.mode_rows_imag == nullptr, h == 0 || h == 3) << "h = " << h;
+      const Eigen::Map<const Eigen::VectorXd> w(b.natural_frequencies, 5);
+      const Eigen::Map<const RowMajor> c(b.modal_damping, 5, 5);
+      EXPECT_TRUE(std::is_sorted(w.data(), w.data() + 5));
+      const Eigen::MatrixXcd ortho = modes.adjoint() * mh * modes;
+      const Eigen::MatrixXcd stiff = modes.adjoint() * kh * modes;
+      const Eigen::MatrixXcd w2 =
+          w.array().square().matrix().asDiagonal().toDenseMatrix().cast<cd>();
+      worst = std::max(worst, (ortho - Eigen::MatrixXcd::Identity(5, 5)).norm());
+      worst = std::max(worst, (stiff - w2).norm() / w2.norm());
+      for (int r = 0; r < 5; ++r)
+        for (int q = 0; q < 5; ++q)
+          EXPECT_NEAR(c(r, q), r == q ? 2.0 * 0.02 * w(r) : 0.0, 1e-12 * w(r));
+    }
+    EXPECT_LT(worst, 1e-10);
+    std::printf("[ measured ] 5 modes: |Phi^H M_h Phi - I|, |Phi^H K_h Phi - W^2|/|W^2| <= %.2e\n",
+                worst);
+  }
+  auto p = make_provider(f.params(s, nb, s.m_count));
+  std::vector<int> all_h(static_cast<std::size_t>(nb));
+  std::iota(all_h.begin(), all_h.end(), 0);
+  const ReducedStructure rs(*p.instance, kept, all_h);
+  double worst = 0.0;
+  for (int h = 0; h < nb; ++h) {
+    Eigen::MatrixXcd kh, mh;
+    s.harmonic(h, nb, kh, mh);
+    const Eigen::VectorXd& w = rs.natural_frequencies(h);
+    std::vector<double> probes{0.5 * w(0), 1.7 * w(w.size() - 1)};
+    for (Eigen::Index r = 0; r + 1 < w.size(); r += 3) probes.push_back(0.5 * (w(r) + w(r + 1)));
+    for (double omega : probes) {
+      Eigen::MatrixXcd r;
+      rs.receptance(h, omega, r);
+      const Eigen::MatrixXcd d = kh - omega * omega * mh;
+      const double err = (r * d - Eigen::MatrixXcd::Identity(nk, nk)).norm();
+      worst = std::max(worst, err);
+      EXPECT_LT(err, 1e-8) << "h = " << h << ", W = " << omega;
+    }
+  }
+  std::printf("[ measured ] all modes kept: |R_h D_h - I| worst %.2e\n", worst);
+}
+
+// (4) Spectra's shift-invert path against the dense path on a 400-independent-DOF sector,
+// complex (h = 1, 5) and real (h = 0, 6) harmonic indices, grounded and free (rigid mode).
+TEST(FeSector, SparsePathAgreesWithDensePath) {
+  const Sector s(12, 30, 40, true, 6);  // 412 DOFs, 400 independent
+  ASSERT_EQ(s.m_count, 400);
+  const Files f(s);
+  const int nb = 12, modes = 10;
+  auto dense = make_provider(f.params(s, nb, modes, ", solver: dense"));
+  auto sparse = make_provider(f.params(s, nb, modes, ", solver: sparse"));
+  auto automatic = make_provider(f.params(s, nb, modes));
+  const auto kept = s.independent_dofs();
+  double worst_w = 0.0, worst_shape = 0.0, sparse_s = 0.0, dense_s = 0.0;
+  for (int h : {0, 1, 5, 6}) {
+    Eigen::MatrixXcd kh, mh;
+    s.harmonic(h, nb, kh, mh);
+    using clock = std::chrono::steady_clock;
+    const auto t0 = clock::now();
+    const frichb_modal_basis bd = dense.instance->modal_basis(h, kept);
+    const Eigen::VectorXd wd = Eigen::Map<const Eigen::VectorXd>(bd.natural_frequencies, modes);
+    const Eigen::MatrixXcd pd = mode_rows(bd, kept.size());
+    const auto t1 = clock::now();
+    const frichb_modal_basis bs = sparse.instance->modal_basis(h, kept);
+    const auto t2 = clock::now();
+    dense_s += std::chrono::duration<double>(t1 - t0).count();
+    sparse_s += std::chrono::duration<double>(t2 - t1).count();
+    const Eigen::VectorXd ws = Eigen::Map<const Eigen::VectorXd>(bs.natural_frequencies, modes);
+    const Eigen::MatrixXcd ps = mode_rows(bs, kept.size());
+    EXPECT_EQ(bs.mode_rows_imag == nullptr, h == 0 || h == 6);
+    const frichb_modal_basis ba = automatic.instance->modal_basis(h, kept);
+    for (int r = 0; r < modes; ++r) {
+      const double err = std::abs(ws(r) - wd(r)) / wd(r);
+      worst_w = std::max(worst_w, err);
+      EXPECT_LT(err, 1e-8) << "h = " << h << ", mode " << r;
+      EXPECT_NEAR(ba.natural_frequencies[r], ws(r), 1e-8 * ws(r));
+      // Same mode up to a unit complex factor (the lowest modes here are well separated).
+      const double overlap = std::abs(cd(pd.col(r).dot(mh * ps.col(r))));
+      worst_shape = std::max(worst_shape, std::abs(overlap - 1.0));
+      EXPECT_NEAR(overlap, 1.0, 1e-8) << "h = " << h << ", mode " << r;
+    }
+    const Eigen::MatrixXcd ortho = ps.adjoint() * mh * ps;
+    EXPECT_LT((ortho - Eigen::MatrixXcd::Identity(modes, modes)).norm(), 1e-10) << "h = " << h;
+  }
+  std::printf(
+      "[ measured ] 400 independent DOFs, %d modes, h = 0, 1, 5, 6: frequencies %.2e, "
+      "shapes %.2e; sparse %.3f s, dense %.3f s in all\n",
+      modes, worst_w, worst_shape, sparse_s, dense_s);
+
+  // Free disk (no hub springs): h = 0 has a rigid-body mode at zero frequency.
+  const Sector free_sector(12, 30, 40, false, 7);
+  const Files ff(free_sector);
+  auto fd = make_provider(ff.params(free_sector, nb, 6, ", solver: dense"));
+  auto fs = make_provider(ff.params(free_sector, nb, 6, ", solver: sparse"));
+  const frichb_modal_basis bd = fd.instance->modal_basis(0, kept);
+  const std::vector<double> wd(bd.natural_frequencies, bd.natural_frequencies + 6);
+  const frichb_modal_basis bs = fs.instance->modal_basis(0, kept);
+  EXPECT_LT(bs.natural_frequencies[0], 1e-6 * wd[1]);
+  for (int r = 1; r < 6; ++r)
+    EXPECT_NEAR(bs.natural_frequencies[r], wd[static_cast<std::size_t>(r)], 1e-8 * wd[1]);
+}
+
+// (5) Bad input.
+std::string message_of(const std::string& yaml) {
+  try {
+    make_provider(yaml);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+TEST(FeSector, RefusesBadFilesAndMatrices) {
+  const Sector s(2, 3, 2, true, 8);
+  const Files f(s);
+  const std::string ok_k = f.stiffness, ok_m = f.mass;
+  auto with = [&](const std::string& mass, const std::string& stiffness, const std::string& rest) {
+    return "{mass: '" + mass + "', stiffness: '" + stiffness + "', " + rest + "}";
+  };
+  const std::string plain = "sectors: 1, modes: 2";
+  EXPECT_THAT(message_of(with(ok_m, (f.dir.path() / "missing.mtx").string(), plain)),
+              HasSubstr("cannot open the stiffness matrix file"));
+  const auto rect = f.dir.write("rect.mtx",
+                                "%%MatrixMarket matrix coordinate real general\n"
+                                "3 4 2\n1 1 1.0\n3 4 2.0\n");
+  EXPECT_THAT(message_of(with(rect.string(), ok_k, plain)), HasSubstr("is 3 x 4, not square"));
+  Eigen::MatrixXd bad = s.k;
+  bad(0, 1) += 1.0e3;
+  const auto unsym = f.dir.write("unsym.mtx", market(bad, false));
+  EXPECT_THAT(message_of(with(ok_m, unsym.string(), plain)),
+              HasSubstr("the stiffness matrix '" + unsym.string() + "' is not symmetric: entries"));
+  const auto garbage = f.dir.write("garbage.mtx", "1 2 3\n");
+  EXPECT_THAT(message_of(with(garbage.string(), ok_k, plain)),
+              HasSubstr("not a Matrix Market file"));
+  const auto complex_file = f.dir.write(
+      "complex.mtx", "%%MatrixMarket matrix coordinate complex general\n1 1 1\n1 1 1 0\n");
+  EXPECT_THAT(message_of(with(complex_file.string(), ok_k, plain)), HasSubstr("field 'complex'"));
+  const auto short_file =
+      f.dir.write("short.mtx", "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 1\n");
+  EXPECT_THAT(message_of(with(short_file.string(), ok_k, plain)),
+              HasSubstr("ends after 1 of 3 entries"));
+  const auto out_of_range =
+      f.dir.write("range.mtx", "%%MatrixMarket matrix coordinate real general\n2 2 1\n3 1 1\n");
+  EXPECT_THAT(message_of(with(out_of_range.string(), ok_k, plain)),
+              HasSubstr("row 3 is outside [1, 2]"));
+  const auto small = f.dir.write("small.mtx", market(Eigen::MatrixXd::Identity(3, 3), true));
+  EXPECT_THAT(
+      message_of(with(small.string(), ok_k, plain)),
+      HasSubstr("the mass matrix has 3 DOFs but the stiffness matrix " + std::to_string(s.n)));
+}
+
+TEST(FeSector, RefusesBadBoundaryListsAndCounts) {
+  const Sector s(2, 3, 2, true, 9);  // 10 DOFs, left {0, 4}, right {3, 7}
+  const Files f(s);
+  const std::string files = "{mass: '" + f.mass + "', stiffness: '" + f.stiffness + "', ";
+  EXPECT_THAT(message_of(files + "sectors: 4, left_dofs: [0, 4], right_dofs: [3], modes: 2}"),
+              HasSubstr("left_dofs has 2 entries but right_dofs has 1"));
+  EXPECT_THAT(message_of(files + "sectors: 4, left_dofs: [0, 10], right_dofs: [3, 7], modes: 2}"),
+              HasSubstr("left_dofs[1] = DOF 10 is outside [0, 10)"));
+  EXPECT_THAT(message_of(files + "sectors: 4, left_dofs: [0, 4.5], right_dofs: [3, 7], modes: 2}"),
+              HasSubstr("left_dofs[1] = 4.5"));
+  EXPECT_THAT(message_of(files + "sectors: 4, left_dofs: [0, 3], right_dofs: [3, 7], modes: 2}"),
+              HasSubstr("DOF 3 is in both left_dofs and right_dofs"));
+  EXPECT_THAT(message_of(files + "sectors: 4, left_dofs: [0, 0], right_dofs: [3, 7], modes: 2}"),
+              HasSubstr("DOF 0 appears twice in left_dofs"));
+  EXPECT_THAT(message_of(files + "sectors: 4, left_dofs: [0, 4], right_dofs: [3, 7], modes: 9}"),
+              HasSubstr("modes = 9 exceeds the 8 independent DOFs"));
+  EXPECT_THAT(message_of(files + "sectors: 4, left_dofs: [0, 4], right_dofs: [3, 7], modes: 3, "
+                                 "modal_damping: [0.1, 0.2]}"),
+              HasSubstr("modal_damping has 2 values; give 1 or one per kept mode (modes = 3)"));
+  auto p = make_provider(f.params(s, 4, 2));
+  const std::vector<std::size_t> bad_kept{0, 10};
+  try {
+    p.instance->modal_basis(1, bad_kept);
+    FAIL() << "DOF 10 accepted";
+  } catch (const PluginError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("DOF 10 does not exist (the sector matrices have 10 DOFs)"));
+  }
+  try {
+    p.instance->modal_basis(4, s.all_dofs());
+    FAIL() << "h = 4 accepted";
+  } catch (const PluginError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("harmonic index 4 is outside [0, 4)"));
+  }
+}
+
+}  // namespace
