@@ -6,6 +6,9 @@
 #include <cmath>
 #include <complex>
 #include <fstream>
+#include <iterator>
+#include <map>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
 
@@ -232,6 +235,35 @@ continuation: {frequency: {from: 100, to: 500}}
   std::getline(modes, header);
   std::getline(modes, first);
   EXPECT_NE(first.find("199.334"), std::string::npos) << first;
+}
+
+TEST(Cyclic, BladedDiskPeakConvergesWithTheNumberOfHarmonics) {
+  const Registry registry({FRICHB_PLUGIN_DIR});
+  if (!registry.contains("lumped_cyclic")) GTEST_SKIP() << "lumped_cyclic not built";
+  std::ifstream in(std::string(FRICHB_SOURCE_DIR) + "/configs/bladed_disk_lumped_eo3.yaml");
+  const std::string scene((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string key = "  max_harmonic: 3";
+  ASSERT_NE(scene.find(key), std::string::npos);
+  test::TempDir dir;
+  std::map<int, double> peak;
+  for (int h : {1, 3, 5, 10}) {
+    std::string text = scene;
+    text.replace(text.find(key), key.size(), "  max_harmonic: " + std::to_string(h));
+    const auto file = dir.write("h" + std::to_string(h) + ".yaml", text);
+    const auto out = dir.path() / ("out" + std::to_string(h));
+    const std::string command =
+        std::string(FRICHB_EXE) + " --log-level warn run " + file.string() + " -o " + out.string();
+    ASSERT_EQ(std::system(command.c_str()), 0) << "H = " << h;
+    std::ifstream summary(out / "summary.json");
+    const auto doc = nlohmann::json::parse(summary);
+    peak[h] = doc["peak"]["tip"]["amplitude_m"].get<double>();
+    std::printf("H = %2d: peak %.6e m at %.3f Hz, %d points, %d turning points\n", h, peak[h],
+                doc["peak"]["tip"]["frequency_hz"].get<double>(), doc["points"].get<int>(),
+                doc["turning_points"].get<int>());
+  }
+  // The peak settles as harmonics are added (thesis case study 1: the 1F peak barely moves).
+  EXPECT_LT(std::abs(peak[5] - peak[10]), 1e-3 * peak[10]);
+  EXPECT_LT(std::abs(peak[5] - peak[10]), std::abs(peak[1] - peak[10]));
 }
 
 }  // namespace
