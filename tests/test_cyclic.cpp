@@ -202,9 +202,10 @@ TEST(Cyclic, ModesWritesTheNodalDiameterMapAndTheEngineOrderExcitation) {
     std::stringstream ss(line);
     std::vector<double> v;
     for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
-    EXPECT_EQ(v.at(0), n);
-    EXPECT_EQ(v.at(2), nd[n - 1]);
-    EXPECT_NEAR(v.at(3), n * 3 * 270.0 / 60.0, 1e-9);
+    EXPECT_EQ(v.at(0), 270.0);  // rpm
+    EXPECT_EQ(v.at(1), n);
+    EXPECT_EQ(v.at(3), nd[n - 1]);
+    EXPECT_NEAR(v.at(4), n * 3 * 270.0 / 60.0, 1e-9);
   }
 }
 

@@ -29,9 +29,10 @@ Usage:
   frichb validate SCENE.yaml       check a scene and its plugins' parameters, compute nothing
   frichb loop INPUT.yaml [-o DIR]  trace one contact law under a prescribed relative motion:
                                    DIR/loop.csv, harmonics.csv, summary.json, loop.png
-  frichb modes SCENE.yaml [--rpm R] [-o DIR]
+  frichb modes SCENE.yaml [--rpm R | --rpm A:B] [-o DIR]
                                    natural frequencies per harmonic index and the nodal-
-                                   diameter map (ZZENF) with the engine-order excitation at R rpm
+                                   diameter map (ZZENF) with the engine-order excitation at R
+                                   rpm, or at both ends of the speed range A..B
   frichb plugins                   list the plugins found on the search path
   frichb describe NAME             parameter table of a plugin (or 'scene' for the core keys)
   frichb reference [-o DIR]        write the scene reference (Markdown) generated from all
@@ -82,7 +83,8 @@ int main(int argc, char** argv) {
       "log-level", po::value<std::string>(&log_level)->default_value("info"),
       "trace, debug, info, warn, error or off")("output,o", po::value<std::string>(&output),
                                                 "output folder of verbs that write")(
-      "rpm", po::value<double>(), "rotation speed of `modes` (engine-order excitation), rpm");
+      "rpm", po::value<std::string>(),
+      "rotation speed of `modes` (engine-order excitation), rpm: R or a range A:B");
   po::options_description hidden;
   hidden.add_options()("args", po::value<std::vector<std::string>>(), "verb and arguments");
   po::options_description all;
@@ -145,7 +147,25 @@ int main(int argc, char** argv) {
     }
     if (verb == "modes") {
       if (!need(1, "one scene file")) return kExitUsage;
-      ModesRequest request{args[1], output, vm.count("rpm") ? vm["rpm"].as<double>() : 0.0};
+      ModesRequest request{args[1], output, 0.0, 0.0};
+      if (vm.count("rpm")) {
+        const std::string text = vm["rpm"].as<std::string>();
+        const auto colon = text.find(':');
+        try {
+          std::size_t used = 0;
+          request.rpm_low = std::stod(text.substr(0, colon), &used);
+          request.rpm_high =
+              colon == std::string::npos ? request.rpm_low : std::stod(text.substr(colon + 1));
+        } catch (const std::exception&) {
+          request.rpm_low = -1;
+        }
+        if (!(request.rpm_low > 0 && request.rpm_high >= request.rpm_low)) {
+          std::cerr << "frichb modes: --rpm takes a positive speed R or a range A:B with "
+                       "0 < A <= B, not '"
+                    << text << "'\n";
+          return kExitUsage;
+        }
+      }
       return run_modes(request);
     }
     if (verb == "plugins") {

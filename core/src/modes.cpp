@@ -61,16 +61,22 @@ int run_modes(const ModesRequest& request) {
     write_csv(out.path("modes.csv"),
               {"harmonic_index", "nodal_diameter", "wave", "family", "frequency_hz"}, rows);
     std::vector<std::vector<double>> excitation;
-    if (request.rpm > 0 && cyclic.enabled()) {
-      for (int n : scene.harmonic_balance.harmonics) {
-        if (n == 0) continue;
-        const int h = cyclic.harmonic_index(n);
-        excitation.push_back({static_cast<double>(n), static_cast<double>(h),
-                              static_cast<double>(cyclic.nodal_diameter(h)),
-                              n * scene.cyclic.engine_order * request.rpm / 60.0});
-      }
+    std::vector<double> speeds;
+    if (request.rpm_low > 0) speeds.push_back(request.rpm_low);
+    if (request.rpm_high > request.rpm_low) speeds.push_back(request.rpm_high);
+    if (!speeds.empty() && cyclic.enabled()) {
+      // Temporal harmonic n of engine order m at speed S excites n m S / 60 Hz on the nodal
+      // diameter of h = mod(n m, nb): the zig-zag line of the ZZENF diagram.
+      for (double rpm : speeds)
+        for (int n : scene.harmonic_balance.harmonics) {
+          if (n == 0) continue;
+          const int h = cyclic.harmonic_index(n);
+          excitation.push_back({rpm, static_cast<double>(n), static_cast<double>(h),
+                                static_cast<double>(cyclic.nodal_diameter(h)),
+                                n * scene.cyclic.engine_order * rpm / 60.0});
+        }
       write_csv(out.path("excitation.csv"),
-                {"n", "harmonic_index", "nodal_diameter", "frequency_hz"}, excitation);
+                {"rpm", "n", "harmonic_index", "nodal_diameter", "frequency_hz"}, excitation);
     }
     if (scene.output.plots) {
       // One line per mode family over the nodal diameters 0..nb/2 (families.csv).
@@ -96,12 +102,12 @@ int run_modes(const ModesRequest& request) {
          << "set xtics 1\nplot ";
       gp << "for [i=2:" << families + 1
          << "] 'families.csv' using 1:i with linespoints pt 7 title sprintf('family %d', i - 1)";
-      if (!excitation.empty())
-        gp << ", \\\n     'excitation.csv' using 3:4 with linespoints dt 2 lw 2 lc rgb 'blue' "
-              "title 'EO "
-           << scene.cyclic.engine_order << " at " << request.rpm
-           << " rpm', \\\n     'excitation.csv' using 3:4:(sprintf('%d', $1)) with labels "
-              "offset 1,0.5 notitle";
+      for (std::size_t k = 0; k < speeds.size() && !excitation.empty(); ++k)
+        gp << ", \\\n     'excitation.csv' using 4:($1 == " << speeds[k]
+           << " ? $5 : 1/0) with linespoints dt 2 lw 2 lc rgb '" << (k ? "red" : "blue")
+           << "' title 'EO " << scene.cyclic.engine_order << " at " << speeds[k]
+           << " rpm', \\\n     'excitation.csv' using 4:($1 == " << speeds[k]
+           << " ? $5 : 1/0):(sprintf('%d', $2)) with labels offset 1,0.5 notitle";
       gp << "\n";
       write_text(out.path("modes.gp"), gp.str());
       run_gnuplot(out.path("modes.gp"));

@@ -23,10 +23,13 @@
 #include <cmath>
 #include <complex>
 #include <cstddef>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -48,6 +51,18 @@ using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Ro
 
 // Independent DOFs up to which `solver: auto` solves densely.
 constexpr Index kDenseLimit = 200;
+
+// K_h counts as singular (a rigid-body mode: no static residual flexibility) when its lowest
+// eigenvalue w_1^2 is at most this times max_i K_ii / M_ii.
+constexpr double kSingularRatio = 1e-10;
+
+// A complex harmonic index's residual flexibility is returned (its real part) only when its
+// imaginary part is at most this times its real part (largest magnitudes).
+constexpr double kImaginaryTolerance = 1e-12;
+
+// Disk cache format: bump when the file layout or the solution it holds changes.
+constexpr std::uint64_t kCacheFormat = 1;
+constexpr char kCacheMagic[8] = {'F', 'R', 'I', 'C', 'H', 'B', 'F', 'S'};
 
 std::vector<frichb_param_spec> fe_sector_schema() {
   return {
@@ -82,6 +97,16 @@ std::vector<frichb_param_spec> fe_sector_schema() {
                   "to 200 independent DOFs)")
           .choices("auto|dense|sparse")
           .defaults_to_text("auto"),
+      Param::boolean("residual_flexibility",
+                     "add the static residual flexibility of the truncated modes at the kept "
+                     "DOFs (harmonic indices with a real K_h only: 0 and sectors/2; none when "
+                     "K_h is singular or every mode is kept)")
+          .defaults_to(1.0),
+      Param::path("cache_dir",
+                  "folder of a disk cache of the modal solution of each harmonic index, keyed "
+                  "by a hash of the matrix files' contents and the solver inputs (empty: no "
+                  "cache)")
+          .defaults_to_text(""),
   };
 }
 
@@ -263,6 +288,62 @@ SpMat<double> checked_symmetric(const SpMat<double>& a, const std::string& what,
 }
 
 // ---------------------------------------------------------------------------------------
+// Disk cache
+
+// 64-bit FNV-1a, fed with length-prefixed fields (so that field boundaries count).
+class Fnv1a {
+ public:
+  void bytes(const void* data, std::size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < n; ++i) {
+      h_ ^= p[i];
+      h_ *= 1099511628211ULL;
+    }
+  }
+  void u64(std::uint64_t v) { bytes(&v, sizeof v); }
+  void text(const std::string& s) {
+    u64(s.size());
+    bytes(s.data(), s.size());
+  }
+  void indices(const std::vector<Index>& v) {
+    u64(v.size());
+    for (const Index i : v) u64(static_cast<std::uint64_t>(i));
+  }
+  // The contents of a file, read in chunks.
+  void file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::invalid_argument("cannot read '" + path + "' to key the disk cache");
+    std::vector<char> chunk(1 << 16);
+    std::uint64_t total = 0;
+    while (in) {
+      in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+      const auto got = static_cast<std::size_t>(in.gcount());
+      bytes(chunk.data(), got);
+      total += got;
+    }
+    if (!in.eof()) throw std::invalid_argument("cannot read '" + path + "' to key the disk cache");
+    u64(total);
+  }
+  std::uint64_t value() const { return h_; }
+
+ private:
+  std::uint64_t h_ = 14695981039346656037ULL;
+};
+
+void put_u64(std::string& out, std::uint64_t v) {
+  char b[sizeof v];
+  std::memcpy(b, &v, sizeof v);
+  out.append(b, sizeof v);
+}
+
+std::uint64_t get_u64(const std::string& in, std::size_t& at) {
+  std::uint64_t v = 0;
+  std::memcpy(&v, in.data() + at, sizeof v);
+  at += sizeof v;
+  return v;
+}
+
+// ---------------------------------------------------------------------------------------
 // Eigen-solvers
 
 // (A - sigma B)^{-1} x by a sparse LDL^T factorisation (A - sigma B is positive definite for
@@ -376,7 +457,9 @@ class FeSector final : public frichb::sdk::StructureProvider {
       : sectors_(static_cast<int>(p.integer("sectors"))),
         modes_(static_cast<Index>(p.integer("modes"))),
         solver_(p.text("solver")),
-        ratios_(p.reals("modal_damping")) {
+        ratios_(p.reals("modal_damping")),
+        residual_(p.boolean("residual_flexibility")),
+        cache_dir_(p.text("cache_dir")) {
     const std::string mass_file = p.text("mass"), stiffness_file = p.text("stiffness");
     mass_ = checked_symmetric(read_market(mass_file, "mass"), "mass", mass_file);
     stiffness_ =
@@ -397,6 +480,10 @@ class FeSector final : public frichb::sdk::StructureProvider {
       throw std::invalid_argument(
           "modal_damping has " + std::to_string(ratios_.size()) +
           " values; give 1 or one per kept mode (modes = " + std::to_string(modes_) + ")");
+    for (Index i = 0; i < stiffness_.rows(); ++i)
+      if (mass_.coeff(i, i) > 0.0)
+        scale_ = std::max(scale_, stiffness_.coeff(i, i) / mass_.coeff(i, i));
+    if (!cache_dir_.empty()) open_cache(mass_file, stiffness_file);
   }
 
   size_t dof_count() const override { return static_cast<size_t>(mass_.rows()); }
@@ -415,7 +502,11 @@ class FeSector final : public frichb::sdk::StructureProvider {
                                 std::to_string(dof_count()) + " DOFs)");
     if (harmonic_index != solved_h_) {
       solved_h_ = -1;
-      solve(harmonic_index);
+      if (cache_dir_.empty() || !load_cache(harmonic_index)) {
+        solve(harmonic_index);
+        if (!cache_dir_.empty()) store_cache(harmonic_index);
+      }
+      finish(harmonic_index);
       solved_h_ = harmonic_index;
     }
     const cd e = left_phase(harmonic_index);
@@ -439,7 +530,8 @@ class FeSector final : public frichb::sdk::StructureProvider {
     b.modal_damping = damping_.data();
     b.mode_rows_real = rows_real_.data();
     b.mode_rows_imag = real_ ? nullptr : rows_imag_.data();
-    b.residual_flexibility = nullptr;  // truncated modal basis, no static correction yet
+    residual_flexibility(harmonic_index, kept, n_kept);
+    b.residual_flexibility = residual_rows_.size() > 0 ? residual_rows_.data() : nullptr;
     return b;
   }
 
@@ -598,18 +690,19 @@ class FeSector final : public frichb::sdk::StructureProvider {
       if (real_) modes_q_.col(r) = modes_q_.col(r).real().cast<cd>();
     }
     // Eigenvalues: a small negative one is round-off of a rigid-body mode.
-    double scale = 0.0;
-    for (Index i = 0; i < stiffness_.rows(); ++i)
-      if (mass_.coeff(i, i) > 0.0)
-        scale = std::max(scale, stiffness_.coeff(i, i) / mass_.coeff(i, i));
     frequencies_.resize(modes_);
     for (Index r = 0; r < modes_; ++r) {
-      if (lambda(r) < -1e-8 * scale)
+      if (lambda(r) < -1e-8 * scale_)
         throw std::runtime_error("negative eigenvalue " + std::to_string(lambda(r)) +
                                  " at harmonic index " + std::to_string(h) +
                                  ": the stiffness matrix is not positive semi-definite");
       frequencies_(r) = std::sqrt(std::max(0.0, lambda(r)));
     }
+  }
+
+  // What follows the modal solution (solved or read from the cache): the modal damping.
+  void finish(int h) {
+    real_ = left_phase(h).imag() == 0.0;
     damping_ = RowMajor::Zero(modes_, modes_);
     if (!ratios_.empty())
       for (Index r = 0; r < modes_; ++r)
@@ -617,10 +710,182 @@ class FeSector final : public frichb::sdk::StructureProvider {
             2.0 * ratios_[ratios_.size() == 1 ? 0 : static_cast<std::size_t>(r)] * frequencies_(r);
   }
 
+  // [K_h^{-1}] at the kept DOFs, S K_h^{-1} S^H with S the kept rows of T_h (row i: factor_i
+  // at column cols_i), by a sparse LDL^T of K_h; empty when K_h is not positive definite.
+  template <class S>
+  Mat<cd> static_compliance(S e, const std::vector<Index>& cols,
+                            const std::vector<cd>& factors) const {
+    const SpMat<S> t = constraint<S>(e);
+    const SpMat<S> kh = project<S>(stiffness_, t);
+    const Eigen::SimplicialLDLT<SpMat<S>> ldlt(kh);
+    if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().real().minCoeff() > 0.0)) return {};
+    const auto n_kept = static_cast<Index>(cols.size());
+    Mat<S> rhs = Mat<S>::Zero(kh.rows(), n_kept);
+    for (Index i = 0; i < n_kept; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      if constexpr (std::is_same_v<S, cd>)
+        rhs(cols[k], i) = std::conj(factors[k]);
+      else
+        rhs(cols[k], i) = factors[k].real();
+    }
+    const Mat<S> x = ldlt.solve(rhs);
+    Mat<cd> g(n_kept, n_kept);
+    for (Index i = 0; i < n_kept; ++i)
+      g.row(i) = factors[static_cast<std::size_t>(i)] * x.row(cols[static_cast<std::size_t>(i)])
+                                                             .template cast<cd>();
+    return g;
+  }
+
+  // G_h = [K_h^{-1}]_kept - sum_r phi_r phi_r^H / w_r^2 into residual_rows_ (real, row-major),
+  // or left empty: parameter off, every mode kept, K_h singular (rigid-body mode), or G_h with
+  // an imaginary part above kImaginaryTolerance times its real part (complex harmonic index).
+  void residual_flexibility(int h, const size_t* kept, size_t n_kept) {
+    residual_rows_.resize(0, 0);
+    if (!residual_ || modes_ >= independent_count() || n_kept == 0) return;
+    if (frequencies_(0) * frequencies_(0) <= kSingularRatio * scale_) return;
+    const cd e = left_phase(h);
+    std::vector<Index> cols(n_kept);
+    std::vector<cd> factors(n_kept);
+    for (size_t i = 0; i < n_kept; ++i) {
+      cols[i] = column_[kept[i]];
+      factors[i] = is_left_[kept[i]] ? e : cd(1.0, 0.0);
+    }
+    Mat<cd> g = real_ ? static_compliance<double>(e.real(), cols, factors)
+                      : static_compliance<cd>(e, cols, factors);
+    if (g.size() == 0) return;
+    Mat<cd> phi = rows_real_.cast<cd>();
+    if (!real_) phi.imag() = rows_imag_;
+    const Eigen::VectorXd inv_w2 = frequencies_.array().square().inverse().matrix();
+    g -= phi * inv_w2.asDiagonal() * phi.adjoint();
+    g = (0.5 * (g + g.adjoint())).eval();
+    const double re = g.real().cwiseAbs().maxCoeff(), im = g.imag().cwiseAbs().maxCoeff();
+    if (!real_ && im > kImaginaryTolerance * re) return;
+    residual_rows_ = g.real();
+  }
+
+  // ---- disk cache
+
+  // Creates the folder and keys everything but the harmonic index.
+  void open_cache(const std::string& mass_file, const std::string& stiffness_file) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    fs::create_directories(fs::path(cache_dir_), ec);
+    if (!fs::is_directory(fs::path(cache_dir_), ec))
+      throw std::invalid_argument("cache_dir '" + cache_dir_ + "' is not a folder and cannot be " +
+                                  "created" + (ec ? ": " + ec.message() : std::string()));
+    key_.u64(kCacheFormat);
+    key_.file(mass_file);
+    key_.file(stiffness_file);
+    key_.u64(static_cast<std::uint64_t>(sectors_));
+    key_.indices(left_);
+    key_.indices(right_);
+    key_.u64(static_cast<std::uint64_t>(modes_));
+    key_.text(solver_);
+  }
+
+  std::uint64_t cache_key(int h) const {
+    Fnv1a k = key_;
+    k.u64(static_cast<std::uint64_t>(h));
+    return k.value();
+  }
+
+  std::filesystem::path cache_file(std::uint64_t key) const {
+    static constexpr char kHex[] = "0123456789abcdef";
+    std::string name = "fe_sector_";
+    for (int shift = 60; shift >= 0; shift -= 4) name += kHex[(key >> shift) & 0xFU];
+    return std::filesystem::path(cache_dir_) / (name + ".bin");
+  }
+
+  // Layout (native byte order): magic[8], format, key, h, independent DOFs m, modes, real flag
+  // (u64 each), frequencies (modes doubles), modes_q_ (m x modes complex, column-major), and
+  // the FNV-1a checksum (u64) of everything before it.
+  static constexpr std::size_t kHeaderBytes = sizeof kCacheMagic + 6 * sizeof(std::uint64_t);
+  std::size_t cache_bytes() const {
+    const auto modes = static_cast<std::size_t>(modes_);
+    const auto m = static_cast<std::size_t>(independent_count());
+    return kHeaderBytes + modes * sizeof(double) + m * modes * sizeof(cd) + sizeof(std::uint64_t);
+  }
+
+  std::string cache_header(int h, std::uint64_t key) const {
+    std::string out(kCacheMagic, sizeof kCacheMagic);
+    put_u64(out, kCacheFormat);
+    put_u64(out, key);
+    put_u64(out, static_cast<std::uint64_t>(h));
+    put_u64(out, static_cast<std::uint64_t>(independent_count()));
+    put_u64(out, static_cast<std::uint64_t>(modes_));
+    put_u64(out, left_phase(h).imag() == 0.0 ? 1U : 0U);
+    return out;
+  }
+
+  // Reads harmonic index h's solution if a valid cache file holds it (a missing, truncated or
+  // corrupt file, or one of other inputs, is ignored: the caller re-solves and rewrites it).
+  bool load_cache(int h) {
+    const std::uint64_t key = cache_key(h);
+    const std::filesystem::path file = cache_file(key);
+    std::error_code ec;
+    const std::size_t size = cache_bytes();
+    if (std::filesystem::file_size(file, ec) != size || ec) return false;
+    std::string data(size, '\0');
+    std::ifstream in(file, std::ios::binary);
+    if (!in.read(data.data(), static_cast<std::streamsize>(size))) return false;
+    const std::string header = cache_header(h, key);
+    if (data.compare(0, header.size(), header) != 0) return false;
+    Fnv1a sum;
+    sum.bytes(data.data(), size - sizeof(std::uint64_t));
+    std::size_t at = size - sizeof(std::uint64_t);
+    if (get_u64(data, at) != sum.value()) return false;
+    Eigen::VectorXd frequencies(modes_);
+    Mat<cd> modes(independent_count(), modes_);
+    at = header.size();
+    std::memcpy(frequencies.data(), data.data() + at, sizeof(double) * modes_);
+    at += sizeof(double) * static_cast<std::size_t>(modes_);
+    std::memcpy(static_cast<void*>(modes.data()), data.data() + at,
+                sizeof(cd) * static_cast<std::size_t>(modes.size()));
+    if (!frequencies.allFinite() || !modes.allFinite() || frequencies.minCoeff() < 0.0)
+      return false;
+    frequencies_ = std::move(frequencies);
+    modes_q_ = std::move(modes);
+    return true;
+  }
+
+  // Writes harmonic index h's solution atomically (temporary file, then rename); a failure
+  // leaves no file and is not an error (the cache only saves time).
+  void store_cache(int h) const {
+    namespace fs = std::filesystem;
+    const std::uint64_t key = cache_key(h);
+    std::string data = cache_header(h, key);
+    data.reserve(cache_bytes());
+    data.append(reinterpret_cast<const char*>(frequencies_.data()),
+                sizeof(double) * static_cast<std::size_t>(modes_));
+    data.append(reinterpret_cast<const char*>(modes_q_.data()),
+                sizeof(cd) * static_cast<std::size_t>(modes_q_.size()));
+    Fnv1a sum;
+    sum.bytes(data.data(), data.size());
+    put_u64(data, sum.value());
+    const fs::path file = cache_file(key);
+    std::random_device random;
+    const fs::path temp =
+        fs::path(file).concat(".tmp" + std::to_string(random()) + std::to_string(random()));
+    std::error_code ec;
+    bool ok = false;
+    {
+      std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+      ok = static_cast<bool>(out.write(data.data(), static_cast<std::streamsize>(data.size())));
+      out.close();
+      ok = ok && !out.fail();
+    }
+    if (ok) fs::rename(temp, file, ec);
+    if (!ok || ec) fs::remove(temp, ec);
+  }
+
   int sectors_;
   Index modes_;
   std::string solver_;
   std::vector<double> ratios_;
+  bool residual_;
+  std::string cache_dir_;
+  Fnv1a key_;         // cache key of everything but the harmonic index
+  double scale_ = 0;  // max_i K_ii / M_ii
   SpMat<double> mass_, stiffness_;
   std::vector<Index> left_, right_;
   std::vector<Index> column_;  // per sector DOF: its independent DOF (a left DOF: its partner's)
@@ -631,7 +896,7 @@ class FeSector final : public frichb::sdk::StructureProvider {
   bool real_ = true;
   Mat<cd> modes_q_;
   Eigen::VectorXd frequencies_;
-  RowMajor damping_, rows_real_, rows_imag_;
+  RowMajor damping_, rows_real_, rows_imag_, residual_rows_;
 };
 
 }  // namespace
