@@ -10,7 +10,11 @@
 //  (3) Phi^H M_h Phi = I and Phi^H K_h Phi = W^2, K_h = K0 + e^{-i h phi} K1 + e^{i h phi} K1^T
 //      with K0, K1 the full disk's blocks; R_h(W) D_h(W) = I with all modes kept;
 //  (4) the Spectra (sparse) path agrees with the dense path on a 400-DOF sector;
-//  (5) bad files, matrices, boundary lists, mode counts and indices are refused by message.
+//  (5) bad files, matrices, boundary lists, mode counts and indices are refused by message;
+//  (6) with fewer modes than DOFs, the static residual flexibility makes the receptance exact
+//      at W = 0 and much closer to D_h(W)^-1 below the first resonance;
+//  (7) the disk cache is read back bitwise, validated, rewritten when corrupt, and keyed by
+//      the inputs.
 // Needs frichb_fe_sector built in FRICHB_PLUGIN_DIR.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -20,13 +24,16 @@
 #include <algorithm>
 #include <chrono>
 #include <complex>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <numbers>
 #include <numeric>
 #include <random>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -534,6 +541,212 @@ TEST(FeSector, RefusesBadBoundaryListsAndCounts) {
   } catch (const PluginError& e) {
     EXPECT_THAT(e.what(), HasSubstr("harmonic index 4 is outside [0, 4)"));
   }
+}
+
+// (6) Static residual flexibility. The oracle is the exact receptance at the kept DOFs,
+// S (K_h - W^2 M_h)^-1 S^H with S the kept rows of T_h (left DOFs: e^{+i h phi} times the
+// right partner's independent DOF).
+Eigen::MatrixXcd exact_receptance(const Sector& s, int h, int nb, double w,
+                                  const std::vector<std::size_t>& kept) {
+  Eigen::MatrixXcd kh, mh;
+  s.harmonic(h, nb, kh, mh);
+  const cd e = std::polar(1.0, 2.0 * std::numbers::pi * h / nb);
+  Eigen::MatrixXcd sel = Eigen::MatrixXcd::Zero(static_cast<Eigen::Index>(kept.size()), s.m_count);
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    const int d = static_cast<int>(kept[i]);
+    const auto it = std::find(s.left.begin(), s.left.end(), d);
+    const auto r = static_cast<Eigen::Index>(i);
+    if (it == s.left.end())
+      sel(r, s.independent[kept[i]]) = 1.0;
+    else
+      sel(r, s.independent[static_cast<std::size_t>(
+                 s.right[static_cast<std::size_t>(it - s.left.begin())])]) = e;
+  }
+  const Eigen::MatrixXcd d = kh - w * w * mh;
+  return sel * d.lu().solve(sel.adjoint());
+}
+
+TEST(FeSector, ResidualFlexibilityCorrectsTheTruncatedReceptance) {
+  const Sector s(3, 4, 4, true, 5);  // 19 DOFs, 16 independent
+  const Files f(s);
+  const int nb = 6, modes = 5;
+  const auto kept = s.all_dofs();  // left DOFs included: their rows carry the cyclic phase
+  auto with = make_provider(f.params(s, nb, modes));
+  auto without = make_provider(f.params(s, nb, modes, ", residual_flexibility: false"));
+  for (int h = 0; h < nb; ++h) {
+    // Real K_h only (h = 0, nb/2): a complex Hermitian G_h does not fit the ABI.
+    EXPECT_EQ(with.instance->modal_basis(h, kept).residual_flexibility != nullptr, h == 0 || h == 3)
+        << "h = " << h;
+    EXPECT_EQ(without.instance->modal_basis(h, kept).residual_flexibility, nullptr);
+  }
+  const std::vector<int> hs{0, 3};
+  const ReducedStructure rw(*with.instance, kept, hs), ro(*without.instance, kept, hs);
+  for (int h : hs) {
+    const Eigen::MatrixXcd exact0 = exact_receptance(s, h, nb, 0.0, kept);
+    Eigen::MatrixXcd r;
+    rw.receptance(h, 0.0, r);
+    const double static_err = (r - exact0).norm() / exact0.norm();
+    EXPECT_LT(static_err, 1e-10) << "h = " << h;
+    const double w = 0.5 * rw.natural_frequencies(h)(0);
+    const Eigen::MatrixXcd exact = exact_receptance(s, h, nb, w, kept);
+    rw.receptance(h, w, r);
+    const double err_with = (r - exact).norm() / exact.norm();
+    ro.receptance(h, w, r);
+    const double err_without = (r - exact).norm() / exact.norm();
+    EXPECT_GT(err_without, 5.0 * err_with) << "h = " << h;
+    std::printf(
+        "[ measured ] h = %d, %d of 16 modes, 19 kept DOFs: W = 0 error %.2e with residual "
+        "flexibility; W = w1/2 error %.2e with, %.2e without (x%.0f)\n",
+        h, modes, static_err, err_with, err_without, err_without / err_with);
+  }
+  // A complex h with one kept DOF: G_h is 1 x 1 Hermitian, hence real, and is returned.
+  const std::vector<std::size_t> one{static_cast<std::size_t>(s.n - 1)};
+  const ReducedStructure r1(*with.instance, one, {1});
+  Eigen::MatrixXcd r;
+  r1.receptance(1, 0.0, r);
+  const Eigen::MatrixXcd exact1 = exact_receptance(s, 1, nb, 0.0, one);
+  EXPECT_LT(std::abs(r(0, 0) - exact1(0, 0)) / std::abs(exact1(0, 0)), 1e-10);
+  // Every mode kept: the correction is zero and is not returned.
+  auto all = make_provider(f.params(s, nb, s.m_count));
+  EXPECT_EQ(all.instance->modal_basis(0, kept).residual_flexibility, nullptr);
+  // Free disk: K_0 is singular (rigid-body mode), K_{nb/2} is not.
+  const Sector free_sector(3, 4, 4, false, 12);
+  const Files ff(free_sector);
+  auto fr = make_provider(ff.params(free_sector, 2, modes));
+  EXPECT_EQ(fr.instance->modal_basis(0, kept).residual_flexibility, nullptr);
+  EXPECT_NE(fr.instance->modal_basis(1, kept).residual_flexibility, nullptr);
+}
+
+// (7) Disk cache.
+struct Snapshot {
+  std::vector<double> frequencies, damping, real, imag, residual;
+  bool operator==(const Snapshot&) const = default;  // bitwise for finite values
+};
+
+Snapshot snapshot(StructureInstance& p, int h, const std::vector<std::size_t>& kept) {
+  const frichb_modal_basis b = p.modal_basis(h, kept);
+  const std::size_t m = b.n_modes, k = kept.size();
+  Snapshot out;
+  out.frequencies.assign(b.natural_frequencies, b.natural_frequencies + m);
+  out.damping.assign(b.modal_damping, b.modal_damping + m * m);
+  out.real.assign(b.mode_rows_real, b.mode_rows_real + k * m);
+  if (b.mode_rows_imag) out.imag.assign(b.mode_rows_imag, b.mode_rows_imag + k * m);
+  if (b.residual_flexibility)
+    out.residual.assign(b.residual_flexibility, b.residual_flexibility + k * k);
+  return out;
+}
+
+std::set<std::filesystem::path> folder(const std::filesystem::path& dir) {
+  std::set<std::filesystem::path> out;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) out.insert(e.path());
+  return out;
+}
+
+std::string read_bytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_bytes(const std::filesystem::path& p, const std::string& data) {
+  std::ofstream(p, std::ios::binary | std::ios::trunc) << data;
+}
+
+// The documented trailer: FNV-1a 64 of every byte before it.
+void reseal(std::string& data) {
+  std::uint64_t h = 14695981039346656037ULL;
+  for (std::size_t i = 0; i + 8 < data.size(); ++i) {
+    h ^= static_cast<unsigned char>(data[i]);
+    h *= 1099511628211ULL;
+  }
+  std::memcpy(data.data() + data.size() - 8, &h, 8);
+}
+
+TEST(FeSector, DiskCacheIsReadBackValidatedAndKeyedByTheInputs) {
+  namespace fs = std::filesystem;
+  const Sector s(3, 4, 4, true, 11);
+  const Files f(s);
+  const int nb = 5, modes = 4;
+  const fs::path dir = f.dir.path() / "cache" / "fe";  // created by the provider
+  const std::string cached = ", cache_dir: '" + dir.string() + "'";
+  const auto kept = s.all_dofs();
+  std::vector<Snapshot> first;
+  std::vector<fs::path> file_of;
+  {
+    auto p = make_provider(f.params(s, nb, modes, cached));
+    for (int h = 0; h < nb; ++h) {
+      const auto before = folder(dir);
+      first.push_back(snapshot(*p.instance, h, kept));
+      const auto after = folder(dir);
+      ASSERT_EQ(after.size(), before.size() + 1) << "h = " << h;  // one file, no temporary
+      for (const auto& e : after)
+        if (!before.count(e)) file_of.push_back(e);
+      EXPECT_EQ(file_of.back().extension(), ".bin");
+    }
+  }
+  EXPECT_FALSE(first[0].residual.empty());
+  // Without the cache: bitwise the same.
+  auto plain = make_provider(f.params(s, nb, modes));
+  for (int h = 0; h < nb; ++h) EXPECT_TRUE(snapshot(*plain.instance, h, kept) == first[h]);
+  // Same inputs again: every file is read, none rewritten (mtimes set in the past stay).
+  const auto old = fs::file_time_type::clock::now() - std::chrono::hours(24 * 365);
+  for (const auto& file : file_of) fs::last_write_time(file, old);
+  {
+    auto p = make_provider(f.params(s, nb, modes, cached));
+    for (int h = 0; h < nb; ++h) EXPECT_TRUE(snapshot(*p.instance, h, kept) == first[h]);
+  }
+  for (const auto& file : file_of) EXPECT_EQ(fs::last_write_time(file), old);
+  EXPECT_EQ(folder(dir).size(), static_cast<std::size_t>(nb));
+  // The solution does come from the file: a doctored (resealed) frequency is returned.
+  {
+    std::string data = read_bytes(file_of[2]);
+    double w = 0.0;
+    std::memcpy(&w, data.data() + 56, 8);  // header: magic + 6 u64, then the frequencies
+    EXPECT_EQ(w, first[2].frequencies[0]);
+    w *= 1.5;
+    std::memcpy(data.data() + 56, &w, 8);
+    reseal(data);
+    write_bytes(file_of[2], data);
+    auto p = make_provider(f.params(s, nb, modes, cached));
+    EXPECT_EQ(p.instance->modal_basis(2, kept).natural_frequencies[0], w);
+    fs::remove(file_of[2]);
+  }
+  // Corrupt (flipped byte, not resealed), truncated, or another key's file under this name:
+  // ignored, re-solved (bitwise the same) and rewritten.
+  {
+    std::string flipped = read_bytes(file_of[1]);
+    flipped[200] = static_cast<char>(flipped[200] ^ 0x10);
+    write_bytes(file_of[1], flipped);
+    const std::string full = read_bytes(file_of[3]);
+    write_bytes(file_of[3], full.substr(0, full.size() / 2));
+    fs::copy_file(file_of[0], file_of[4], fs::copy_options::overwrite_existing);
+    for (int h : {1, 3, 4}) fs::last_write_time(file_of[static_cast<std::size_t>(h)], old);
+    auto p = make_provider(f.params(s, nb, modes, cached));
+    for (int h = 0; h < nb; ++h) EXPECT_TRUE(snapshot(*p.instance, h, kept) == first[h]);
+    for (int h : {1, 3, 4}) {
+      EXPECT_NE(fs::last_write_time(file_of[static_cast<std::size_t>(h)]), old) << "h = " << h;
+      EXPECT_EQ(fs::file_size(file_of[static_cast<std::size_t>(h)]), full.size());
+    }
+    EXPECT_EQ(folder(dir).size(), static_cast<std::size_t>(nb));
+  }
+  // Any change of the inputs changes the key: a new file appears.
+  auto new_files = [&](const std::string& params, int h) {
+    const auto before = folder(dir);
+    auto p = make_provider(params);
+    p.instance->modal_basis(h, kept);
+    return folder(dir).size() - before.size();
+  };
+  EXPECT_EQ(new_files(f.params(s, nb, modes + 1, cached), 0), 1U);
+  EXPECT_EQ(new_files(f.params(s, nb + 1, modes, cached), 0), 1U);
+  EXPECT_EQ(new_files(f.params(s, nb, modes, cached + ", solver: dense"), 0), 1U);
+  EXPECT_EQ(new_files(f.params(s, nb, modes, cached + ", modal_damping: [0.01]"), 0), 0U);
+  Sector changed = s;
+  changed.k(5, 5) *= 1.0 + 1e-12;
+  f.dir.write("sector_k.mtx", market(changed.k, true));
+  EXPECT_EQ(new_files(f.params(s, nb, modes, cached), 0), 1U);
+  f.dir.write("sector_k.mtx", market(s.k, true));
+  EXPECT_EQ(new_files(f.params(s, nb, modes, cached), 0), 0U);
+  std::printf("[ measured ] %zu cache files of %zu bytes\n", folder(dir).size(),
+              static_cast<std::size_t>(fs::file_size(file_of[0])));
 }
 
 }  // namespace

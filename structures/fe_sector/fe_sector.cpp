@@ -11,7 +11,10 @@
 // lowest `modes` eigenpairs of (K_h, M_h) come from a dense solve for small sectors, or from
 // Spectra's shift-invert Lanczos on the real symmetric embedding [[Re, -Im], [Im, Re]] of the
 // Hermitian pair followed by a Rayleigh-Ritz step that recovers complex modes. Modes are
-// mass-normalised (Phi^H M_h Phi = I) and expanded to every sector DOF with T_h.
+// mass-normalised (Phi^H M_h Phi = I) and expanded to every sector DOF with T_h. Optional:
+// the static residual flexibility of the truncated modes (real K_h only: the ABI field is
+// real), and a disk cache of each harmonic index's solution keyed by an FNV-1a hash of the
+// matrix files' contents and the solver inputs (see README.md).
 #include <Spectra/MatOp/SparseSymMatProd.h>
 #include <Spectra/SymGEigsShiftSolver.h>
 #include <Eigen/Dense>
@@ -731,8 +734,8 @@ class FeSector final : public frichb::sdk::StructureProvider {
     const Mat<S> x = ldlt.solve(rhs);
     Mat<cd> g(n_kept, n_kept);
     for (Index i = 0; i < n_kept; ++i)
-      g.row(i) = factors[static_cast<std::size_t>(i)] * x.row(cols[static_cast<std::size_t>(i)])
-                                                             .template cast<cd>();
+      g.row(i) = factors[static_cast<std::size_t>(i)] *
+                 x.row(cols[static_cast<std::size_t>(i)]).template cast<cd>();
     return g;
   }
 
