@@ -574,12 +574,13 @@ TEST(FeSector, ResidualFlexibilityCorrectsTheTruncatedReceptance) {
   auto with = make_provider(f.params(s, nb, modes));
   auto without = make_provider(f.params(s, nb, modes, ", residual_flexibility: false"));
   for (int h = 0; h < nb; ++h) {
-    // Real K_h only (h = 0, nb/2): a complex Hermitian G_h does not fit the ABI.
-    EXPECT_EQ(with.instance->modal_basis(h, kept).residual_flexibility != nullptr, h == 0 || h == 3)
-        << "h = " << h;
+    // Real for h = 0, nb/2; Hermitian with an imaginary part (ABI 1.1 field) otherwise.
+    const frichb_modal_basis b = with.instance->modal_basis(h, kept);
+    EXPECT_NE(b.residual_flexibility, nullptr) << "h = " << h;
+    EXPECT_EQ(b.residual_flexibility_imag != nullptr, h != 0 && h != 3) << "h = " << h;
     EXPECT_EQ(without.instance->modal_basis(h, kept).residual_flexibility, nullptr);
   }
-  const std::vector<int> hs{0, 3};
+  const std::vector<int> hs{0, 1, 2, 3, 4, 5};
   const ReducedStructure rw(*with.instance, kept, hs), ro(*without.instance, kept, hs);
   for (int h : hs) {
     const Eigen::MatrixXcd exact0 = exact_receptance(s, h, nb, 0.0, kept);

@@ -1,5 +1,6 @@
 #include "frichb/core/reduced_structure.hpp"
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -23,8 +24,16 @@ ReducedStructure::ReducedStructure(StructureInstance& provider, std::vector<std:
             .maxCoeff() <= 1e-14 * std::max(1.0, basis.damping.cwiseAbs().maxCoeff());
     basis.rows = Eigen::Map<const RowMajor>(b.mode_rows_real, kept, m).cast<std::complex<double>>();
     if (b.mode_rows_imag) basis.rows.imag() = Eigen::Map<const RowMajor>(b.mode_rows_imag, kept, m);
-    if (b.residual_flexibility)
-      basis.residual_flexibility = Eigen::Map<const RowMajor>(b.residual_flexibility, kept, kept);
+    if (b.residual_flexibility) {
+      basis.residual_flexibility = Eigen::Map<const RowMajor>(b.residual_flexibility, kept, kept)
+                                       .cast<std::complex<double>>();
+      // The imaginary part came with ABI 1.1: read it only from a basis that has the field.
+      const std::size_t needed = offsetof(frichb_modal_basis, residual_flexibility_imag) +
+                                 sizeof(b.residual_flexibility_imag);
+      if (b.struct_size >= needed && b.residual_flexibility_imag)
+        basis.residual_flexibility.imag() =
+            Eigen::Map<const RowMajor>(b.residual_flexibility_imag, kept, kept);
+    }
     if (!basis.frequencies.allFinite() || !basis.damping.allFinite() || !basis.rows.allFinite())
       throw PluginError("structure '" + provider.plugin().name() +
                         "' returned a modal basis with NaN or Inf for harmonic index " +
@@ -78,7 +87,7 @@ void ReducedStructure::receptance(int harmonic_index, double w, Eigen::MatrixXcd
       dr->noalias() = -(b.rows * lu.solve(dz * zinv_phiH));
     }
   }
-  if (b.residual_flexibility.size()) r += b.residual_flexibility.cast<std::complex<double>>();
+  if (b.residual_flexibility.size()) r += b.residual_flexibility;
 }
 
 }  // namespace frichb::core

@@ -12,9 +12,9 @@
 // Spectra's shift-invert Lanczos on the real symmetric embedding [[Re, -Im], [Im, Re]] of the
 // Hermitian pair followed by a Rayleigh-Ritz step that recovers complex modes. Modes are
 // mass-normalised (Phi^H M_h Phi = I) and expanded to every sector DOF with T_h. Optional:
-// the static residual flexibility of the truncated modes (real K_h only: the ABI field is
-// real), and a disk cache of each harmonic index's solution keyed by an FNV-1a hash of the
-// matrix files' contents and the solver inputs (see README.md).
+// the static residual flexibility of the truncated modes (complex for 0 < h < nb/2, through the
+// ABI 1.1 imaginary part), and a disk cache of each harmonic index's solution keyed by an FNV-1a
+// hash of the matrix files' contents and the solver inputs (see README.md).
 #include <Spectra/MatOp/SparseSymMatProd.h>
 #include <Spectra/SymGEigsShiftSolver.h>
 #include <Eigen/Dense>
@@ -58,10 +58,6 @@ constexpr Index kDenseLimit = 200;
 // K_h counts as singular (a rigid-body mode: no static residual flexibility) when its lowest
 // eigenvalue w_1^2 is at most this times max_i K_ii / M_ii.
 constexpr double kSingularRatio = 1e-10;
-
-// A complex harmonic index's residual flexibility is returned (its real part) only when its
-// imaginary part is at most this times its real part (largest magnitudes).
-constexpr double kImaginaryTolerance = 1e-12;
 
 // Disk cache format: bump when the file layout or the solution it holds changes.
 constexpr std::uint64_t kCacheFormat = 1;
@@ -535,6 +531,7 @@ class FeSector final : public frichb::sdk::StructureProvider {
     b.mode_rows_imag = real_ ? nullptr : rows_imag_.data();
     residual_flexibility(harmonic_index, kept, n_kept);
     b.residual_flexibility = residual_rows_.size() > 0 ? residual_rows_.data() : nullptr;
+    b.residual_flexibility_imag = residual_imag_.size() > 0 ? residual_imag_.data() : nullptr;
     return b;
   }
 
@@ -739,11 +736,12 @@ class FeSector final : public frichb::sdk::StructureProvider {
     return g;
   }
 
-  // G_h = [K_h^{-1}]_kept - sum_r phi_r phi_r^H / w_r^2 into residual_rows_ (real, row-major),
-  // or left empty: parameter off, every mode kept, K_h singular (rigid-body mode), or G_h with
-  // an imaginary part above kImaginaryTolerance times its real part (complex harmonic index).
+  // G_h = [K_h^{-1}]_kept - sum_r phi_r phi_r^H / w_r^2 into residual_rows_ and, for a complex
+  // harmonic index, residual_imag_ (row-major, Hermitian), or left empty: parameter off, every
+  // mode kept, or K_h singular (rigid-body mode).
   void residual_flexibility(int h, const size_t* kept, size_t n_kept) {
     residual_rows_.resize(0, 0);
+    residual_imag_.resize(0, 0);
     if (!residual_ || modes_ >= independent_count() || n_kept == 0) return;
     if (frequencies_(0) * frequencies_(0) <= kSingularRatio * scale_) return;
     const cd e = left_phase(h);
@@ -761,9 +759,8 @@ class FeSector final : public frichb::sdk::StructureProvider {
     const Eigen::VectorXd inv_w2 = frequencies_.array().square().inverse().matrix();
     g -= phi * inv_w2.asDiagonal() * phi.adjoint();
     g = (0.5 * (g + g.adjoint())).eval();
-    const double re = g.real().cwiseAbs().maxCoeff(), im = g.imag().cwiseAbs().maxCoeff();
-    if (!real_ && im > kImaginaryTolerance * re) return;
     residual_rows_ = g.real();
+    if (!real_) residual_imag_ = g.imag();
   }
 
   // ---- disk cache
@@ -899,7 +896,7 @@ class FeSector final : public frichb::sdk::StructureProvider {
   bool real_ = true;
   Mat<cd> modes_q_;
   Eigen::VectorXd frequencies_;
-  RowMajor damping_, rows_real_, rows_imag_, residual_rows_;
+  RowMajor damping_, rows_real_, rows_imag_, residual_rows_, residual_imag_;
 };
 
 }  // namespace

@@ -33,8 +33,8 @@ class ReducedStructure {
     Eigen::VectorXd frequencies;
     Eigen::MatrixXd damping;  // modal, n_modes x n_modes
     bool diagonal_damping = true;
-    Eigen::MatrixXcd rows;                 // kept x n_modes
-    Eigen::MatrixXd residual_flexibility;  // kept x kept, or empty
+    Eigen::MatrixXcd rows;                  // kept x n_modes
+    Eigen::MatrixXcd residual_flexibility;  // kept x kept (Hermitian), or empty
   };
   const Basis& basis(int harmonic_index) const;
 

@@ -181,6 +181,9 @@ typedef struct frichb_modal_basis {
   const double* mode_rows_real;       /* Phi, n_kept x n_modes row-major, m/sqrt(kg) */
   const double* mode_rows_imag;       /* imaginary part of Phi, or NULL when real */
   const double* residual_flexibility; /* n_kept x n_kept real (m/N), or NULL */
+  /* ABI 1.1: imaginary part of the (Hermitian) residual flexibility of a complex harmonic
+   * index, n_kept x n_kept row-major, or NULL (real). Read only when struct_size covers it. */
+  const double* residual_flexibility_imag;
 } frichb_modal_basis;
 
 typedef struct frichb_structure_api {
