@@ -11,6 +11,7 @@
 #include "frichb/core/registry.hpp"
 #include "frichb/core/run.hpp"
 #include "frichb/core/scene.hpp"
+#include "frichb/core/timesim.hpp"
 
 namespace po = boost::program_options;
 namespace fs = std::filesystem;
@@ -33,6 +34,9 @@ Usage:
                                    natural frequencies per harmonic index and the nodal-
                                    diameter map (ZZENF) with the engine-order excitation at R
                                    rpm, or at both ends of the speed range A..B
+  frichb timesim SCENE.yaml --at-hz F [-o DIR]
+                                   time-integration reference at F Hz (plain structures):
+                                   DIR/timesim.csv (last period) and summary.json
   frichb plugins                   list the plugins found on the search path
   frichb describe NAME             parameter table of a plugin (or 'scene' for the core keys)
   frichb reference [-o DIR]        write the scene reference (Markdown) generated from all
@@ -83,6 +87,7 @@ int main(int argc, char** argv) {
       "log-level", po::value<std::string>(&log_level)->default_value("info"),
       "trace, debug, info, warn, error or off")("output,o", po::value<std::string>(&output),
                                                 "output folder of verbs that write")(
+      "at-hz", po::value<double>(), "excitation frequency of `timesim`, Hz")(
       "rpm", po::value<std::string>(),
       "rotation speed of `modes` (engine-order excitation), rpm: R or a range A:B");
   po::options_description hidden;
@@ -167,6 +172,18 @@ int main(int argc, char** argv) {
         }
       }
       return run_modes(request);
+    }
+    if (verb == "timesim") {
+      if (!need(1, "one scene file")) return kExitUsage;
+      if (!vm.count("at-hz") || vm["at-hz"].as<double>() <= 0) {
+        std::cerr << "frichb timesim: give the excitation frequency, --at-hz F (F > 0)\n";
+        return kExitUsage;
+      }
+      TimesimRequest request;
+      request.scene_file = args[1];
+      request.output_directory = output;
+      request.frequency_hz = vm["at-hz"].as<double>();
+      return run_timesim(request);
     }
     if (verb == "plugins") {
       if (!need(0, "no argument")) return kExitUsage;

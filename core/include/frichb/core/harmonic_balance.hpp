@@ -62,6 +62,10 @@ class HarmonicBalanceModel final : public CurveProblem {
   bool trace_contact(std::size_t c, const Eigen::VectorXd& y, ContactTrace& out,
                      std::string* error) const;
   const EvaluationStats& stats() const { return stats_; }
+  // u_n = G_n x_n of kept harmonic k (components x kept DOFs; real without cyclic symmetry).
+  const Eigen::MatrixXcd& gather(std::size_t k) const { return gather_[k]; }
+  // Complex amplitude of the external force of kept harmonic k at the kept DOFs.
+  const Eigen::VectorXcd& excitation(std::size_t k) const { return excitation_[k]; }
   JacobianMode jacobian_mode() const { return mode_; }
 
  private:

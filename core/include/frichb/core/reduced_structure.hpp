@@ -28,7 +28,8 @@ class ReducedStructure {
   void receptance(int harmonic_index, double circular_frequency, Eigen::MatrixXcd& receptance,
                   Eigen::MatrixXcd* derivative = nullptr) const;
 
- private:
+ public:
+  // The modal basis of a harmonic index at the kept DOFs (as the provider gave it).
   struct Basis {
     Eigen::VectorXd frequencies;
     Eigen::MatrixXd damping;  // modal, n_modes x n_modes
@@ -38,6 +39,7 @@ class ReducedStructure {
   };
   const Basis& basis(int harmonic_index) const;
 
+ private:
   std::vector<std::size_t> kept_dofs_;
   std::map<int, Basis> bases_;
 };
