@@ -124,17 +124,7 @@ TEST(Cyclic, OneSectorReductionEqualsTheFullyAssembledDisk) {
   const Eigen::Index n = cyc.model->equation_count();
   ASSERT_EQ(full.model->equation_count(), kSectors * n);
 
-  ContinuationOptions o;
-  o.lambda_start = 2 * std::numbers::pi * 200;
-  o.lambda_end = 2 * std::numbers::pi * 400;
-  o.initial_step = o.max_step = 2.0;
-  o.min_step = 1e-8;
-  o.unknown_scale = Eigen::VectorXd::Constant(n + 1, 1e-6);
-  o.unknown_scale(n) = 2 * std::numbers::pi;
-  o.residual_scale = Eigen::VectorXd::Constant(n, 1e-6);
-  Eigen::VectorXd y0(n + 1);
-  y0 << cyc.model->linear_response(o.lambda_start), o.lambda_start;
-  const auto curve = trace_curve(*cyc.model, y0, o);
+  const auto curve = test::trace_hz(*cyc.model, 200, 400, 2.0);
   ASSERT_TRUE(curve.reached_end()) << curve.message;
 
   const auto& layout = cyc.model->layout();

@@ -15,6 +15,10 @@
 
 #include <random>
 
+#include <numbers>
+
+#include "frichb/core/continuation.hpp"
+#include "frichb/core/harmonic_balance.hpp"
 #include "frichb/core/periodic_trace.hpp"
 #include "frichb/core/registry.hpp"
 #include "frichb/core/schema.hpp"
@@ -91,6 +95,24 @@ inline Eigen::MatrixXd central_differences(core::PeriodicTracer& tracer, const E
     j.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
   }
   return j;
+}
+
+// Traces the response curve of `model` from its contact-free solution at from_hz to to_hz,
+// arclength steps of `step` with the frequency in Hz and the displacements in micrometres.
+inline core::ContinuationSummary trace_hz(const core::HarmonicBalanceModel& model, double from_hz,
+                                          double to_hz, double step) {
+  const Eigen::Index n = model.equation_count();
+  core::ContinuationOptions o;
+  o.lambda_start = 2 * std::numbers::pi * from_hz;
+  o.lambda_end = 2 * std::numbers::pi * to_hz;
+  o.initial_step = o.max_step = step;
+  o.min_step = 1e-8;
+  o.unknown_scale = Eigen::VectorXd::Constant(n + 1, 1e-6);
+  o.unknown_scale(n) = 2 * std::numbers::pi;
+  o.residual_scale = Eigen::VectorXd::Constant(n, 1e-6);
+  Eigen::VectorXd y0(n + 1);
+  y0 << model.linear_response(o.lambda_start), o.lambda_start;
+  return core::trace_curve(model, y0, o);
 }
 
 }  // namespace frichb::test

@@ -77,18 +77,7 @@ continuation: {frequency: {from: 250, to: 450}}
   bind_plugins(scene, test::built_plugins());
   StructureInstance structure(scene.structure.plugin, scene.structure.values);
   HarmonicBalanceModel model(scene, structure);
-  const Eigen::Index n = model.equation_count();
-  ContinuationOptions o;
-  o.lambda_start = 2 * std::numbers::pi * 250;
-  o.lambda_end = 2 * std::numbers::pi * frequency_hz;
-  o.initial_step = o.max_step = 5.0;
-  o.min_step = 1e-8;
-  o.unknown_scale = Eigen::VectorXd::Constant(n + 1, 1e-6);
-  o.unknown_scale(n) = 2 * std::numbers::pi;
-  o.residual_scale = Eigen::VectorXd::Constant(n, 1e-6);
-  Eigen::VectorXd y0(n + 1);
-  y0 << model.linear_response(o.lambda_start), o.lambda_start;
-  const auto summary = trace_curve(model, y0, o);
+  const auto summary = test::trace_hz(model, 250, frequency_hz, 5.0);
   EXPECT_TRUE(summary.reached_end()) << summary.message;
   AmplitudeSampler sampler(model.layout().harmonics(), 4096);
   return sampler.peak_amplitude(model.kept_response(summary.points.back().y),

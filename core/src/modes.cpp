@@ -21,17 +21,7 @@ int run_modes(const ModesRequest& request) {
   const std::string file = request.scene_file.string();
   Scene scene;
   std::unique_ptr<Registry> registry;
-  try {
-    scene = load_scene(request.scene_file);
-    registry = std::make_unique<Registry>(Registry::default_search_path(scene.plugin_paths));
-    bind_plugins(scene, *registry);
-  } catch (const SceneError& e) {
-    spdlog::error("{}", e.what());
-    return kExitInvalidInput;
-  } catch (const std::exception& e) {
-    spdlog::error("{}: {}", file, e.what());
-    return kExitInvalidInput;
-  }
+  if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
   try {
     StructureInstance structure(scene.structure.plugin, scene.structure.values);
     const int sectors = static_cast<int>(structure.sector_count());

@@ -89,22 +89,7 @@ int run_scene(const RunRequest& request) {
   nlohmann::json timing;
   Scene scene;
   std::unique_ptr<Registry> registry;
-  try {
-    scene = load_scene(request.scene_file);
-    registry = std::make_unique<Registry>(Registry::default_search_path(scene.plugin_paths));
-    bind_plugins(scene, *registry);
-  } catch (const SceneError& e) {
-    spdlog::error("{}", e.what());
-    return kExitInvalidInput;
-  } catch (const PluginError& e) {
-    spdlog::error("{}: {}", request.scene_file.string(), e.what());
-    return kExitInvalidInput;
-  } catch (const std::exception& e) {
-    // Anything else while reading input (yaml-cpp conversions, file system) is still bad
-    // input, not an internal failure.
-    spdlog::error("{}: {}", request.scene_file.string(), e.what());
-    return kExitInvalidInput;
-  }
+  if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
   if (request.validate_only) {
     std::string contacts;
     for (const auto& c : scene.contacts)

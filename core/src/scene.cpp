@@ -529,6 +529,22 @@ void bind_plugins(Scene& scene, const Registry& registry) {
   }
 }
 
+bool load_bound_scene(const fs::path& file, Scene& scene, std::unique_ptr<Registry>& registry) {
+  try {
+    scene = load_scene(file);
+    registry = std::make_unique<Registry>(Registry::default_search_path(scene.plugin_paths));
+    bind_plugins(scene, *registry);
+    return true;
+  } catch (const SceneError& e) {
+    spdlog::error("{}", e.what());
+  } catch (const std::exception& e) {
+    // Anything else while reading input (yaml-cpp conversions, the file system, a plugin that
+    // cannot load) is still bad input, not an internal failure.
+    spdlog::error("{}: {}", file.string(), e.what());
+  }
+  return false;
+}
+
 nlohmann::json scene_to_json(const Scene& scene) {
   nlohmann::json j = scene.core_values;
   if (scene.structure.plugin)

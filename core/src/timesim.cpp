@@ -18,18 +18,12 @@ int run_timesim(const TimesimRequest& request) {
   const std::string file = request.scene_file.string();
   Scene scene;
   std::unique_ptr<Registry> registry;
-  try {
-    scene = load_scene(request.scene_file);
-    registry = std::make_unique<Registry>(Registry::default_search_path(scene.plugin_paths));
-    bind_plugins(scene, *registry);
-    if (scene.cyclic.enabled())
-      throw SceneError(file, 0, 0, "cyclic",
-                       "timesim integrates one structure in time: a cyclic scene is not supported");
-  } catch (const SceneError& e) {
-    spdlog::error("{}", e.what());
-    return kExitInvalidInput;
-  } catch (const std::exception& e) {
-    spdlog::error("{}: {}", file, e.what());
+  if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
+  if (scene.cyclic.enabled()) {
+    spdlog::error(
+        "{}: cyclic: timesim integrates one structure in time; a cyclic scene is not "
+        "supported",
+        file);
     return kExitInvalidInput;
   }
   try {

@@ -128,6 +128,13 @@ Scene load_scene(const std::filesystem::path& file);
 // Throws SceneError (bad params, with file:line:column) or PluginError (unknown plugin...).
 void bind_plugins(Scene& scene, const Registry& registry);
 
+// load_scene + bind_plugins on the default plugin search path (and the scene's plugin_paths),
+// for the verbs of the command line: any input error is logged (file:line:column where known)
+// and false returned, for the caller to exit with kExitInvalidInput. `registry` keeps the
+// loaded plugins alive.
+bool load_bound_scene(const std::filesystem::path& file, Scene& scene,
+                      std::unique_ptr<Registry>& registry);
+
 // The validated scene, defaults filled in, for summary.json.
 nlohmann::json scene_to_json(const Scene& scene);
 
