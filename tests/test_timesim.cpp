@@ -10,6 +10,7 @@
 #include "frichb/core/continuation.hpp"
 #include "frichb/core/harmonic_balance.hpp"
 #include "frichb/core/scene.hpp"
+#include "frichb/core/timesim.hpp"
 #include "test_support.hpp"
 
 namespace frichb::core {
@@ -67,6 +68,57 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"two_dof_blade_damper.yaml", "blade", 250.0},
                       Case{"two_dof_blade_damper.yaml", "blade", 298.0},  // the peak
                       Case{"two_dof_blade_damper.yaml", "damper", 330.0}));
+
+// The library entry point on a scene loaded in process gives what the command line writes to
+// summary.json for the same scene and frequency (one code path), and refuses a cyclic scene.
+TEST(SimulateInTime, MatchesTheCommandLineSummaryAndRefusesCyclicScenes) {
+  const std::string file =
+      std::string(FRICHB_SOURCE_DIR) + "/configs/quickstart_friction_oscillator.yaml";
+  const double f = 348.0;
+  Scene scene = load_scene(file);
+  bind_plugins(scene, test::built_plugins());
+  TimesimOptions options;
+  options.frequency_hz = f;
+  const TimesimResult result = simulate_in_time(scene, options);
+
+  test::TempDir dir;
+  const auto out = dir.path() / "out";
+  const std::string command = std::string(FRICHB_EXE) + " --log-level warn timesim " + file +
+                              " --at-hz " + std::to_string(f) + " -o " + out.string();
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  std::ifstream in(out / "summary.json");
+  const auto doc = nlohmann::json::parse(in);
+  EXPECT_EQ(result.periodic, doc["periodic"].get<bool>());
+  EXPECT_EQ(result.periods, doc["periods"].get<int>());
+  ASSERT_EQ(result.nodes.size(), 1u);
+  const auto& node = result.nodes[0];
+  EXPECT_EQ(node.node, "blade");
+  const auto& expected = doc["response"]["blade"];
+  const double amplitude = expected["amplitude_m"].get<double>();
+  EXPECT_GT(amplitude, 0.0);
+  EXPECT_NEAR(node.amplitude_m, amplitude, 1e-12 * amplitude);
+  const double half_p2p = expected["half_peak_to_peak_m"].get<double>();
+  EXPECT_NEAR(node.half_peak_to_peak_m, half_p2p, 1e-12 * half_p2p);
+  ASSERT_EQ(node.harmonic_amplitudes_m.size(), result.harmonics.size());
+  for (std::size_t k = 0; k < result.harmonics.size(); ++k) {
+    const double h =
+        expected["harmonic_amplitudes_m"][std::to_string(result.harmonics[k])].get<double>();
+    EXPECT_NEAR(node.harmonic_amplitudes_m[k], h, 1e-12 * amplitude) << result.harmonics[k];
+  }
+  ASSERT_EQ(result.time_s.size(), static_cast<std::size_t>(options.steps_per_period));
+  ASSERT_EQ(node.samples_m.size(), 1u);
+  EXPECT_EQ(node.samples_m[0].size(), result.time_s.size());
+
+  Scene cyclic =
+      load_scene(std::string(FRICHB_SOURCE_DIR) + "/configs/bladed_disk_lumped_eo3.yaml");
+  bind_plugins(cyclic, test::built_plugins());
+  try {
+    simulate_in_time(cyclic, options);
+    ADD_FAILURE() << "a cyclic scene was integrated";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.key_path(), "cyclic");
+  }
+}
 
 }  // namespace
 }  // namespace frichb::core
