@@ -12,6 +12,7 @@ packages=(
   nlohmann-json3-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox
+  openmpi-bin libopenmpi-dev openssh-client
   clang-format clang-tidy
 )
 

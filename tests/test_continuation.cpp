@@ -341,6 +341,29 @@ TEST(Continuation, FixedParameterNewtonIsDamped) {
   EXPECT_FALSE(solve_fixed_parameter(atan, Eigen::Vector2d(3.0, 0.0), no_damping).converged);
 }
 
+TEST(Continuation, NewtonAcceptsTheFloorOfANonSmoothResidual) {
+  // e = 1e-3 (x - lambda) + 3e-10 sign(x - lambda) has no root: it jumps from -3e-10 to
+  // +3e-10 at x = lambda. Newton then cycles between lambda -+ 3e-7 with |e| = 6e-10 (within
+  // the 1e-9 tolerance) and updates of 6e-7 that never shrink, as a friction residual does
+  // when one sample switches between stick and slip.
+  const double delta = 3e-10;
+  const ScalarCurve kink(
+      [&](double x, double l) { return 1e-3 * (x - l) + (x > l ? delta : -delta); },
+      [](double, double) { return Eigen::Vector2d(1e-3, -1e-3); });
+  const NewtonResult r = solve_fixed_parameter(kink, Eigen::Vector2d(1.0, 0.5), {});
+  ASSERT_TRUE(r.converged) << r.message;
+  EXPECT_TRUE(r.at_residual_floor);
+  EXPECT_LE(r.residual_norm, 1e-9);
+  EXPECT_NEAR(r.y(0), 0.5, 1e-6);
+  ContinuationOptions strict;
+  strict.newton.residual_floor_iterations = 1000;  // demand a shrinking update
+  EXPECT_FALSE(solve_fixed_parameter(kink, Eigen::Vector2d(1.0, 0.5), strict).converged);
+  // A smooth problem never needs the floor.
+  const ScalarCurve line([](double x, double l) { return x - l; },
+                         [](double, double) { return Eigen::Vector2d(1.0, -1.0); });
+  EXPECT_FALSE(solve_fixed_parameter(line, Eigen::Vector2d(1.0, 0.5), {}).at_residual_floor);
+}
+
 TEST(Continuation, SteepBranchCapsTheFollowingSteps) {
   // x = 0.01 lambda + tanh(50 (lambda - 0.5)): flat, then nearly vertical.
   const ScalarCurve steep(

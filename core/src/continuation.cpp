@@ -80,8 +80,9 @@ struct CoreResult {
   bool first_evaluation_failed = false;
   int iterations = 0;
   double residual_norm = kInf;
-  VectorXd ys;  // scaled, lambda last
-  MatrixXd js;  // scaled full Jacobian at ys
+  bool at_residual_floor = false;  // accepted on the residual alone (see DampedNewton)
+  VectorXd ys;                     // scaled, lambda last
+  MatrixXd js;                     // scaled full Jacobian at ys
   std::string message;
 };
 
@@ -125,6 +126,16 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
     out.converged = true;
     return out;
   }
+  // Iterations since the best residual last halved, once it meets the tolerance:
+  // a non-smooth residual (a contact sample switching between stick and slip) has a floor
+  // where Newton cycles between pieces with updates that never shrink. A point whose
+  // residual meets the tolerance there is a solution to that tolerance.
+  // The cycle may visit iterates above the tolerance: the best iterate is kept, and
+  // returned once the best residual has not halved for that many iterations.
+  int since_best = 0;
+  double floor_residual = out.residual_norm;
+  VectorXd floor_ys = out.ys;
+  MatrixXd floor_js = out.js;
   while (out.iterations < opt.max_iterations) {
     const Eigen::FullPivLU<MatrixXd> lu(a);
     if (!lu.isInvertible()) {
@@ -175,6 +186,20 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
     if ((out.residual_norm <= opt.residual_tolerance && update_norm <= opt.step_tolerance) ||
         out.residual_norm <= 1e-3 * opt.residual_tolerance) {
       out.converged = true;
+      return out;
+    }
+    since_best = out.residual_norm < 0.5 * floor_residual ? 0 : since_best + 1;
+    if (out.residual_norm < floor_residual) {
+      floor_residual = out.residual_norm;
+      floor_ys = out.ys;
+      floor_js = out.js;
+    }
+    if (floor_residual <= opt.residual_tolerance && since_best >= opt.residual_floor_iterations) {
+      out.ys = floor_ys;
+      out.js = floor_js;
+      out.residual_norm = floor_residual;
+      out.converged = true;
+      out.at_residual_floor = true;
       return out;
     }
   }
@@ -287,6 +312,7 @@ NewtonResult solve_fixed_parameter(const CurveProblem& problem, const VectorXd& 
   result.converged = core.converged;
   result.iterations = core.iterations;
   result.residual_norm = core.residual_norm;
+  result.at_residual_floor = core.at_residual_floor;
   result.y = core.ys.cwiseProduct(s.unknown);
   result.y(n) = y_guess(n);  // unscaling must not perturb the fixed parameter
   result.message = core.message;
@@ -307,6 +333,9 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     if (!summary.points.empty())
       summary.message += " (last point at " + FormatLambda(summary.points.back().y(n)) + ")";
     summary.turning_points = 0;
+    summary.residual_floor_points = 0;
+    for (const auto& point : summary.points)
+      summary.residual_floor_points += point.at_residual_floor;
     for (std::size_t i = 1; i < summary.points.size(); ++i)
       if (summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0)
         ++summary.turning_points;
@@ -347,6 +376,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
                   "start point: singular e_x, no tangent at " + FormatLambda(first.y(n)));
   first.newton_iterations = start.iterations;
   first.residual_norm = start.residual_norm;
+  first.at_residual_floor = start.at_residual_floor;
   if (!emit(first)) return finish(TerminationType::kCancelled, "cancelled by callback");
 
   double ds = options.initial_step;
@@ -395,6 +425,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       p.newton_iterations = corr.iterations;
       p.step = step;
       p.residual_norm = corr.residual_norm;
+      p.at_residual_floor = corr.at_residual_floor;
 
       sign_change = last.tangent(n) * p.tangent(n) < 0.0;
       if (sign_change && options.turning_point_control && !refining) {
@@ -434,6 +465,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
           end.newton_iterations = land.iterations;
           end.step = (land.ys - ys_last).norm();
           end.residual_norm = land.residual_norm;
+          end.at_residual_floor = land.at_residual_floor;
           emit(end);
           return finish(TerminationType::kReachedEnd, "reached lambda_end");
         }

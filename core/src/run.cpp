@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "frichb/core/continuation.hpp"
@@ -82,11 +83,68 @@ std::string loop_plot_script(const std::string& csv, const std::string& title, i
   return gp.str();
 }
 
+// Golden-section refinement of the highest point `top` of a traced curve over the frequency
+// between its two neighbours. Each probe solves the equations at a fixed frequency from the
+// curve's linear interpolation. Returns (amplitude, omega) or nothing when the curve turns
+// around the top point, the top point is an end of the curve, or a probe fails.
+std::optional<std::pair<double, double>> refine_peak(const HarmonicBalanceModel& model,
+                                                     const std::vector<ContinuationPoint>& points,
+                                                     std::size_t top,
+                                                     const std::vector<Eigen::Index>& kept,
+                                                     AmplitudeSampler& sampler,
+                                                     const ContinuationOptions& options) {
+  if (top == 0 || top + 1 >= points.size() || kept.empty()) return std::nullopt;
+  const Eigen::Index n = model.equation_count();
+  const Eigen::VectorXd& before = points[top - 1].y;
+  const Eigen::VectorXd& at = points[top].y;
+  const Eigen::VectorXd& after = points[top + 1].y;
+  if ((at(n) - before(n)) * (after(n) - at(n)) <= 0) return std::nullopt;  // a fold
+  auto guess = [&](double w) {
+    const Eigen::VectorXd& a = (w - at(n)) * (before(n) - at(n)) > 0 ? before : after;
+    const double s = (w - at(n)) / (a(n) - at(n));
+    Eigen::VectorXd y = (1 - s) * at + s * a;
+    y(n) = w;
+    return y;
+  };
+  bool failed = false;
+  auto amplitude = [&](double w) {
+    Eigen::VectorXd y = guess(w);
+    if (n > 0) {
+      const NewtonResult solved = solve_fixed_parameter(model, y, options);
+      if (!solved.converged) {
+        failed = true;
+        return 0.0;
+      }
+      y = solved.y;
+    }
+    return sampler.peak_amplitude(model.kept_response(y), kept);
+  };
+  const double inv_phi = (std::sqrt(5.0) - 1) / 2;
+  double a = before(n), b = after(n);
+  double c = b - inv_phi * (b - a), d = a + inv_phi * (b - a);
+  double fc = amplitude(c), fd = amplitude(d);
+  for (int i = 0; i < 80 && !failed && std::abs(b - a) > 1e-10 * std::abs(at(n)); ++i) {
+    if (fc > fd) {
+      b = d;
+      d = c;
+      fd = fc;
+      c = b - inv_phi * (b - a);
+      fc = amplitude(c);
+    } else {
+      a = c;
+      c = d;
+      fc = fd;
+      d = a + inv_phi * (b - a);
+      fd = amplitude(d);
+    }
+  }
+  if (failed) return std::nullopt;
+  return fc > fd ? std::make_pair(fc, c) : std::make_pair(fd, d);
+}
+
 }  // namespace
 
 int run_scene(const RunRequest& request) {
-  const auto t_start = Clock::now();
-  nlohmann::json timing;
   Scene scene;
   std::unique_ptr<Registry> registry;
   if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
@@ -100,7 +158,30 @@ int run_scene(const RunRequest& request) {
                  contacts.empty() ? "none" : contacts);
     return kExitOk;
   }
+  if (scene.root["study"])
+    spdlog::info(
+        "{} has a study: section; `frichb run` traces the scene as written, "
+        "`frichb study` runs the sweep",
+        request.scene_file.string());
+  fs::path out_dir = request.output_directory;
+  if (out_dir.empty()) out_dir = fs::path("out") / scene.file.stem();
+  return run_bound_scene(scene, out_dir).exit_code;
+}
 
+RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
+                           const RunOptions& run_options) {
+  const auto t_start = Clock::now();
+  const auto routine = run_options.quiet ? spdlog::level::debug : spdlog::level::info;
+  RunOutcome outcome;
+  auto fail = [&](int code, const char* termination, const std::string& message) {
+    outcome.exit_code = code;
+    outcome.termination = termination;
+    outcome.message = message;
+    outcome.wall_seconds = seconds_since(t_start);
+    spdlog::error("{}", message);
+    return outcome;
+  };
+  nlohmann::json timing;
   try {
     std::unique_ptr<StructureInstance> structure;
     std::unique_ptr<HarmonicBalanceModel> model;
@@ -109,22 +190,20 @@ int run_scene(const RunRequest& request) {
           std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
       model = std::make_unique<HarmonicBalanceModel>(scene, *structure);
     } catch (const PluginError& e) {
-      spdlog::error("{}: {}", request.scene_file.string(), e.what());
-      return kExitInvalidInput;
+      return fail(kExitInvalidInput, "invalid_input", scene.file.string() + ": " + e.what());
     } catch (const SceneError& e) {
-      spdlog::error("{}", e.what());
-      return kExitInvalidInput;
+      return fail(kExitInvalidInput, "invalid_input", e.what());
     }
     timing["setup_s"] = seconds_since(t_start);
     const auto& C = scene.continuation;
     const double unit = C.to_rad_per_s();
     const double w_from = C.from * unit, w_to = C.to * unit;
     const Eigen::Index n = model->equation_count();
-    spdlog::info(
-        "scene '{}': {} contact(s), {} unknowns ({} harmonics, {} samples), {} {} -> {} {}",
-        scene.name.empty() ? scene.file.stem().string() : scene.name, model->contacts().size(), n,
-        model->layout().harmonics().size(), model->layout().samples(), C.from, unit_name(C.unit),
-        C.to, unit_name(C.unit));
+    spdlog::log(routine,
+                "scene '{}': {} contact(s), {} unknowns ({} harmonics, {} samples), {} {} -> {} {}",
+                scene.name.empty() ? scene.file.stem().string() : scene.name,
+                model->contacts().size(), n, model->layout().harmonics().size(),
+                model->layout().samples(), C.from, unit_name(C.unit), C.to, unit_name(C.unit));
 
     // Scaling: frequency in the scene's unit; displacements so that the contact-free peak
     // over the sweep is kTallness times as tall as the sweep is wide. Friction peaks are
@@ -135,14 +214,12 @@ int run_scene(const RunRequest& request) {
     for (int i = 0; i <= 256; ++i) {
       const double w = w_from + (w_to - w_from) * i / 256.0;
       const Eigen::VectorXd u0 = model->linear_response(w);
-      if (!u0.allFinite()) {
-        spdlog::error(
-            "{}: the contact-free response is not finite at {} {} (harmonic 0 with a "
-            "rigid-body mode, or an undamped resonance): ground the structure, drop "
-            "harmonic 0, or add damping",
-            request.scene_file.string(), w / unit, unit_name(C.unit));
-        return kExitInvalidInput;
-      }
+      if (!u0.allFinite())
+        return fail(kExitInvalidInput, "invalid_input",
+                    scene.file.string() + ": the contact-free response is not finite at " +
+                        format_number(w / unit) + " " + unit_name(C.unit) +
+                        " (harmonic 0 with a rigid-body mode, or an undamped resonance): "
+                        "ground the structure, drop harmonic 0, or add damping");
       if (u0.size()) peak = std::max(peak, u0.cwiseAbs().maxCoeff());
     }
     if (peak == 0.0) peak = 1e-6;
@@ -179,8 +256,8 @@ int run_scene(const RunRequest& request) {
       const double done = std::clamp((f - C.from) / (C.to - C.from), 0.0, 1.0);
       if (done - last_report >= 0.05 || index == 0) {
         last_report = done;
-        spdlog::info("  [{:3.0f}%] point {:5d}  {:.6g} {}  Newton {}  step {:.3g}", 100 * done,
-                     index, f, unit_name(C.unit), p.newton_iterations, p.step);
+        spdlog::log(routine, "  [{:3.0f}%] point {:5d}  {:.6g} {}  Newton {}  step {:.3g}",
+                    100 * done, index, f, unit_name(C.unit), p.newton_iterations, p.step);
       }
       return true;
     };
@@ -203,13 +280,13 @@ int run_scene(const RunRequest& request) {
     }
     timing["continuation_s"] = seconds_since(t_cont);
     if (summary.reached_end())
-      spdlog::info(
-          "reached {} {} with {} points ({} rejected steps, {} turning points) in {:.3f} s", C.to,
-          unit_name(C.unit), summary.points.size(), summary.rejected_steps, summary.turning_points,
-          summary.wall_seconds);
+      spdlog::log(routine,
+                  "reached {} {} with {} points ({} rejected steps, {} turning points) in {:.3f} s",
+                  C.to, unit_name(C.unit), summary.points.size(), summary.rejected_steps,
+                  summary.turning_points, summary.wall_seconds);
     else
-      spdlog::error("the response curve ended early: {} ({})", to_string(summary.termination),
-                    summary.message);
+      spdlog::error("{}: the response curve ended early: {} ({})", scene.file.string(),
+                    to_string(summary.termination), summary.message);
 
     // ---- post-processing ----
     const auto t_post = Clock::now();
@@ -249,14 +326,32 @@ int run_scene(const RunRequest& request) {
       row.push_back(p.step);
       rows.push_back(std::move(row));
     }
-    for (std::size_t k = 0; k < nodes.size(); ++k)
+
+    // The highest point of each node's curve, refined between its neighbours.
+    std::vector<bool> refined(nodes.size(), false);
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      std::size_t top = 0;
+      for (std::size_t i = 1; i < rows.size(); ++i)
+        if (rows[i][3 + k * (1 + harmonics.size())] > rows[top][3 + k * (1 + harmonics.size())])
+          top = i;
+      const auto refined_peak =
+          refine_peak(*model, summary.points, top, nodes[k].kept, sampler, options);
+      if (refined_peak && refined_peak->first >= peak_amp[k]) {
+        peak_amp[k] = refined_peak->first;
+        peak_w[k] = refined_peak->second;
+        refined[k] = true;
+      }
+    }
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
       peaks[nodes[k].name] = {{"amplitude_m", peak_amp[k]},
                               {"frequency_hz", peak_w[k] / (2 * std::numbers::pi)},
-                              {"omega_rad_s", peak_w[k]}};
+                              {"omega_rad_s", peak_w[k]},
+                              {"refined", refined[k]}};
+      outcome.peaks.push_back({nodes[k].name, peak_amp[k], peak_w[k], refined[k]});
+    }
 
     // ---- outputs ----
-    fs::path out_dir = request.output_directory;
-    if (out_dir.empty()) out_dir = fs::path("out") / scene.file.stem();
+    const bool plots = run_options.plots < 0 ? scene.output.plots : run_options.plots != 0;
     StagedOutput out(out_dir,
                      {"response.csv", "response.gp", "response.png", "summary.json", "loops"});
     write_csv(out.path("response.csv"), header, rows);
@@ -321,7 +416,7 @@ int run_scene(const RunRequest& request) {
                            {"file", base + ".csv"},
                            {"dissipated_energy_per_cycle_J", energy},
                            {"trace_passes", trace.passes}});
-          if (scene.output.plots) {
+          if (plots) {
             const fs::path gp = out.path(base + ".gp");
             write_text(gp, loop_plot_script(csv.string(),
                                             contact.name + " at " + format_number(f_req) + " " +
@@ -335,7 +430,7 @@ int run_scene(const RunRequest& request) {
         spdlog::warn("friction loop at {} {}: the response curve does not reach it", f_req,
                      unit_name(C.unit));
     }
-    if (scene.output.plots) {
+    if (plots) {
       const fs::path gp = out.path("response.gp");
       write_text(gp, response_plot_script(scene, nodes));
       run_gnuplot(gp);
@@ -373,6 +468,7 @@ int run_scene(const RunRequest& request) {
         {"turning_points", summary.turning_points},
         {"fine_control_restarts", summary.fine_control_restarts},
         {"steep_branch_caps", summary.steep_branch_caps},
+        {"residual_floor_points", summary.residual_floor_points},
         {"newton_iterations", summary.total_newton_iterations},
         {"residual_evaluations", stats.residual_evaluations},
         {"jacobian_evaluations", stats.jacobian_evaluations},
@@ -390,17 +486,23 @@ int run_scene(const RunRequest& request) {
         {"validated_scene", scene_to_json(scene)}};
     if (!stats.last_trace_diagnostic.empty())
       doc["last_trace_diagnostic"] = stats.last_trace_diagnostic;
+    if (!run_options.study_context.is_null()) doc["study"] = run_options.study_context;
     if (stats.contacts_with_fd_jacobian && model->jacobian_mode() == JacobianMode::kAnalytic)
       spdlog::warn("{} contact traces used finite differences (a law without tangents)",
                    stats.contacts_with_fd_jacobian);
     write_json(out.path("summary.json"), doc);
     out.commit();
-    spdlog::info("wrote {} ({} points; total {:.3f} s)", out_dir.string(), rows.size(),
-                 seconds_since(t_start));
-    return summary.reached_end() ? kExitOk : kExitIncomplete;
+    outcome.wrote_output = true;
+    outcome.exit_code = summary.reached_end() ? kExitOk : kExitIncomplete;
+    outcome.termination = to_string(summary.termination);
+    outcome.message = summary.message;
+    outcome.points = summary.points.size();
+    outcome.wall_seconds = seconds_since(t_start);
+    spdlog::log(routine, "wrote {} ({} points; total {:.3f} s)", out_dir.string(), rows.size(),
+                outcome.wall_seconds);
+    return outcome;
   } catch (const std::exception& e) {
-    spdlog::error("{}: {}", request.scene_file.string(), e.what());
-    return kExitInternal;
+    return fail(kExitInternal, "internal_error", scene.file.string() + ": " + e.what());
   }
 }
 

@@ -216,10 +216,7 @@ double ContinuationSpec::to_rad_per_s() const {
   return unit == FrequencyUnit::kHz ? 2.0 * std::numbers::pi : 1.0;
 }
 
-Scene load_scene(const fs::path& file) {
-  Scene scene;
-  scene.file = file;
-  YamlContext ctx{file.string()};
+YAML::Node load_scene_yaml(const fs::path& file) {
   {
     std::error_code ec;
     if (fs::is_directory(file, ec))
@@ -228,18 +225,29 @@ Scene load_scene(const fs::path& file) {
     if (!probe) throw SceneError(file.string(), 0, 0, "", "cannot open the scene file");
   }
   try {
-    scene.root = YAML::LoadFile(file.string());
+    return YAML::LoadFile(file.string());
   } catch (const YAML::Exception& e) {
     throw SceneError(file.string(), e.mark.line + 1, e.mark.column + 1, "",
                      "malformed YAML: " + e.msg);
   }
+}
+
+Scene load_scene(const fs::path& file) {
+  return load_scene(load_scene_yaml(file), file);
+}
+
+Scene load_scene(const YAML::Node& document, const fs::path& file) {
+  Scene scene;
+  scene.file = file;
+  scene.root = document;
+  YamlContext ctx{file.string()};
   // Non-const handles: a const operator[] on a missing key gives an invalid node that throws.
   YAML::Node root = scene.root;
   if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
 
-  const std::vector<std::string> sections = {
-      "structure",    "excitation", "contacts", "harmonic_balance",
-      "continuation", "output",     "cyclic"};
+  const std::vector<std::string> sections = {"structure",        "excitation",   "contacts",
+                                             "harmonic_balance", "continuation", "output",
+                                             "cyclic",           "study"};
   const auto top = validate_params(root, top_schema(), "", ctx, sections);
   const auto topv = view(top_schema(), top);
   scene.name = topv.text("name");
@@ -563,7 +571,7 @@ std::vector<CoreSection> core_schemas() {
   return {
       {"(top level)", top_schema(),
        "Sections: `structure`, `excitation`, `contacts`, `harmonic_balance`, `continuation` "
-       "(required), `output`."},
+       "(required), `output`, `cyclic`, `study`."},
       {"structure", structure_schema(),
        "`params`: the provider's parameters (see Structure providers below). `dofs`: a map "
        "naming the DOFs the scene refers to, `name: index` for a scalar DOF or "

@@ -53,6 +53,10 @@ struct NewtonOptions {
   double step_tolerance = 1e-9;
   // Damping: an update that increases the residual norm is halved up to this many times.
   int max_line_search_halvings = 6;
+  // Also converged when the residual has met residual_tolerance for this many iterations in
+  // a row without halving: the floor of a non-smooth residual, where Newton cycles between
+  // pieces and its update never shrinks (counted in ContinuationSummary).
+  int residual_floor_iterations = 3;
 };
 
 struct ContinuationOptions {
@@ -95,8 +99,9 @@ struct ContinuationPoint {
   Eigen::VectorXd y;        // unscaled unknowns, lambda last
   Eigen::VectorXd tangent;  // unit tangent in scaled variables, oriented along the sweep
   int newton_iterations = 0;
-  double step = 0.0;           // arclength step that reached this point (scaled)
-  double residual_norm = 0.0;  // scaled infinity norm at convergence
+  double step = 0.0;               // arclength step that reached this point (scaled)
+  double residual_norm = 0.0;      // scaled infinity norm at convergence
+  bool at_residual_floor = false;  // converged on the residual alone (NewtonOptions)
 };
 
 enum class TerminationType {
@@ -120,6 +125,7 @@ struct ContinuationSummary {
   int turning_points = 0;         // sign changes of the tangent's lambda component accepted
   int fine_control_restarts = 0;  // times the turning-point control stepped back
   int steep_branch_caps = 0;      // times the steep-branch cap was applied
+  int residual_floor_points = 0;  // points accepted at a residual floor (NewtonOptions)
   int total_newton_iterations = 0;
   double wall_seconds = 0.0;
   bool reached_end() const { return termination == TerminationType::kReachedEnd; }
@@ -128,8 +134,9 @@ struct ContinuationSummary {
 struct NewtonResult {
   bool converged = false;
   int iterations = 0;
-  double residual_norm = 0.0;  // scaled infinity norm at the last iterate
-  Eigen::VectorXd y;           // last iterate, unscaled, lambda last
+  double residual_norm = 0.0;      // scaled infinity norm at the last iterate
+  Eigen::VectorXd y;               // last iterate, unscaled, lambda last
+  bool at_residual_floor = false;  // converged on the residual alone (NewtonOptions)
   std::string message;
 };
 

@@ -123,6 +123,11 @@ struct Scene {
 
 // Parses and validates the scene's own structure. Throws SceneError.
 Scene load_scene(const std::filesystem::path& file);
+// The same on a document already parsed from `file` (marks give lines and columns in it).
+// The scene keeps a handle to `document`: give each Scene its own document.
+Scene load_scene(const YAML::Node& document, const std::filesystem::path& file);
+// Parses `file` as YAML. Throws SceneError (missing file, a folder, malformed YAML).
+YAML::Node load_scene_yaml(const std::filesystem::path& file);
 
 // Loads the plugins the scene names (and only those) and validates their params.
 // Throws SceneError (bad params, with file:line:column) or PluginError (unknown plugin...).

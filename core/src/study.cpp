@@ -1,0 +1,742 @@
+#include "frichb/core/study.hpp"
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <mutex>
+#include <numbers>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "frichb/core/output.hpp"
+#include "frichb/plugin/sdk.hpp"
+
+namespace frichb::core {
+
+namespace fs = std::filesystem;
+using sdk::Param;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Joins text pieces into one string (no temporaries per '+').
+template <class... Parts>
+std::string cat(const Parts&... parts) {
+  std::string out;
+  (out += ... += parts);
+  return out;
+}
+
+const frichb_param_spec* sweep_fields() {
+  static const frichb_param_spec f[] = {
+      Param::text("path",
+                  "scene key to vary, e.g. contacts.shroud.params.normal_load or "
+                  "excitation.0.amplitude"),
+      Param::real_list("values", "", "the values (or give from, to and count)").optional(),
+      Param::real("from", "", "first value of a generated range").defaults_to(0),
+      Param::real("to", "", "last value of a generated range").defaults_to(0),
+      Param::integer("count", "number of values of a generated range (>= 2)")
+          .defaults_to(0)
+          .at_least(0),
+      Param::text("spacing", "spacing of a generated range")
+          .defaults_to_text("linear")
+          .choices("linear|log"),
+  };
+  return f;
+}
+constexpr std::size_t kSweepFieldCount = 6;
+
+const std::vector<frichb_param_spec>& study_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::records("sweep", "the varied keys, each with its values", sweep_fields(),
+                     kSweepFieldCount),
+      Param::text("combine",
+                  "grid: every combination (the first sweep varies slowest); zip: the i-th "
+                  "value of every sweep together (equal lengths)")
+          .defaults_to_text("grid")
+          .choices("grid|zip"),
+      Param::text("parallel",
+                  "threads per process: auto (one per core), serial, or a count; under "
+                  "mpirun the runs are spread over the ranks too")
+          .defaults_to_text("auto"),
+      Param::text("node",
+                  "node whose response curves are overlaid and whose peak is plotted against "
+                  "the first swept value (default: the first of output.response)")
+          .defaults_to_text(""),
+  };
+  return s;
+}
+
+std::string format_value(double x) {
+  if (x == std::floor(x) && std::abs(x) < 1e15) {
+    std::ostringstream os;
+    os << static_cast<long long>(x);
+    return os.str();
+  }
+  std::ostringstream os;
+  os << std::setprecision(17) << x;
+  return os.str();
+}
+
+std::string short_value(double x) {
+  std::ostringstream os;
+  os << std::setprecision(6) << x;
+  return os.str();
+}
+
+// One part of a path: a map key (or a contact's name) followed by list indices.
+struct PathPart {
+  std::string key;
+  std::vector<std::size_t> indices;
+};
+
+std::vector<PathPart> parse_path(const std::string& path) {
+  std::vector<PathPart> parts;
+  std::size_t i = 0;
+  while (i <= path.size()) {
+    PathPart part;
+    while (i < path.size() && path[i] != '.' && path[i] != '[') part.key += path[i++];
+    while (i < path.size() && path[i] == '[') {
+      const std::size_t close = path.find(']', i);
+      if (close == std::string::npos)
+        throw std::invalid_argument(cat("'", path, "': unclosed '['"));
+      const std::string digits = path.substr(i + 1, close - i - 1);
+      if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
+        throw std::invalid_argument(cat("'", path, "': [", digits, "] is not a list index"));
+      part.indices.push_back(std::stoul(digits));
+      i = close + 1;
+    }
+    if (part.key.empty() && (parts.empty() || part.indices.empty()))
+      throw std::invalid_argument(cat("'", path, "': empty key"));
+    parts.push_back(std::move(part));
+    if (i == path.size()) break;
+    if (path[i] != '.') throw std::invalid_argument(cat("'", path, "': expected '.' or '['"));
+    ++i;
+    if (i == path.size()) throw std::invalid_argument(cat("'", path, "': ends with '.'"));
+  }
+  return parts;
+}
+
+std::vector<std::string> map_keys(const YAML::Node& map) {
+  std::vector<std::string> keys;
+  for (const auto& kv : map)
+    if (kv.first.IsScalar()) keys.push_back(kv.first.Scalar());
+  return keys;
+}
+
+// Finds the node at `path`, creating the last key of a map when absent. `create` false:
+// only checks (and never inserts).
+// `document` is a handle (yaml-cpp nodes share their data): edits go through it.
+YAML::Node resolve(YAML::Node document,  // NOLINT(performance-unnecessary-value-param)
+                   const std::string& path, bool create) {
+  const auto parts = parse_path(path);
+  YAML::Node node = document;
+  std::string walked;
+  for (std::size_t p = 0; p < parts.size(); ++p) {
+    const auto& part = parts[p];
+    const bool last_part = p + 1 == parts.size();
+    if (!part.key.empty()) {
+      const std::string here = walked.empty() ? part.key : walked + "." + part.key;
+      const bool numeric = part.key.find_first_not_of("0123456789") == std::string::npos;
+      if (node.IsSequence() && numeric) {
+        // A number addresses a list entry by index (excitation.0.amplitude).
+        const std::size_t index = std::stoul(part.key);
+        if (index >= node.size())
+          throw std::invalid_argument(cat("'", walked, "' has ", std::to_string(node.size()),
+                                          " entries, so '", here, "' does not exist"));
+        node.reset(node[index]);
+      } else if (node.IsSequence()) {
+        // A list of named entries (contacts): the entry whose name is the key.
+        YAML::Node found;
+        bool matched = false;
+        std::vector<std::string> names;
+        for (std::size_t i = 0; i < node.size(); ++i) {
+          YAML::Node entry = node[i];
+          if (entry.IsMap() && entry["name"] && entry["name"].IsScalar()) {
+            names.push_back(entry["name"].Scalar());
+            if (names.back() == part.key) {
+              found.reset(entry);
+              matched = true;
+            }
+          }
+        }
+        if (!matched) {
+          const std::string near = closest_match(part.key, names);
+          throw std::invalid_argument("'" + walked + "' has no entry named '" + part.key + "'" +
+                                      (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+        }
+        node.reset(found);
+      } else if (node.IsMap()) {
+        YAML::Node child = node[part.key];
+        if (!child) {
+          if (!(last_part && part.indices.empty())) {
+            const std::string near = closest_match(part.key, map_keys(node));
+            throw std::invalid_argument("'" + here + "' is not in the scene" +
+                                        (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+          }
+          if (!create) return {};
+        }
+        node.reset(child);
+      } else {
+        throw std::invalid_argument(
+            cat("'", walked, "' is not a map, so '", here, "' cannot be addressed"));
+      }
+      walked = here;
+    }
+    for (std::size_t index : part.indices) {
+      const std::string here = walked + "[" + std::to_string(index) + "]";
+      if (!node.IsSequence())
+        throw std::invalid_argument(
+            cat("'", walked, "' is not a list, so '", here, "' cannot be addressed"));
+      if (index >= node.size())
+        throw std::invalid_argument(cat("'", walked, "' has ", std::to_string(node.size()),
+                                        " entries, so '", here, "' does not exist"));
+      node.reset(node[index]);
+      walked = here;
+    }
+  }
+  if (node && !node.IsScalar())
+    throw std::invalid_argument("'" + path + "' is a " + (node.IsMap() ? "map" : "list") +
+                                ", not a number");
+  return node;
+}
+
+std::vector<std::vector<double>> combinations(const StudySpec& study) {
+  std::vector<std::vector<double>> runs;
+  if (study.sweeps.empty()) return runs;
+  if (study.zip) {
+    for (std::size_t i = 0; i < study.sweeps.front().values.size(); ++i) {
+      std::vector<double> v;
+      for (const auto& s : study.sweeps) v.push_back(s.values[i]);
+      runs.push_back(std::move(v));
+    }
+    return runs;
+  }
+  std::vector<std::size_t> counter(study.sweeps.size(), 0);
+  while (true) {
+    std::vector<double> v;
+    for (std::size_t k = 0; k < study.sweeps.size(); ++k)
+      v.push_back(study.sweeps[k].values[counter[k]]);
+    runs.push_back(std::move(v));
+    std::size_t k = study.sweeps.size();
+    while (k > 0) {
+      --k;
+      if (++counter[k] < study.sweeps[k].values.size()) break;
+      counter[k] = 0;
+      if (k == 0) return runs;
+    }
+  }
+}
+
+int parse_threads(const std::string& text, const YAML::Node& node, const YamlContext& ctx) {
+  if (text == "auto") return 0;
+  if (text == "serial") return 1;
+  try {
+    std::size_t used = 0;
+    const int n = std::stoi(text, &used);
+    if (used == text.size() && n >= 1) return n;
+  } catch (const std::exception&) {
+  }
+  ctx.fail(node, "study.parallel",
+           "expected auto, serial or a thread count >= 1, got '" + text + "'");
+}
+
+// The CSV cell of a number (empty when not finite: a failed run has no peak).
+std::string cell(double x) {
+  if (!std::isfinite(x)) return "";
+  std::ostringstream os;
+  os << std::setprecision(12) << x;
+  return os.str();
+}
+
+std::string csv_text(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
+  return q + "\"";
+}
+
+nlohmann::json outcome_json(const StudyRun& run, const RunOutcome& o) {
+  nlohmann::json peaks = nlohmann::json::array();
+  for (const auto& p : o.peaks)
+    peaks.push_back({{"node", p.node},
+                     {"amplitude_m", p.amplitude_m},
+                     {"omega_rad_s", p.omega_rad_s},
+                     {"refined", p.refined}});
+  return {{"index", run.index},           {"exit_code", o.exit_code},
+          {"termination", o.termination}, {"message", o.message},
+          {"points", o.points},           {"peaks", peaks},
+          {"wall_s", o.wall_seconds},     {"wrote_output", o.wrote_output}};
+}
+
+// Reports finished runs: a bar on a terminal, a log line per run otherwise.
+class Progress {
+ public:
+  Progress(std::size_t total, bool enabled) : total_(total), enabled_(enabled) {
+    bar_ = enabled_ && isatty(fileno(stderr)) && spdlog::should_log(spdlog::level::info);
+  }
+  void finished(const std::string& line) {
+    if (!enabled_) return;
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++done_;
+    const double elapsed = std::chrono::duration<double>(Clock::now() - start_).count();
+    const double eta = elapsed / static_cast<double>(done_) * static_cast<double>(total_ - done_);
+    if (!bar_) {
+      spdlog::info("[{}/{}] {}", done_, total_, line);
+      return;
+    }
+    constexpr int kWidth = 30;
+    const int filled = static_cast<int>(kWidth * done_ / std::max<std::size_t>(total_, 1));
+    std::fprintf(stderr, "\r[%s%s] %zu/%zu runs  %.0f s elapsed, about %.0f s left   ",
+                 std::string(static_cast<std::size_t>(filled), '#').c_str(),
+                 std::string(static_cast<std::size_t>(kWidth - filled), ' ').c_str(), done_, total_,
+                 elapsed, eta);
+    if (done_ == total_) std::fprintf(stderr, "\n");
+    std::fflush(stderr);
+  }
+
+ private:
+  std::size_t total_, done_ = 0;
+  bool enabled_, bar_ = false;
+  std::mutex mutex_;
+  Clock::time_point start_ = Clock::now();
+};
+
+std::string unit_name(FrequencyUnit u) {
+  return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
+}
+
+std::string quoted(const std::string& s) {
+  std::string q;
+  for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
+  return "'" + q + "'";
+}
+
+}  // namespace
+
+void set_scene_value(YAML::Node document,  // NOLINT(performance-unnecessary-value-param)
+                     const std::string& path, double value) {
+  YAML::Node node = resolve(document, path, true);
+  node = format_value(value);
+}
+
+StudySpec load_study(const Scene& scene) {
+  YamlContext ctx{scene.file.string()};
+  YAML::Node root = scene.root;
+  YAML::Node sn = root["study"];
+  if (!sn) ctx.fail(root, "study", "the scene has no study: section");
+  const auto values = validate_params(sn, study_schema(), "study", ctx);
+  const sdk::Params v(study_schema().data(), study_schema().size(), values.data());
+  StudySpec study;
+  study.zip = v.text("combine") == "zip";
+  study.threads = parse_threads(v.text("parallel"), sn["parallel"] ? sn["parallel"] : sn, ctx);
+  study.node = v.text("node");
+  if (study.node.empty()) {
+    study.node = scene.output.response.empty() ? "" : scene.output.response.front();
+  } else if (std::find(scene.output.response.begin(), scene.output.response.end(), study.node) ==
+             scene.output.response.end()) {
+    ctx.fail(sn["node"], "study.node", "'" + study.node + "' is not among output.response");
+  }
+  const std::size_t count = v.record_count("sweep");
+  if (count == 0) ctx.fail(sn, "study.sweep", "give at least one swept key");
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto r = v.record("sweep", i);
+    const std::string key = "study.sweep[" + std::to_string(i) + "]";
+    YAML::Node entry = sn["sweep"][i];
+    SweepSpec sweep;
+    sweep.path = r.text("path");
+    if (!seen.insert(sweep.path).second)
+      ctx.fail(entry["path"], key + ".path", "'" + sweep.path + "' is swept twice");
+    try {
+      YAML::Node probe = YAML::Clone(root);  // resolving must not insert into the scene
+      resolve(probe, sweep.path, false);
+    } catch (const std::invalid_argument& e) {
+      ctx.fail(entry["path"], key + ".path", e.what());
+    }
+    const bool listed = r.present("values");
+    const bool ranged = r.present("from") || r.present("to") || r.present("count");
+    if (listed == ranged) ctx.fail(entry, key, "give either values: [...] or from, to and count");
+    if (listed) {
+      sweep.values = r.reals("values");
+      if (sweep.values.empty()) ctx.fail(entry["values"], key + ".values", "no values");
+    } else {
+      if (!(r.present("from") && r.present("to") && r.present("count")))
+        ctx.fail(entry, key, "a generated range needs from, to and count");
+      const double from = r.real("from"), to = r.real("to");
+      const auto n = static_cast<std::size_t>(r.integer("count"));
+      if (n < 2) ctx.fail(entry["count"], key + ".count", "count >= 2");
+      const bool log = r.text("spacing") == "log";
+      if (log && !(from > 0 && to > 0))
+        ctx.fail(entry, key + ".spacing", "log spacing needs from > 0 and to > 0");
+      for (std::size_t k = 0; k < n; ++k) {
+        const double s = static_cast<double>(k) / static_cast<double>(n - 1);
+        sweep.values.push_back(log ? from * std::pow(to / from, s) : from + (to - from) * s);
+      }
+    }
+    study.sweeps.push_back(std::move(sweep));
+  }
+  if (study.zip)
+    for (std::size_t i = 1; i < study.sweeps.size(); ++i)
+      if (study.sweeps[i].values.size() != study.sweeps[0].values.size())
+        ctx.fail(sn["sweep"][i], "study.sweep[" + std::to_string(i) + "]",
+                 "combine: zip needs sweeps of equal lengths (" +
+                     std::to_string(study.sweeps[0].values.size()) + " and " +
+                     std::to_string(study.sweeps[i].values.size()) + " values)");
+  return study;
+}
+
+std::vector<StudyRun> prepare_study_runs(const Scene& scene, const StudySpec& study,
+                                         const Registry& registry) {
+  std::vector<StudyRun> runs;
+  const auto combos = combinations(study);
+  const YamlContext ctx{scene.file.string()};
+  YAML::Node root = scene.root;
+  const int width = std::max<int>(4, static_cast<int>(std::to_string(combos.size()).size()));
+  for (std::size_t i = 0; i < combos.size(); ++i) {
+    StudyRun run;
+    run.index = i;
+    std::ostringstream id;
+    id << std::setw(width) << std::setfill('0') << i;
+    run.id = id.str();
+    run.values = combos[i];
+    std::string label;
+    for (std::size_t k = 0; k < combos[i].size(); ++k)
+      label += (k ? ", " : "") + study.sweeps[k].path + " = " + short_value(combos[i][k]);
+    std::size_t current = 0;  // the sweep whose value is being applied (for errors)
+    try {
+      YAML::Node document = load_scene_yaml(scene.file);
+      for (current = 0; current < combos[i].size(); ++current)
+        set_scene_value(document, study.sweeps[current].path, combos[i][current]);
+      run.scene = load_scene(document, scene.file);
+      bind_plugins(run.scene, registry);
+      for (const auto& c : run.scene.contacts) ContactLawInstance probe(c.plugin, c.values);
+    } catch (const SceneError& e) {
+      // An error about a swept key is the sweep's: point at it (the scene's line is where the
+      // key was written, not where the bad value came from).
+      const std::string& kp = e.key_path();
+      std::size_t k = study.sweeps.size();
+      for (std::size_t s = 0; s < study.sweeps.size(); ++s) {
+        const std::string& p = study.sweeps[s].path;
+        const std::string last = p.substr(p.find_last_of(".]") + 1);
+        if (!last.empty() && kp.size() >= last.size() &&
+            kp.compare(kp.size() - last.size(), last.size(), last) == 0)
+          k = s;
+      }
+      const std::string why = cat(kp, ": ", e.message(), " (study run ", run.id, ": ", label, ")");
+      if (k == study.sweeps.size()) {
+        if (e.line() > 0)
+          throw SceneError(ctx.file, e.line(), e.column(), kp,
+                           e.message() + " (study run " + run.id + ": " + label + ")");
+        ctx.fail(root["study"], "study", why);
+      }
+      ctx.fail(root["study"]["sweep"][k], "study.sweep[" + std::to_string(k) + "]", why);
+    } catch (const std::exception& e) {
+      const std::size_t k = std::min(current, study.sweeps.size() - 1);
+      ctx.fail(root["study"]["sweep"][k], "study.sweep[" + std::to_string(k) + "]",
+               std::string("run ") + run.id + " (" + label + "): " + e.what());
+    }
+    runs.push_back(std::move(run));
+  }
+  return runs;
+}
+
+std::vector<CoreSection> study_schemas() {
+  return {
+      {"study", study_schema(),
+       "Optional; used by `frichb study` (and ignored by `frichb run`). Each sweep varies "
+       "one numeric scalar of the scene, addressed by its path: map keys separated by `.`, "
+       "list entries by their index (`excitation.0.amplitude`; `[0]` also works but must be quoted "
+       "in YAML's flow style), a contact by its name (`contacts.shroud.params.mu`). "
+       "The last key may be absent from the scene (its default is then overridden)."},
+      {"study.sweep[]",
+       std::vector<frichb_param_spec>(sweep_fields(), sweep_fields() + kSweepFieldCount),
+       "Give `values`, or `from`, `to` and `count` (with `spacing`)."}};
+}
+
+int run_study(const StudyRequest& request, StudyCommunicator& comm) {
+  const auto t_start = Clock::now();
+  const bool leader = comm.rank() == 0;
+  Scene scene;
+  std::unique_ptr<Registry> registry;
+  if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
+  StudySpec study;
+  std::vector<StudyRun> runs;
+  try {
+    study = load_study(scene);
+    runs = prepare_study_runs(scene, study, *registry);
+  } catch (const SceneError& e) {
+    spdlog::error("{}", e.what());
+    return kExitInvalidInput;
+  } catch (const std::exception& e) {
+    spdlog::error("{}: {}", request.scene_file.string(), e.what());
+    return kExitInvalidInput;
+  }
+  int threads = request.threads >= 0 ? request.threads : study.threads;
+  if (threads <= 0) {
+    threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    if (const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE"))
+      threads = std::max(1, threads / std::max(1, std::atoi(local)));
+  }
+  fs::path out_dir = request.output_directory;
+  if (out_dir.empty()) out_dir = fs::path("out") / (scene.file.stem().string() + "-study");
+
+  // Rank 0 stages the output; every rank writes its runs into the staging folder.
+  std::unique_ptr<StagedOutput> out;
+  std::string staging;
+  if (leader) {
+    try {
+      out = std::make_unique<StagedOutput>(
+          out_dir, std::vector<std::string>{"study.csv", "study.json", "overlay.gp", "overlay.png",
+                                            "peak.gp", "peak.png", "runs"});
+      staging = out->path("runs").string();
+    } catch (const std::exception& e) {
+      spdlog::error("cannot create the output folder {}: {}", out_dir.string(), e.what());
+    }
+  }
+  staging = comm.broadcast(staging);
+  if (staging.empty()) return kExitInternal;
+
+  std::vector<std::size_t> mine;
+  for (std::size_t i = static_cast<std::size_t>(comm.rank()); i < runs.size();
+       i += static_cast<std::size_t>(comm.size()))
+    mine.push_back(i);
+  threads = std::max(1, std::min<int>(threads, static_cast<int>(mine.size())));
+  if (leader)
+    spdlog::info("study of {}: {} runs ({} on {} process(es) x {} thread(s)) -> {}",
+                 scene.file.string(), runs.size(), study.zip ? "zip" : "grid", comm.size(), threads,
+                 out_dir.string());
+  else
+    spdlog::debug("rank {}: {} runs on {} thread(s)", comm.rank(), mine.size(), threads);
+
+  std::vector<RunOutcome> outcomes(runs.size());
+  Progress progress(runs.size(), leader);
+  std::atomic<std::size_t> next{0};
+  auto worker = [&] {
+    for (std::size_t k = next++; k < mine.size(); k = next++) {
+      StudyRun& run = runs[mine[k]];
+      RunOptions options;
+      options.quiet = true;
+      options.plots = 0;
+      nlohmann::json params = nlohmann::json::object();
+      for (std::size_t s = 0; s < study.sweeps.size(); ++s)
+        params[study.sweeps[s].path] = run.values[s];
+      options.study_context = {{"run", run.id}, {"parameters", params}};
+      outcomes[mine[k]] = run_bound_scene(run.scene, fs::path(staging) / run.id, options);
+      const RunOutcome& o = outcomes[mine[k]];
+      std::string line = "run " + run.id + " (";
+      for (std::size_t s = 0; s < study.sweeps.size(); ++s)
+        line += (s ? ", " : "") + study.sweeps[s].path + " = " + short_value(run.values[s]);
+      line += "): " + o.termination;
+      for (const auto& p : o.peaks)
+        if (p.node == study.node)
+          line += ", peak " + short_value(p.amplitude_m) + " m at " +
+                  short_value(p.omega_rad_s / run.scene.continuation.to_rad_per_s()) + " " +
+                  unit_name(run.scene.continuation.unit);
+      line += " (" + short_value(o.wall_seconds) + " s)";
+      progress.finished(line);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+
+  // Rank 0 collects every rank's outcomes.
+  nlohmann::json my_outcomes = nlohmann::json::array();
+  for (std::size_t i : mine) my_outcomes.push_back(outcome_json(runs[i], outcomes[i]));
+  const auto gathered = comm.gather(my_outcomes.dump());
+  int code = kExitOk;
+  if (leader) {
+    try {
+      std::vector<nlohmann::json> by_index(runs.size());
+      for (const auto& text : gathered)
+        for (const auto& o : nlohmann::json::parse(text))
+          by_index.at(o.at("index").get<std::size_t>()) = o;
+      const auto& C = scene.continuation;
+      const double unit = C.to_rad_per_s();
+      const std::string fcol = C.unit == FrequencyUnit::kHz ? "hz" : "rad_s";
+      // study.csv: one row per run.
+      std::ostringstream csv;
+      csv << "run";
+      for (const auto& s : study.sweeps) csv << "," << csv_text(s.path);
+      csv << ",exit_code,termination,points";
+      for (const auto& node : scene.output.response)
+        csv << "," << node << "_peak_amplitude_m," << node << "_peak_frequency_" << fcol;
+      csv << ",wall_s\n";
+      nlohmann::json index = nlohmann::json::array();
+      int failed = 0;
+      std::size_t best = runs.size();
+      double best_amp = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < runs.size(); ++i) {
+        const nlohmann::json& o = by_index[i];
+        if (o.is_null()) throw std::runtime_error("no outcome for run " + runs[i].id);
+        csv << runs[i].id;
+        for (double x : runs[i].values) csv << "," << cell(x);
+        csv << "," << o["exit_code"].get<int>() << "," << o["termination"].get<std::string>() << ","
+            << o["points"].get<std::size_t>();
+        nlohmann::json peaks = nlohmann::json::object();
+        for (const auto& node : scene.output.response) {
+          double amp = std::numeric_limits<double>::quiet_NaN(), w = amp;
+          for (const auto& p : o["peaks"])
+            if (p["node"] == node) {
+              amp = p["amplitude_m"].get<double>();
+              w = p["omega_rad_s"].get<double>();
+            }
+          csv << "," << cell(amp) << "," << cell(w / unit);
+          if (std::isfinite(amp))
+            peaks[node] = {{"amplitude_m", amp}, {"frequency", w / unit}, {"omega_rad_s", w}};
+          if (node == study.node && o["exit_code"] == kExitOk && amp < best_amp) {
+            best_amp = amp;
+            best = i;
+          }
+        }
+        csv << "," << cell(o["wall_s"].get<double>()) << "\n";
+        if (o["exit_code"].get<int>() != kExitOk) ++failed;
+        nlohmann::json params = nlohmann::json::object();
+        for (std::size_t s = 0; s < study.sweeps.size(); ++s)
+          params[study.sweeps[s].path] = runs[i].values[s];
+        index.push_back({{"run", runs[i].id},
+                         {"folder", o["wrote_output"].get<bool>() ? "runs/" + runs[i].id : ""},
+                         {"parameters", params},
+                         {"exit_code", o["exit_code"]},
+                         {"termination", o["termination"]},
+                         {"message", o["message"]},
+                         {"points", o["points"]},
+                         {"peak", peaks},
+                         {"wall_s", o["wall_s"]}});
+      }
+      write_text(out->path("study.csv"), csv.str());
+      nlohmann::json sweeps = nlohmann::json::array();
+      for (const auto& s : study.sweeps) sweeps.push_back({{"path", s.path}, {"values", s.values}});
+      nlohmann::json optimum = nullptr;
+      if (best < runs.size())
+        optimum = {{"run", runs[best].id},
+                   {"node", study.node},
+                   {"parameters", index[best]["parameters"]},
+                   {"peak_amplitude_m", best_amp}};
+      const double wall = std::chrono::duration<double>(Clock::now() - t_start).count();
+      write_json(out->path("study.json"),
+                 {{"frichb_version", version()},
+                  {"scene", {{"file", scene.file.string()}, {"name", scene.name}}},
+                  {"sweeps", sweeps},
+                  {"combine", study.zip ? "zip" : "grid"},
+                  {"processes", comm.size()},
+                  {"threads_per_process", threads},
+                  {"node", study.node},
+                  {"frequency_unit", unit_name(C.unit)},
+                  {"runs", index},
+                  {"failed_runs", failed},
+                  {"optimum", optimum},
+                  {"wall_s", wall}});
+      if (scene.output.plots && !study.node.empty()) {
+        // Overlay of the response curves.
+        const std::string title = scene.name.empty() ? scene.file.stem().string() : scene.name;
+        std::ostringstream gp;
+        gp << "# gnuplot script written by frichb study; `gnuplot overlay.gp` remakes it\n"
+           << "set terminal pngcairo size 1100,700 noenhanced\nset output 'overlay.png'\n"
+           << "set datafile separator ','\nset grid\nset key outside right top\n"
+           << "set title " << quoted(title + ": " + study.node + " over the study") << "\n"
+           << "set xlabel 'frequency [" << unit_name(C.unit) << "]'\n"
+           << "set ylabel 'amplitude [m]'\n"
+           << "set palette defined (0 '#1f4fbf', 0.5 '#2ca02c', 1 '#d62728')\nunset colorbox\n"
+           << "plot ";
+        bool first = true;
+        const int xcol = C.unit == FrequencyUnit::kHz ? 2 : 3;
+        for (std::size_t i = 0; i < runs.size(); ++i) {
+          if (!by_index[i]["wrote_output"].get<bool>()) continue;
+          std::string label;
+          for (std::size_t s = 0; s < study.sweeps.size(); ++s)
+            label += (s ? ", " : "") +
+                     study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) + "=" +
+                     short_value(runs[i].values[s]);
+          gp << (first ? "" : ", \\\n     ") << "'runs/" << runs[i].id << "/response.csv' using "
+             << xcol << ":(column('" << study.node
+             << "_amplitude_m')) with lines lw 1.5 lc palette frac "
+             << (runs.size() > 1 ? static_cast<double>(i) / static_cast<double>(runs.size() - 1)
+                                 : 0.0)
+             << " title " << quoted(label);
+          first = false;
+        }
+        gp << "\n";
+        if (!first) {
+          write_text(out->path("overlay.gp"), gp.str());
+          run_gnuplot(out->path("overlay.gp"));
+        }
+        // Peak amplitude against the first swept value (one line per value of the others).
+        const auto& s0 = study.sweeps.front();
+        double lo = std::numeric_limits<double>::infinity(), hi = 0;
+        for (double x : s0.values) {
+          lo = std::min(lo, x);
+          hi = std::max(hi, x);
+        }
+        std::ostringstream pk;
+        pk << "# gnuplot script written by frichb study; `gnuplot peak.gp` remakes it\n"
+           << "set terminal pngcairo size 900,600 noenhanced\nset output 'peak.png'\n"
+           << "set datafile separator ','\nset grid\nset key outside right top\n"
+           << "set title " << quoted(title + ": peak amplitude of " + study.node) << "\n"
+           << "set xlabel " << quoted(s0.path) << "\nset ylabel 'peak amplitude [m]'\n"
+           << (lo > 0 && hi / lo > 100 ? "set logscale x\n" : "");
+        const int peak_col =
+            static_cast<int>(1 + study.sweeps.size() + 3) +
+            2 * static_cast<int>(std::find(scene.output.response.begin(),
+                                           scene.output.response.end(), study.node) -
+                                 scene.output.response.begin()) +
+            1;
+        if (study.sweeps.size() == 1 || study.zip) {
+          pk << "plot 'study.csv' using 2:" << peak_col << " with linespoints pt 7 lw 2 title "
+             << quoted(study.node) << "\n";
+        } else {
+          // Grid: the first sweep on the axis, one line per combination of the others.
+          std::vector<std::vector<double>> others;
+          for (const auto& run : runs) {
+            std::vector<double> rest(run.values.begin() + 1, run.values.end());
+            if (std::find(others.begin(), others.end(), rest) == others.end())
+              others.push_back(rest);
+          }
+          pk << "plot ";
+          for (std::size_t g = 0; g < others.size(); ++g) {
+            std::string cond = "1", label;
+            for (std::size_t s = 1; s < study.sweeps.size(); ++s) {
+              cond += " && abs(column(" + std::to_string(s + 2) + ") - (" +
+                      format_value(others[g][s - 1]) + ")) <= 1e-12 * (1 + abs(" +
+                      format_value(others[g][s - 1]) + "))";
+              label += (s > 1 ? ", " : "") +
+                       study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) +
+                       "=" + short_value(others[g][s - 1]);
+            }
+            pk << (g ? ", \\\n     " : "") << "'study.csv' using 2:((" << cond << ") ? column("
+               << peak_col << ") : 1/0) with linespoints pt 7 lw 2 title " << quoted(label);
+          }
+          pk << "\n";
+        }
+        write_text(out->path("peak.gp"), pk.str());
+        run_gnuplot(out->path("peak.gp"));
+      }
+      out->commit();
+      spdlog::info("wrote {}: {} runs, {} did not reach the end of their sweep{} ({:.2f} s)",
+                   out_dir.string(), runs.size(), failed,
+                   best < runs.size() ? "; lowest peak of " + study.node + ": run " +
+                                            runs[best].id + " (" + short_value(best_amp) + " m)"
+                                      : std::string(),
+                   wall);
+      code = failed ? kExitIncomplete : kExitOk;
+    } catch (const std::exception& e) {
+      spdlog::error("{}: writing the study index: {}", request.scene_file.string(), e.what());
+      code = kExitInternal;
+    }
+  }
+  return std::stoi(comm.broadcast(std::to_string(code)));
+}
+
+}  // namespace frichb::core

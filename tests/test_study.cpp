@@ -1,0 +1,254 @@
+// Studies: path addressing, validation of every run before any computes, and runs that give
+// the same answers as the same scene edited by hand, whatever the thread count.
+//
+// Oracles: the quick-start oscillator with its contact stuck (huge normal load) is the linear
+// system with kt added to the stiffness, and with mu = 0 it is the free system; both peaks
+// are computed here from the closed-form FRF of one DOF with modal damping.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <regex>
+#include <sstream>
+
+#include "frichb/core/study.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using frichb::test::TempDir;
+using namespace frichb::core;
+using ::testing::HasSubstr;
+
+const fs::path kQuickstart =
+    fs::path(FRICHB_SOURCE_DIR) / "configs" / "quickstart_friction_oscillator.yaml";
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The quick-start scene without plots and loops, with `study` appended.
+fs::path quickstart_with_study(const TempDir& dir, const std::string& study,
+                               const std::string& name = "scene.yaml") {
+  std::string text = read_text(kQuickstart);
+  text = std::regex_replace(text, std::regex("friction_loops_at: \\[[^\\]]*\\]"),
+                            "friction_loops_at: []");
+  text = std::regex_replace(text, std::regex("plots: true"), "plots: false");
+  return dir.write(name, text + "\n" + study);
+}
+
+std::vector<std::vector<std::string>> read_csv(const fs::path& file) {
+  std::vector<std::vector<std::string>> rows;
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) cells.push_back(cell);
+    rows.push_back(cells);
+  }
+  return rows;
+}
+
+// The study.csv without its wall-time column (the only one that may differ between runs).
+std::string without_wall_time(const fs::path& csv) {
+  std::string out;
+  for (auto row : read_csv(csv)) {
+    row.pop_back();
+    for (const auto& c : row) out += c + ",";
+    out += "\n";
+  }
+  return out;
+}
+
+// Peak amplitude of m x'' + c x' + k x = F cos wt over w (golden section around sqrt(k/m)).
+double linear_peak(double m, double c, double k, double force) {
+  auto amp = [&](double w) { return force / std::abs(std::complex<double>(k - m * w * w, c * w)); };
+  double a = 0.9 * std::sqrt(k / m), b = 1.1 * std::sqrt(k / m);
+  for (int i = 0; i < 200; ++i) {
+    const double c1 = b - 0.618 * (b - a), c2 = a + 0.618 * (b - a);
+    (amp(c1) > amp(c2) ? b : a) = amp(c1) > amp(c2) ? c2 : c1;
+  }
+  return amp(0.5 * (a + b));
+}
+
+TEST(StudyPath, SetsContactsByNameListEntriesAndMissingKeys) {
+  YAML::Node doc = YAML::Load(
+      "contacts:\n  - {name: a, params: {mu: 0.1}}\n  - {name: b, params: {mu: 0.2}}\n"
+      "structure: {params: {masses: [1, 2, 3]}}\n");
+  set_scene_value(doc, "contacts.b.params.mu", 0.7);
+  set_scene_value(doc, "structure.params.masses[1]", 5.5);
+  set_scene_value(doc, "contacts[0].params.kt", 2e5);  // absent: created
+  set_scene_value(doc, "contacts.0.params.mu", 0.3);   // a number is a list index too
+  EXPECT_DOUBLE_EQ(doc["contacts"][1]["params"]["mu"].as<double>(), 0.7);
+  EXPECT_DOUBLE_EQ(doc["contacts"][0]["params"]["mu"].as<double>(), 0.3);
+  EXPECT_DOUBLE_EQ(doc["structure"]["params"]["masses"][1].as<double>(), 5.5);
+  EXPECT_EQ(doc["structure"]["params"]["masses"].size(), 3u);
+  EXPECT_EQ(doc["contacts"][0]["params"]["kt"].Scalar(), "200000");  // integral: an integer
+}
+
+TEST(StudyPath, UnresolvablePathsSayWhy) {
+  YAML::Node doc = YAML::Load(
+      "contacts:\n  - {name: shroud, params: {mu: 0.1}}\nstructure: {params: {masses: [1]}}\n");
+  auto message = [&](const std::string& path) {
+    try {
+      set_scene_value(doc, path, 1.0);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(message("contacts.shrod.params.mu"), HasSubstr("did you mean 'shroud'"));
+  EXPECT_THAT(message("structure.params.masses[3]"), HasSubstr("has 1 entries"));
+  EXPECT_THAT(message("structure.params"), HasSubstr("is a map, not a number"));
+  EXPECT_THAT(message("structure.parms.masses"), HasSubstr("did you mean 'params'"));
+  EXPECT_THAT(message("contacts.shroud..mu"), HasSubstr("empty key"));
+}
+
+TEST(StudySpec, GridZipAndRangesExpandToRuns) {
+  TempDir dir;
+  const auto file = quickstart_with_study(
+      dir,
+      "study:\n  sweep:\n"
+      "    - {path: contacts.root_friction.params.normal_load, values: [1, 2, 3]}\n"
+      "    - {path: excitation.0.amplitude, from: 1, to: 100, count: 3, spacing: log}\n");
+  Scene scene = load_scene(file);
+  const Registry registry(Registry::default_search_path());
+  bind_plugins(scene, registry);
+  const auto study = load_study(scene);
+  ASSERT_EQ(study.sweeps.size(), 2u);
+  EXPECT_NEAR(study.sweeps[1].values[1], 10.0, 1e-12);
+  const auto runs = prepare_study_runs(scene, study, registry);
+  ASSERT_EQ(runs.size(), 9u);  // grid: 3 x 3, the first sweep slowest
+  EXPECT_EQ(runs[4].id, "0004");
+  EXPECT_DOUBLE_EQ(runs[4].values[0], 2.0);
+  EXPECT_NEAR(runs[4].values[1], 10.0, 1e-12);
+  EXPECT_NEAR(runs[4].scene.excitation[0].amplitude, 10.0, 1e-12);
+  EXPECT_EQ(runs[4].scene.contacts[0].values.to_json(
+                runs[4].scene.contacts[0].plugin->schema())["normal_load"],
+            2.0);
+
+  const auto zipped = quickstart_with_study(
+      dir,
+      "study:\n  combine: zip\n  sweep:\n"
+      "    - {path: contacts.root_friction.params.normal_load, values: [1, 2, 3]}\n"
+      "    - {path: contacts.root_friction.params.mu, values: [0.1, 0.2, 0.3]}\n",
+      "zip.yaml");
+  Scene zs = load_scene(zipped);
+  bind_plugins(zs, registry);
+  EXPECT_EQ(prepare_study_runs(zs, load_study(zs), registry).size(), 3u);
+}
+
+TEST(StudySpec, BadInputNamesFileLineAndRun) {
+  TempDir dir;
+  const Registry registry(Registry::default_search_path());
+  auto error_of = [&](const std::string& study) {
+    const auto file = quickstart_with_study(dir, study);
+    try {
+      Scene scene = load_scene(file);
+      bind_plugins(scene, registry);
+      prepare_study_runs(scene, load_study(scene), registry);
+    } catch (const SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  // A typo in the path: located at the path, with the closest key.
+  EXPECT_THAT(error_of("study:\n  sweep:\n    - {path: contacts.root_friction.params.normal_lod, "
+                       "values: [1]}\n"),
+              ::testing::ContainsRegex("scene.yaml:[0-9]+:[0-9]+: study.sweep\\[0\\]: "
+                                       ".*normal_lod.*did you mean 'normal_load'"));
+  // A value outside its key's range, found before any run computes, naming the run.
+  EXPECT_THAT(
+      error_of("study:\n  sweep:\n    - {path: contacts.root_friction.params.mu, "
+               "values: [0.5, -1]}\n"),
+      ::testing::AllOf(HasSubstr("scene.yaml:"), HasSubstr("mu"), HasSubstr("study run 0001")));
+  EXPECT_THAT(error_of("study:\n  combine: zip\n  sweep:\n"
+                       "    - {path: contacts.root_friction.params.mu, values: [0.1, 0.2]}\n"
+                       "    - {path: excitation.0.amplitude, values: [1]}\n"),
+              HasSubstr("equal lengths"));
+  EXPECT_THAT(error_of("study:\n  sweep:\n    - {path: excitation.0.amplitude, from: 1}\n"),
+              HasSubstr("needs from, to and count"));
+  EXPECT_THAT(error_of("study:\n  parallel: many\n  sweep:\n"
+                       "    - {path: excitation.0.amplitude, values: [1]}\n"),
+              HasSubstr("study.parallel"));
+}
+
+// Each run equals `frichb run` on the scene edited by hand, and the fully stuck and fully
+// free limits equal the closed-form linear peaks.
+TEST(StudyRun, RunsMatchHandEditedScenesAndLinearLimits) {
+  TempDir dir;
+  const auto file = quickstart_with_study(
+      dir,
+      "study:\n  combine: zip\n  parallel: 2\n  sweep:\n"
+      "    - {path: contacts.root_friction.params.normal_load, values: [1.0e6, 5.0, 5.0]}\n"
+      "    - {path: contacts.root_friction.params.mu, values: [0.5, 0.5, 0.0]}\n");
+  StudyCommunicator serial;
+  ASSERT_EQ(run_study({file, dir.path() / "study", -1}, serial), kExitOk);
+  const auto index = nlohmann::json::parse(read_text(dir.path() / "study" / "study.json"));
+  ASSERT_EQ(index["runs"].size(), 3u);
+  const double peak_stuck = index["runs"][0]["peak"]["blade"]["amplitude_m"].get<double>();
+  const double peak_friction = index["runs"][1]["peak"]["blade"]["amplitude_m"].get<double>();
+  const double peak_free = index["runs"][2]["peak"]["blade"]["amplitude_m"].get<double>();
+
+  // The quick-start oscillator: m = 0.1 kg, k = 4e5 N/m, modal damping 0.005 of the free
+  // mode, F = 2 N, kt = 2e5 N/m.
+  const double m = 0.1, k = 4e5, kt = 2e5, force = 2.0;
+  const double c = 2 * 0.005 * std::sqrt(k / m) * m;
+  EXPECT_NEAR(peak_stuck / linear_peak(m, c, k + kt, force), 1.0, 1e-5);
+  EXPECT_NEAR(peak_free / linear_peak(m, c, k, force), 1.0, 1e-5);
+  EXPECT_LT(peak_friction, 0.5 * peak_free);
+
+  // Run 0001 is the quick-start scene as shipped (normal load 5 N, mu 0.5): `frichb run`.
+  const auto plain = quickstart_with_study(dir, "", "plain.yaml");
+  ASSERT_EQ(run_scene({plain, dir.path() / "plain", false}), kExitOk);
+  const auto single = nlohmann::json::parse(read_text(dir.path() / "plain" / "summary.json"));
+  EXPECT_EQ(single["peak"]["blade"]["amplitude_m"].get<double>(), peak_friction);
+  EXPECT_EQ(read_text(dir.path() / "plain" / "response.csv"),
+            read_text(dir.path() / "study" / "runs" / "0001" / "response.csv"));
+  const auto member =
+      nlohmann::json::parse(read_text(dir.path() / "study" / "runs" / "0001" / "summary.json"));
+  EXPECT_EQ(member["study"]["run"], "0001");
+  EXPECT_EQ(member["study"]["parameters"]["contacts.root_friction.params.mu"], 0.5);
+  EXPECT_EQ(index["optimum"]["run"], "0001");
+}
+
+TEST(StudyRun, OneThreadAndTwoThreadsWriteTheSameIndex) {
+  TempDir dir;
+  const auto file = quickstart_with_study(
+      dir,
+      "study:\n  sweep:\n"
+      "    - {path: contacts.root_friction.params.normal_load, values: [2, 5]}\n"
+      "    - {path: excitation.0.amplitude, values: [1, 3]}\n");
+  StudyCommunicator serial;
+  ASSERT_EQ(run_study({file, dir.path() / "one", 1}, serial), kExitOk);
+  ASSERT_EQ(run_study({file, dir.path() / "two", 2}, serial), kExitOk);
+  EXPECT_EQ(without_wall_time(dir.path() / "one" / "study.csv"),
+            without_wall_time(dir.path() / "two" / "study.csv"));
+  for (const char* run : {"0000", "0001", "0002", "0003"})
+    EXPECT_EQ(read_text(dir.path() / "one" / "runs" / run / "response.csv"),
+              read_text(dir.path() / "two" / "runs" / run / "response.csv"))
+        << run;
+  // The peak falls as the normal load rises at 1 N, and rises with the excitation.
+  const auto rows = read_csv(dir.path() / "one" / "study.csv");
+  ASSERT_EQ(rows.size(), 5u);
+  EXPECT_LT(std::stod(rows[1][6]), std::stod(rows[2][6]));  // (2 N, 1 N) below (2 N, 3 N)
+}
+
+TEST(StudyRun, InvalidStudyWritesNothing) {
+  TempDir dir;
+  const auto file = quickstart_with_study(
+      dir, "study:\n  sweep:\n    - {path: contacts.root_friction.params.kt, values: [1, -5]}\n");
+  StudyCommunicator serial;
+  EXPECT_EQ(run_study({file, dir.path() / "out", -1}, serial), kExitInvalidInput);
+  EXPECT_FALSE(fs::exists(dir.path() / "out"));
+}
+
+}  // namespace
