@@ -364,6 +364,25 @@ TEST(Continuation, NewtonAcceptsTheFloorOfANonSmoothResidual) {
   EXPECT_FALSE(solve_fixed_parameter(line, Eigen::Vector2d(1.0, 0.5), {}).at_residual_floor);
 }
 
+TEST(Continuation, PassesACornerOfTheBranch) {
+  // x = 0 up to lambda = 1, then x = 20 (lambda - 1): the tangent turns by 87 degrees, as
+  // a friction response does where a contact changes regime. The corrector's distance to the
+  // predictor exceeds the step at every step size; it shrinks with the step, so after three
+  // halvings the point across the corner is taken.
+  const auto g = [](double l) { return l < 1.0 ? 0.0 : 20.0 * (l - 1.0); };
+  const ScalarCurve corner(
+      [&](double x, double l) { return x - g(l); },
+      [](double, double l) { return Eigen::Vector2d(1.0, l < 1.0 ? 0 : -20.0); });
+  const auto summary = trace_curve(corner, Eigen::Vector2d(0.0, 0.0), Sweep(0.0, 2.0));
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  EXPECT_GE(summary.corners, 1);
+  EXPECT_LE(summary.corners, 2);
+  for (const auto& p : summary.points) EXPECT_NEAR(p.y(0), g(p.y(1)), 1e-9);
+  EXPECT_NEAR(summary.points.back().y(0), 20.0, 1e-9);
+  // The circle has no corner: none is reported.
+  EXPECT_EQ(trace_curve(Circle(), Eigen::Vector2d(0.0, -1.0), Sweep(-1.0, 1.0)).corners, 0);
+}
+
 TEST(Continuation, SteepBranchCapsTheFollowingSteps) {
   // x = 0.01 lambda + tanh(50 (lambda - 0.5)): flat, then nearly vertical.
   const ScalarCurve steep(

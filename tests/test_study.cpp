@@ -9,10 +9,12 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <regex>
 #include <sstream>
 
+#include "frichb/core/convergence.hpp"
 #include "frichb/core/study.hpp"
 #include "test_support.hpp"
 
@@ -249,6 +251,52 @@ TEST(StudyRun, InvalidStudyWritesNothing) {
   StudyCommunicator serial;
   EXPECT_EQ(run_study({file, dir.path() / "out", -1}, serial), kExitInvalidInput);
   EXPECT_FALSE(fs::exists(dir.path() / "out"));
+}
+
+// The convergence report: errors against the finest setting shrink with more harmonics, and
+// the finest setting agrees with the independent time integration.
+TEST(Convergence, ErrorsShrinkAndTheFinestAgreesWithTimeIntegration) {
+  TempDir dir;
+  const auto scene = quickstart_with_study(dir, "");
+  ConvergenceRequest request;
+  request.scene_file = scene;
+  request.output_directory = dir.path() / "conv";
+  request.harmonics = {1, 3, 7};
+  request.samples = {64, 256};
+  request.oversampling = {1, 4};
+  ASSERT_EQ(run_convergence(request), kExitOk);
+  const auto report = nlohmann::json::parse(read_text(dir.path() / "conv" / "convergence.json"));
+  EXPECT_EQ(report["reference"], "H7_N256_o4");
+  const auto& settings = report["settings"];
+  ASSERT_EQ(settings.size(), 12u);  // 3 x 2 x 2, every N >= 2H + 1
+  std::map<std::string, nlohmann::json> by_id;
+  for (const auto& s : settings) by_id[s["setting"].get<std::string>()] = s;
+  EXPECT_EQ(by_id["H7_N256_o4"]["amplitude_error"], 0.0);
+  // The single-harmonic peak is off by more than the three-harmonic one (thesis §5.1: more
+  // harmonics are needed near stick-slip).
+  EXPECT_GT(by_id["H1_N256_o4"]["amplitude_error"].get<double>(),
+            3 * by_id["H3_N256_o4"]["amplitude_error"].get<double>());
+  // Unknowns: 2H + 1 coefficients of one contact component (harmonic 0 kept).
+  EXPECT_EQ(by_id["H3_N64_o1"]["unknowns"], 7);
+  // Time integration at the reference peak frequency, an independent oracle.
+  ASSERT_TRUE(report["time_integration"].is_object());
+  EXPECT_TRUE(report["time_integration"]["periodic"].get<bool>());
+  EXPECT_LT(by_id["H7_N256_o4"]["amplitude_error_vs_timesim"].get<double>(), 1e-4);
+  const auto rows = read_csv(dir.path() / "conv" / "convergence.csv");
+  ASSERT_EQ(rows.size(), 13u);
+  EXPECT_EQ(rows[0].back(), "wall_s");
+  EXPECT_TRUE(fs::exists(dir.path() / "conv" / "runs" / "H1_N64_o1" / "response.csv"));
+}
+
+TEST(Convergence, ImpossibleFinestSettingIsRefused) {
+  TempDir dir;
+  ConvergenceRequest request;
+  request.scene_file = quickstart_with_study(dir, "");
+  request.output_directory = dir.path() / "conv";
+  request.harmonics = {40};
+  request.samples = {64};  // < 2 * 40 + 1
+  EXPECT_EQ(run_convergence(request), kExitInvalidInput);
+  EXPECT_FALSE(fs::exists(dir.path() / "conv"));
 }
 
 }  // namespace

@@ -5,7 +5,9 @@
 #include <boost/program_options.hpp>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 
+#include "frichb/core/convergence.hpp"
 #include "frichb/core/loop.hpp"
 #include "frichb/core/modes.hpp"
 #include "frichb/core/registry.hpp"
@@ -46,6 +48,13 @@ Usage:
   frichb timesim SCENE.yaml --at-hz F [-o DIR]
                                    time-integration reference at F Hz (plain structures):
                                    DIR/timesim.csv (last period) and summary.json
+  frichb convergence SCENE.yaml [-o DIR] [--harmonics 1,3,5,7,10,15]
+                     [--samples 64,128,...,2048] [--oversampling 1,4] [--no-timesim]
+                                   run the scene at every setting (N >= 2H+1), serially,
+                                   and report the error in peak amplitude and frequency
+                                   against the finest setting and time integration, with the
+                                   wall time: DIR/convergence.csv, .json, .md, .png
+                                   (default DIR: out/<scene file stem>-convergence)
   frichb plugins                   list the plugins found on the search path
   frichb describe NAME             parameter table of a plugin (or 'scene' for the core keys)
   frichb reference [-o DIR]        write the scene reference (Markdown) generated from all
@@ -101,6 +110,13 @@ int main(int argc, char** argv) {
       "at-hz", po::value<double>(), "excitation frequency of `timesim`, Hz")(
       "rpm", po::value<std::string>(),
       "rotation speed of `modes` (engine-order excitation), rpm: R or a range A:B")(
+      "harmonics", po::value<std::string>(),
+      "`convergence`: largest kept harmonics, comma-separated (default 1,3,5,7,10,15)")(
+      "samples", po::value<std::string>(),
+      "`convergence`: samples per period, comma-separated (default 64,128,256,512,1024,2048)")(
+      "oversampling", po::value<std::string>(),
+      "`convergence`: trace oversampling factors, comma-separated (default 1,4)")(
+      "no-timesim", "`convergence`: skip the time-integration reference")(
       "threads", po::value<int>(),
       "threads per process of `study` (default: the scene's study.parallel; 0 = one per core)");
   po::options_description hidden;
@@ -151,6 +167,38 @@ int main(int argc, char** argv) {
     return true;
   };
   try {
+    if (verb == "convergence") {
+      if (!need(1, "one scene file")) return kExitUsage;
+      ConvergenceRequest request;
+      request.scene_file = args[1];
+      request.output_directory = output;
+      request.time_integration = vm.count("no-timesim") == 0;
+      for (auto [key, list] :
+           {std::pair{"harmonics", &request.harmonics}, std::pair{"samples", &request.samples},
+            std::pair{"oversampling", &request.oversampling}}) {
+        if (!vm.count(key)) continue;
+        list->clear();
+        std::stringstream items(vm[key].as<std::string>());
+        std::string item;
+        while (std::getline(items, item, ',')) {
+          std::size_t used = 0;
+          int value = 0;
+          try {
+            value = std::stoi(item, &used);
+          } catch (const std::exception&) {
+            used = 0;
+          }
+          if (used != item.size() || value < 1) {
+            std::cerr << "frichb convergence: --" << key
+                      << " takes positive integers separated by commas, not '"
+                      << vm[key].as<std::string>() << "'\n";
+            return kExitUsage;
+          }
+          list->push_back(value);
+        }
+      }
+      return run_convergence(request);
+    }
     if (verb == "study") {
       if (!need(1, "one scene file with a study: section")) return kExitUsage;
       StudyRequest request;

@@ -334,8 +334,11 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       summary.message += " (last point at " + FormatLambda(summary.points.back().y(n)) + ")";
     summary.turning_points = 0;
     summary.residual_floor_points = 0;
-    for (const auto& point : summary.points)
+    summary.corners = 0;
+    for (const auto& point : summary.points) {
       summary.residual_floor_points += point.at_residual_floor;
+      summary.corners += point.passed_corner;
+    }
     for (std::size_t i = 1; i < summary.points.size(); ++i)
       if (summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0)
         ++summary.turning_points;
@@ -380,9 +383,14 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   if (!emit(first)) return finish(TerminationType::kCancelled, "cancelled by callback");
 
   double ds = options.initial_step;
-  int steep_left = 0;     // points still under the steep-branch cap
-  bool refining = false;  // retracing towards a fold with the fine step
-  int refine_left = 0;    // bound on that retrace in case the fold vanishes
+  // Correction / step of the last too-long correction, and how many times in a row it
+  // repeated (within 10 %) as the step was halved at this point.
+  double corner_ratio = kInf;
+  int corner_repeats = 0;
+  constexpr double kMaxCornerRatio = 1e3;  // a turn of at most 89.94 degrees
+  int steep_left = 0;                      // points still under the steep-branch cap
+  bool refining = false;                   // retracing towards a fold with the fine step
+  int refine_left = 0;                     // bound on that retrace in case the fold vanishes
   double refine_cap = kInf;
   std::size_t fold_floor = 0;  // restarts never undo an accepted fold (no ping-pong)
   const long max_attempts = 64L * options.max_points + 1000L;
@@ -410,10 +418,21 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     bool sign_change = false;
     bool ok = corr.converged;
     // A correction longer than the step cannot come from the branch's own curvature: the
-    // corrector has jumped onto another branch.
+    // corrector has jumped onto another branch - unless that correction shrinks in proportion
+    // as the step is halved: then the branch has a corner here (a contact changing regime,
+    // the tangent turning by more than 45 degrees), and once the ratio of correction to step
+    // has repeated over three halvings the point across the corner is taken.
+    bool corner = false;
     if (ok && (corr.ys - predictor).norm() > step) {
-      ok = false;
-      corr.message = "corrector jumped away from the predictor";
+      const double ratio = (corr.ys - predictor).norm() / step;
+      corner_repeats = std::abs(ratio / corner_ratio - 1.0) < 0.1 ? corner_repeats + 1 : 0;
+      corner_ratio = ratio;
+      if (corner_repeats >= 2 && ratio <= kMaxCornerRatio) {
+        corner = true;
+      } else {
+        ok = false;
+        corr.message = "corrector jumped away from the predictor";
+      }
     }
     if (ok && !NextTangent(corr.js, last.tangent, &p.tangent)) {
       ok = false;
@@ -426,6 +445,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       p.step = step;
       p.residual_norm = corr.residual_norm;
       p.at_residual_floor = corr.at_residual_floor;
+      p.passed_corner = corner;
 
       sign_change = last.tangent(n) * p.tangent(n) < 0.0;
       if (sign_change && options.turning_point_control && !refining) {
@@ -487,6 +507,8 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     }
 
     // The point is accepted from here on.
+    corner_repeats = 0;
+    corner_ratio = kInf;
     if (sign_change) {
       refining = false;
       fold_floor = summary.points.size();

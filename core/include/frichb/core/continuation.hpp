@@ -102,6 +102,7 @@ struct ContinuationPoint {
   double step = 0.0;               // arclength step that reached this point (scaled)
   double residual_norm = 0.0;      // scaled infinity norm at convergence
   bool at_residual_floor = false;  // converged on the residual alone (NewtonOptions)
+  bool passed_corner = false;      // reached across a corner of the branch (trace_curve)
 };
 
 enum class TerminationType {
@@ -126,6 +127,8 @@ struct ContinuationSummary {
   int fine_control_restarts = 0;  // times the turning-point control stepped back
   int steep_branch_caps = 0;      // times the steep-branch cap was applied
   int residual_floor_points = 0;  // points accepted at a residual floor (NewtonOptions)
+  int corners = 0;  // points reached across a corner of the branch: a correction longer
+                    // than the step whose ratio to the step repeated over three halvings
   int total_newton_iterations = 0;
   double wall_seconds = 0.0;
   bool reached_end() const { return termination == TerminationType::kReachedEnd; }
