@@ -114,7 +114,7 @@ def study_section(out):
                      f"{run['wall_s']:.2f} |")
     if index["optimum"]:
         best = index["optimum"]
-        lines += ["", f"Lowest peak: run {best['run']}, {path.split('.')[-1]} = "
+        lines += ["", f"Lowest peak among the runs that reached the end of their sweep: run {best['run']}, {path.split('.')[-1]} = "
                   f"{best['parameters'][path]:.4g}, {best['peak_amplitude_m']:.4e} m."]
     lines += ["", "![peak against normal load](figures/damper_normal_load_peak.png)",
               "![response curves](figures/damper_normal_load_overlay.png)"]

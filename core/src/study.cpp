@@ -624,7 +624,8 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
         optimum = {{"run", runs[best].id},
                    {"node", study.node},
                    {"parameters", index[best]["parameters"]},
-                   {"peak_amplitude_m", best_amp}};
+                   {"peak_amplitude_m", best_amp},
+                   {"among", "runs that reached the end of their sweep"}};
       const double wall = std::chrono::duration<double>(Clock::now() - t_start).count();
       write_json(out->path("study.json"),
                  {{"frichb_version", version()},
@@ -726,7 +727,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
       out->commit();
       spdlog::info("wrote {}: {} runs, {} did not reach the end of their sweep{} ({:.2f} s)",
                    out_dir.string(), runs.size(), failed,
-                   best < runs.size() ? "; lowest peak of " + study.node + ": run " +
+                   best < runs.size() ? "; lowest peak of " + study.node + " among them: run " +
                                             runs[best].id + " (" + short_value(best_amp) + " m)"
                                       : std::string(),
                    wall);
