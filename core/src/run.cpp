@@ -142,6 +142,37 @@ std::optional<std::pair<double, double>> refine_peak(const HarmonicBalanceModel&
   return fc > fd ? std::make_pair(fc, c) : std::make_pair(fd, d);
 }
 
+// What a user can change when the curve ends early, by reason (printed and in summary.json).
+std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
+  const auto& C = scene.continuation;
+  switch (summary.termination) {
+    case TerminationType::kReachedEnd:
+      return "";
+    case TerminationType::kMaxPoints:
+      return "the curve needs more than continuation.max_points = " + std::to_string(C.max_points) +
+             " points (" + std::to_string(summary.turning_points) +
+             " turning points so far): raise max_points, or continuation.step.max to take "
+             "longer steps where the curve is smooth";
+    case TerminationType::kStepTooSmall:
+      return "the corrector failed down to continuation.step.min: look at the last point (a "
+             "contact changing regime, a fold); try more samples_per_period or "
+             "trace_oversampling (a smoother residual), a smaller step.min, or "
+             "turning_point_control: true";
+    case TerminationType::kTimeLimit:
+      return "raise continuation.max_wall_seconds, or reduce harmonics or samples_per_period";
+    case TerminationType::kStartFailed:
+      return "no solution was found at the start frequency: start the sweep further from "
+             "resonance, or lower the excitation";
+    case TerminationType::kEvaluationFailed:
+      return "a contact law or the structure failed at the start point: see the message";
+    case TerminationType::kCancelled:
+      return "cancelled";
+    case TerminationType::kInvalidOptions:
+      return "check the continuation section (steps, tolerance)";
+  }
+  return "";
+}
+
 }  // namespace
 
 int run_scene(const RunRequest& request) {
@@ -248,6 +279,22 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     Eigen::VectorXd y0(n + 1);
     y0.head(n) = model->linear_response(w_from);
     y0(n) = w_from;
+    // Start point: from the contact-free response; when Newton cannot get from there to
+    // the solution (a contact far stiffer than the structure, stuck at a tiny fraction of
+    // the free motion), from rest, then from the free response scaled down.
+    if (n > 0 && !solve_fixed_parameter(*model, y0, options).converged) {
+      for (const double shrink : {0.0, 1e-3, 1e-6}) {
+        Eigen::VectorXd guess = y0;
+        guess.head(n) *= shrink;
+        const NewtonResult start = solve_fixed_parameter(*model, guess, options);
+        if (start.converged) {
+          spdlog::log(routine, "start point found from {} the contact-free response",
+                      shrink == 0 ? std::string("zero instead of") : format_number(shrink) + " x");
+          y0 = start.y;
+          break;
+        }
+      }
+    }
 
     const auto t_cont = Clock::now();
     double last_report = -1.0;
@@ -285,8 +332,8 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
                   C.to, unit_name(C.unit), summary.points.size(), summary.rejected_steps,
                   summary.turning_points, summary.wall_seconds);
     else
-      spdlog::error("{}: the response curve ended early: {} ({})", scene.file.string(),
-                    to_string(summary.termination), summary.message);
+      spdlog::error("{}: the response curve ended early: {} ({}); {}", scene.file.string(),
+                    to_string(summary.termination), summary.message, suggestion(summary, scene));
 
     // ---- post-processing ----
     const auto t_post = Clock::now();
@@ -462,6 +509,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
          {{"reason", to_string(summary.termination)},
           {"reached_end", summary.reached_end()},
           {"message", summary.message},
+          {"suggestion", suggestion(summary, scene)},
           {"last_point", last}}},
         {"points", summary.points.size()},
         {"rejected_steps", summary.rejected_steps},

@@ -1,0 +1,338 @@
+// Stress scenes (configs/stress/): stiff, frictionless, never-slipping, never-closing, Hertz at
+// zero preload, several resonances, 20 harmonics, aliasing, a gap that folds the curve. Each
+// either agrees with its limit oracle (the linear stuck or free system in closed form, or
+// time integration with the same plugin) or stops with a termination reason, a last point
+// and a suggestion in summary.json - never NaN, never a hang (ctest label `stress`).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+#include "frichb/core/run.hpp"
+#include "frichb/core/scene.hpp"
+#include "frichb/core/timesim.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using frichb::test::TempDir;
+using namespace frichb::core;
+using cd = std::complex<double>;
+
+const fs::path kStress = fs::path(FRICHB_SOURCE_DIR) / "configs" / "stress";
+
+const Registry& registry() {
+  static const Registry r(Registry::default_search_path());
+  return r;
+}
+
+Scene bound(const fs::path& file, const std::function<void(YAML::Node&)>& edit = {}) {
+  YAML::Node document = load_scene_yaml(file);
+  if (edit) edit(document);
+  Scene scene = load_scene(document, file);
+  bind_plugins(scene, registry());
+  return scene;
+}
+
+struct Curve {
+  RunOutcome outcome;
+  nlohmann::json summary;
+  std::vector<double> hz, amplitude;   // of the first response node
+  std::vector<double> first_harmonic;  // its h1 column: sqrt(sum |X_1,i|^2)
+};
+
+Curve run(const Scene& scene, const TempDir& dir, const std::string& name) {
+  Curve c;
+  RunOptions options;
+  options.quiet = true;
+  c.outcome = run_bound_scene(scene, dir.path() / name, options);
+  EXPECT_TRUE(c.outcome.wrote_output) << c.outcome.message;
+  if (!c.outcome.wrote_output) return c;
+  std::ifstream js(dir.path() / name / "summary.json");
+  c.summary = nlohmann::json::parse(js);
+  std::ifstream csv(dir.path() / name / "response.csv");
+  std::string line;
+  std::getline(csv, line);
+  std::size_t h1 = 0;
+  {
+    std::stringstream header(line);
+    std::string column;
+    for (std::size_t k = 0; std::getline(header, column, ','); ++k)
+      if (h1 == 0 && column.size() > 5 && column.compare(column.size() - 5, 5, "_h1_m") == 0)
+        h1 = k;
+  }
+  while (std::getline(csv, line)) {
+    std::stringstream ss(line);
+    std::string cell;
+    std::vector<double> v;
+    while (std::getline(ss, cell, ',')) v.push_back(std::stod(cell));  // throws on "nan"
+    for (double x : v) EXPECT_TRUE(std::isfinite(x)) << line;
+    c.hz.push_back(v.at(1));
+    c.amplitude.push_back(v.at(3));
+    c.first_harmonic.push_back(h1 ? v.at(h1) : NAN);
+  }
+  return c;
+}
+
+// max over one period of |x(t)| for x(t) = Re(X e^{i w t}) (a 3-vector or a scalar).
+double amplitude_of(const std::vector<cd>& x) {
+  double best = 0;
+  for (int k = 0; k < 2048; ++k) {
+    const double t = 2 * std::numbers::pi * k / 2048;
+    double s = 0;
+    for (const cd& xi : x) s += std::pow((xi * std::exp(cd(0, t))).real(), 2);
+    best = std::max(best, std::sqrt(s));
+  }
+  return best;
+}
+
+// Decoupled lumped DOFs of mass m on springs k_i (+ contact springs), modal damping zeta
+// of the structure's own modes, force F d (d the unit direction): the linear response.
+std::vector<cd> linear_response(double hz, double m, const std::vector<double>& k,
+                                const std::vector<double>& added, double zeta, double force,
+                                std::vector<double> direction) {
+  double norm = 0;
+  for (double d : direction) norm += d * d;
+  const double w = 2 * std::numbers::pi * hz;
+  std::vector<cd> x;
+  for (std::size_t i = 0; i < k.size(); ++i) {
+    const double c = 2 * zeta * std::sqrt(k[i] / m) * m;
+    x.push_back(force * direction[i] / std::sqrt(norm) / cd(k[i] + added[i] - m * w * w, c * w));
+  }
+  return x;
+}
+double linear_amplitude(double hz, double m, const std::vector<double>& k,
+                        const std::vector<double>& added, double zeta, double force,
+                        const std::vector<double>& direction) {
+  return amplitude_of(linear_response(hz, m, k, added, zeta, force, direction));
+}
+
+void expect_linear_curve(const Curve& c, double m, const std::vector<double>& k,
+                         const std::vector<double>& added, double force,
+                         const std::vector<double>& direction, double tolerance) {
+  ASSERT_EQ(c.outcome.exit_code, kExitOk) << c.outcome.message;
+  ASSERT_GT(c.hz.size(), 10u);
+  // The first harmonic exactly; the amplitude max |x(t)| to the resolution of its time grid
+  // (512 samples: a relative error up to (pi / 512)^2 / 2 = 1.9e-5 for an elliptic motion).
+  double worst_h1 = 0, worst_amplitude = 0;
+  for (std::size_t i = 0; i < c.hz.size(); ++i) {
+    const auto x = linear_response(c.hz[i], m, k, added, 0.005, force, direction);
+    double h1 = 0;
+    for (const cd& xi : x) h1 += std::norm(xi);
+    h1 = std::sqrt(h1);
+    worst_h1 = std::max(worst_h1, std::abs(c.first_harmonic[i] - h1) / h1);
+    const double oracle = amplitude_of(x);
+    worst_amplitude = std::max(worst_amplitude, std::abs(c.amplitude[i] - oracle) / oracle);
+  }
+  EXPECT_LT(worst_h1, tolerance);
+  EXPECT_LT(worst_amplitude, std::max(tolerance, 3e-5));
+}
+
+double timesim_amplitude(const Scene& scene, double hz) {
+  TimesimOptions options;
+  options.frequency_hz = hz;
+  const TimesimResult r = simulate_in_time(scene, options);
+  EXPECT_TRUE(r.periodic);
+  // A scalar DOF: half peak-to-peak, since a slider that slipped in the transient and then
+  // stuck keeps a static offset that harmonic balance (full-stick convention) does not carry
+  // (docs/validation.md). A node: max |x(t)|, as harmonic balance reports it.
+  const auto& node = r.nodes.at(0);
+  return node.samples_m.size() == 1 ? node.half_peak_to_peak_m : node.amplitude_m;
+}
+
+// Harmonic-balance amplitude exactly at `hz`: the start point of a sweep from there (the
+// curve's points are too sparse to interpolate to a percent where the amplitude bends).
+double hb_at(const fs::path& file, double hz, const std::function<void(YAML::Node&)>& edit = {}) {
+  TempDir dir;
+  const Curve c = run(bound(file,
+                            [&](YAML::Node& d) {
+                              if (edit) edit(d);
+                              d["continuation"]["frequency"]["from"] = hz;
+                              d["continuation"]["frequency"]["to"] = hz * (1 + 1e-6);
+                              d["output"]["friction_loops_at"] = std::vector<double>{};
+                            }),
+                      dir, "at");
+  EXPECT_FALSE(c.amplitude.empty()) << hz << " Hz: " << c.outcome.message;
+  return c.amplitude.empty() ? NAN : c.amplitude.front();
+}
+
+TEST(Stress, StiffContactStuckIsTheLinearSystemWithKtAdded) {
+  TempDir dir;
+  const Curve c = run(bound(kStress / "stiff_contact_1e10_stuck.yaml"), dir, "run");
+  ASSERT_NO_FATAL_FAILURE(expect_linear_curve(c, 0.1, {4e5}, {1e10}, 2e4, {1.0}, 1e-6));
+  EXPECT_NEAR(c.amplitude.front(), 2e-6, 1e-8);  // micrometres
+}
+
+// A 1e10 N/m slider switches between stick and slip within one time sample. The curve must
+// reach the end, with 256 samples and with 1024 traced 4 times oversampled; its peak lies
+// between the linear limits and agrees with time integration.
+TEST(Stress, StiffContactSlippingReachesTheEndAndItsPeakAgrees) {
+  TempDir dir;
+  const Scene scene = bound(kStress / "stiff_contact_1e10_slipping.yaml");
+  const Curve coarse = run(scene, dir, "coarse");
+  const Curve fine = run(bound(kStress / "stiff_contact_1e10_slipping.yaml",
+                               [](YAML::Node& d) {
+                                 d["harmonic_balance"]["samples_per_period"] = 1024;
+                                 d["harmonic_balance"]["trace_oversampling"] = 4;
+                               }),
+                         dir, "fine");
+  ASSERT_EQ(coarse.outcome.exit_code, kExitOk) << coarse.outcome.message;
+  ASSERT_EQ(fine.outcome.exit_code, kExitOk) << fine.outcome.message;
+  const double peak = coarse.outcome.peaks.at(0).amplitude_m;
+  // Between the stuck and the free linear peaks.
+  EXPECT_LT(peak, linear_amplitude(std::sqrt(4e5 / 0.1) / (2 * std::numbers::pi), 0.1, {4e5}, {0},
+                                   0.005, 0.7, {1.0}));
+  EXPECT_GT(peak, 0.7 / 1e10);
+  // At the peak the contact slips most of the period: 1 % already with 256 samples.
+  const double f_peak = coarse.outcome.peaks.at(0).omega_rad_s / (2 * std::numbers::pi);
+  const fs::path file = kStress / "stiff_contact_1e10_slipping.yaml";
+  EXPECT_NEAR(hb_at(file, f_peak) / timesim_amplitude(scene, f_peak), 1.0, 0.01);
+  // Off the peak, where the slider sticks for part of the period, the 1e10 N/m stick-slip
+  // switches are the hard part: there harmonic balance and time integration still differ by
+  // 2-6 % at 300 and 340 Hz, with 256 or 1024 x 4 samples (an open robustness item,
+  // docs/validation.md); not asserted here.
+}
+
+TEST(Stress, FrictionlessContactIsTheFreeSystem) {
+  TempDir dir;
+  const Curve c = run(bound(kStress / "frictionless_uncoupled_2d.yaml"), dir, "run");
+  // mu = 0: no tangential force; the normal spring kn acts on z, which is not excited.
+  expect_linear_curve(c, 0.1, {4e5, 5e5, 6e5}, {0, 0, 1e5}, 2.0, {1, 1, 0}, 1e-6);
+}
+
+TEST(Stress, NeverSlippingContactIsTheLinearSystemWithItsSprings) {
+  TempDir dir;
+  const Curve c = run(bound(kStress / "never_slips_coupled_3d.yaml"), dir, "run");
+  expect_linear_curve(c, 0.1, {4e5, 5e5, 6e5}, {2e5, 2e5, 1e5}, 2.0, {1, 1, 1}, 1e-6);
+}
+
+TEST(Stress, NeverClosingGapIsTheFreeSystem) {
+  TempDir dir;
+  const Curve c = run(bound(kStress / "never_closes_coupled_3d.yaml"), dir, "run");
+  expect_linear_curve(c, 0.1, {4e5, 5e5, 6e5}, {0, 0, 0}, 2.0, {1, 1, 1}, 1e-9);
+}
+
+// The contract of a run that ends early: exit code 3, a reason, a last point, a suggestion.
+void expect_diagnosed(const Curve& c) {
+  EXPECT_EQ(c.outcome.exit_code, kExitIncomplete);
+  EXPECT_FALSE(c.summary["termination"]["reached_end"].get<bool>());
+  EXPECT_FALSE(c.summary["termination"]["message"].get<std::string>().empty());
+  EXPECT_FALSE(c.summary["termination"]["suggestion"].get<std::string>().empty());
+  ASSERT_TRUE(c.summary["termination"]["last_point"].is_object());
+  EXPECT_TRUE(
+      std::isfinite(c.summary["termination"]["last_point"]["scaled_residual"].get<double>()));
+}
+
+// Hertz at zero preload: impacts, so harmonic balance converges to time integration as
+// harmonics are added (measured: 2.5 % and 1.8 % at 260 and 300 Hz with H = 5; 0.14 % and
+// 0.36 % with H = 12).
+TEST(Stress, HertzAtZeroPreloadConvergesToTimeIntegration) {
+  TempDir dir;
+  const Scene h5 = bound(kStress / "hertz_zero_preload.yaml");
+  const Curve c5 = run(h5, dir, "h5");
+  ASSERT_EQ(c5.outcome.exit_code, kExitOk) << c5.outcome.message;
+  for (double hz : {260.0, 300.0}) {
+    TimesimOptions options;
+    options.frequency_hz = hz;
+    const TimesimResult r = simulate_in_time(h5, options);
+    ASSERT_TRUE(r.periodic) << hz;
+    const double reference = r.nodes.at(0).amplitude_m;  // max |x(t)|, as harmonic balance
+    const fs::path file = kStress / "hertz_zero_preload.yaml";
+    const double e5 = std::abs(hb_at(file, hz) / reference - 1);
+    const double e12 = std::abs(hb_at(file, hz,
+                                      [](YAML::Node& d) {
+                                        d["harmonic_balance"]["max_harmonic"] = 12;
+                                        d["harmonic_balance"]["samples_per_period"] = 256;
+                                      }) /
+                                    reference -
+                                1);
+    EXPECT_LT(e12, 0.005) << hz << " Hz";
+    EXPECT_LT(e12, e5) << hz << " Hz";
+  }
+}
+
+TEST(Stress, SeveralResonancesInOneSweep) {
+  TempDir dir;
+  const Scene scene = bound(kStress / "several_resonances.yaml");
+  const Curve c = run(scene, dir, "run");
+  ASSERT_EQ(c.outcome.exit_code, kExitOk) << c.outcome.message;
+  // Local maxima of the curve: at least the three directions' resonances.
+  int maxima = 0;
+  for (std::size_t i = 1; i + 1 < c.amplitude.size(); ++i)
+    maxima += c.amplitude[i] > c.amplitude[i - 1] && c.amplitude[i] >= c.amplitude[i + 1];
+  EXPECT_GE(maxima, 3);
+  for (double hz : {200.0, 450.0, 650.0}) {
+    const double reference = timesim_amplitude(scene, hz);
+    EXPECT_NEAR(hb_at(kStress / "several_resonances.yaml", hz) / reference, 1.0, 0.01)
+        << hz << " Hz";
+  }
+}
+
+TEST(Stress, TwentyHarmonicsAgreeWithSeven) {
+  TempDir dir;
+  const Curve twenty = run(bound(kStress / "twenty_harmonics.yaml"), dir, "twenty");
+  ASSERT_EQ(twenty.outcome.exit_code, kExitOk) << twenty.outcome.message;
+  EXPECT_EQ(twenty.summary["unknowns"], 41);
+  const Curve seven =
+      run(bound(fs::path(FRICHB_SOURCE_DIR) / "configs" / "quickstart_friction_oscillator.yaml"),
+          dir, "seven");
+  EXPECT_NEAR(twenty.outcome.peaks.at(0).amplitude_m / seven.outcome.peaks.at(0).amplitude_m, 1.0,
+              1e-3);
+}
+
+TEST(Stress, TooFewSamplesAreRefusedWithFileLineAndKey) {
+  try {
+    load_scene(kStress / "aliasing_refused.yaml");
+    FAIL() << "32 samples for 20 harmonics were accepted";
+  } catch (const SceneError& e) {
+    EXPECT_THAT(e.what(), ::testing::ContainsRegex("aliasing_refused.yaml:[0-9]+:[0-9]+: "
+                                                   "harmonic_balance.samples_per_period"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("2 * max_harmonic + 1 = 41"));
+  }
+}
+
+// A gap that closes near resonance folds the curve (thesis Fig. 4.2). Traced with and
+// without the fine step control at turning points; each run must reach the end with the
+// answer (time integration agrees where the curve is single-valued) or stop with its
+// diagnostic. Both measurements are printed for docs/validation.md.
+TEST(Stress, GapFoldsEndRightOrSayWhy) {
+  TempDir dir;
+  const Scene with = bound(kStress / "gap_closing_folds.yaml");
+  const auto t0 = std::chrono::steady_clock::now();
+  const Curve controlled = run(with, dir, "with");
+  const auto t1 = std::chrono::steady_clock::now();
+  const Curve plain =
+      run(bound(kStress / "gap_closing_folds.yaml",
+                [](YAML::Node& d) { d["continuation"]["turning_point_control"] = false; }),
+          dir, "without");
+  const auto t2 = std::chrono::steady_clock::now();
+  auto check = [&](const char* what, const Curve& c, double seconds) {
+    std::cout << what << ": " << c.outcome.termination << " at "
+              << c.summary["termination"]["last_point"].value("frequency", 0.0) << " Hz, "
+              << c.summary.value("points", 0) << " points, " << c.summary.value("rejected_steps", 0)
+              << " rejected steps, " << c.summary.value("turning_points", 0) << " turning points, "
+              << c.summary.value("fine_control_restarts", 0) << " fine-control restarts, "
+              << seconds << " s\n";
+    if (c.outcome.exit_code != kExitOk) return expect_diagnosed(c);
+    for (double hz : {320.0, 580.0}) {
+      const double reference = timesim_amplitude(with, hz);
+      EXPECT_NEAR(hb_at(kStress / "gap_closing_folds.yaml", hz) / reference, 1.0, 0.01)
+          << what << " " << hz << " Hz";
+    }
+  };
+  check("with fine control", controlled, std::chrono::duration<double>(t1 - t0).count());
+  check("without", plain, std::chrono::duration<double>(t2 - t1).count());
+  // Below the gap's closing the curve is the free system's, whatever happens later.
+  EXPECT_NEAR(
+      hb_at(kStress / "gap_closing_folds.yaml", 320.0) /
+          linear_amplitude(320.0, 0.1, {4e5, 5e5, 6e5}, {0, 0, 0}, 0.005, 2.0, {0.3, 0.3, 1.0}),
+      1.0, 1e-6);
+}
+
+}  // namespace
