@@ -358,6 +358,11 @@ TEST(Continuation, NewtonAcceptsTheFloorOfANonSmoothResidual) {
   ContinuationOptions strict;
   strict.newton.residual_floor_iterations = 1000;  // demand a shrinking update
   EXPECT_FALSE(solve_fixed_parameter(kink, Eigen::Vector2d(1.0, 0.5), strict).converged);
+  // A floor above the tolerance is not a solution: refused.
+  const ScalarCurve high_floor(
+      [&](double x, double l) { return 1e-3 * (x - l) + (x > l ? 10 * delta : -10 * delta); },
+      [](double, double) { return Eigen::Vector2d(1e-3, -1e-3); });
+  EXPECT_FALSE(solve_fixed_parameter(high_floor, Eigen::Vector2d(1.0, 0.5), {}).converged);
   // A smooth problem never needs the floor.
   const ScalarCurve line([](double x, double l) { return x - l; },
                          [](double, double) { return Eigen::Vector2d(1.0, -1.0); });

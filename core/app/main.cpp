@@ -188,9 +188,9 @@ int main(int argc, char** argv) {
           } catch (const std::exception&) {
             used = 0;
           }
-          if (used != item.size() || value < 1) {
+          if (used != item.size() || value < 1 || value > 100000) {
             std::cerr << "frichb convergence: --" << key
-                      << " takes positive integers separated by commas, not '"
+                      << " takes integers from 1 to 100000 separated by commas, not '"
                       << vm[key].as<std::string>() << "'\n";
             return kExitUsage;
           }

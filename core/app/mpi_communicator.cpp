@@ -27,7 +27,9 @@ class MpiCommunicator final : public core::StudyCommunicator {
   MpiCommunicator() {
     int initialised = 0;
     MPI_Initialized(&initialised);
-    if (!initialised) MPI_Init(nullptr, nullptr);
+    // Funneled: the study's worker threads never call MPI; the main thread does.
+    int provided = 0;
+    if (!initialised) MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
   }

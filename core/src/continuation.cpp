@@ -188,12 +188,14 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
       out.converged = true;
       return out;
     }
-    since_best = out.residual_norm < 0.5 * floor_residual ? 0 : since_best + 1;
+    const bool halved = out.residual_norm < 0.5 * floor_residual;
     if (out.residual_norm < floor_residual) {
       floor_residual = out.residual_norm;
       floor_ys = out.ys;
       floor_js = out.js;
     }
+    // Counted only once the best residual meets the tolerance.
+    since_best = (floor_residual > opt.residual_tolerance || halved) ? 0 : since_best + 1;
     if (floor_residual <= opt.residual_tolerance && since_best >= opt.residual_floor_iterations) {
       out.ys = floor_ys;
       out.js = floor_js;
@@ -457,6 +459,8 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         summary.rejected_steps += static_cast<int>(total - keep);
         summary.points.resize(keep);
         ++summary.fine_control_restarts;
+        corner_repeats = 0;  // the corner test starts afresh from the restart point
+        corner_ratio = kInf;
         refining = true;
         refine_cap = std::max(options.min_step, options.turning_point_refinement * step);
         refine_left = static_cast<int>(

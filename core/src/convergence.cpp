@@ -87,7 +87,7 @@ int run_convergence(const ConvergenceRequest& request) {
   for (int o : std::set<int>(request.oversampling.begin(), request.oversampling.end()))
     for (int h : std::set<int>(request.harmonics.begin(), request.harmonics.end()))
       for (int n : std::set<int>(request.samples.begin(), request.samples.end())) {
-        if (h < 1 || n < 2 * h + 1 || o < 1 || o > 64) continue;
+        if (h < 1 || n < 2 * static_cast<long long>(h) + 1 || o < 1 || o > 64) continue;
         Setting s{h, n, o, harmonics_like(base.harmonic_balance.harmonics, h), ""};
         if (!std::all_of(excited.begin(), excited.end(), [&](int e) {
               return std::find(s.harmonics.begin(), s.harmonics.end(), e) != s.harmonics.end();
@@ -122,19 +122,27 @@ int run_convergence(const ConvergenceRequest& request) {
     int incomplete = 0;
     for (std::size_t i = 0; i < settings.size(); ++i) {
       const Setting& s = settings[i];
-      YAML::Node document = load_scene_yaml(base.file);
-      YAML::Node hb = document["harmonic_balance"];
-      hb.remove("max_harmonic");
-      hb["harmonics"] = s.harmonics;
-      hb["samples_per_period"] = s.samples;
-      hb["trace_oversampling"] = s.oversampling;
-      Scene scene = load_scene(document, base.file);
-      bind_plugins(scene, *registry);
-      RunOptions options;
-      options.quiet = true;
-      options.plots = 0;
-      options.study_context = {{"convergence_setting", s.id}};
-      Row row{s, run_bound_scene(scene, out.path("runs") / s.id, options), 0, NAN, NAN};
+      Row row{s, {}, 0, NAN, NAN};
+      try {
+        YAML::Node document = load_scene_yaml(base.file);
+        YAML::Node hb = document["harmonic_balance"];
+        hb.remove("max_harmonic");
+        hb["harmonics"] = s.harmonics;
+        hb["samples_per_period"] = s.samples;
+        hb["trace_oversampling"] = s.oversampling;
+        Scene scene = load_scene(document, base.file);
+        bind_plugins(scene, *registry);
+        RunOptions options;
+        options.quiet = true;
+        options.plots = 0;
+        options.study_context = {{"convergence_setting", s.id}};
+        row.outcome = run_bound_scene(scene, out.path("runs") / s.id, options);
+      } catch (const std::exception& e) {  // this setting only (e.g. a key out of range)
+        row.outcome.exit_code = kExitInvalidInput;
+        row.outcome.termination = "invalid_input";
+        row.outcome.message = e.what();
+        spdlog::warn("{}: {}", s.id, e.what());
+      }
       for (const auto& p : row.outcome.peaks)
         if (p.node == node) {
           row.amplitude = p.amplitude_m;
@@ -151,6 +159,11 @@ int run_convergence(const ConvergenceRequest& request) {
       rows.push_back(std::move(row));
     }
     const Row& reference = rows.back();
+    if (reference.outcome.exit_code != kExitOk)
+      spdlog::warn(
+          "the reference setting {} did not reach the end of its sweep ({}): its peak, and so "
+          "every error, is only as good as the part of the curve it traced",
+          reference.setting.id, reference.outcome.termination);
 
     // Time-integration reference at the finest setting's peak frequency.
     nlohmann::json timesim = nullptr;
@@ -183,8 +196,9 @@ int run_convergence(const ConvergenceRequest& request) {
            "peak_amplitude_m,peak_frequency_hz,amplitude_error,frequency_error,"
            "amplitude_error_vs_timesim,wall_s\n";
     md << "| H | N | oversampling | unknowns | peak amplitude [m] | peak frequency [Hz] | "
-          "amplitude error | frequency error | error vs time integration | wall time [s] |\n"
-       << "|---|---|---|---|---|---|---|---|---|---|\n";
+          "amplitude error | frequency error | error vs time integration | wall time [s] | "
+          "termination |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|\n";
     nlohmann::json table = nlohmann::json::array();
     for (const Row& r : rows) {
       const bool ref = &r == &reference;
@@ -200,7 +214,7 @@ int run_convergence(const ConvergenceRequest& request) {
          << r.setting.oversampling << " | " << r.unknowns << " | " << number(r.amplitude, 6)
          << " | " << number(r.frequency, 7) << " | " << (ref ? "reference" : sci(ea)) << " | "
          << (ref ? "reference" : sci(ef)) << " | " << sci(et) << " | "
-         << number(r.outcome.wall_seconds, 3) << " |\n";
+         << number(r.outcome.wall_seconds, 3) << " | " << r.outcome.termination << " |\n";
       nlohmann::json j = {{"setting", r.setting.id},
                           {"harmonics", r.setting.harmonics},
                           {"samples_per_period", r.setting.samples},

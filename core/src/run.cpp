@@ -154,10 +154,11 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
              " turning points so far): raise max_points, or continuation.step.max to take "
              "longer steps where the curve is smooth";
     case TerminationType::kStepTooSmall:
-      return "the corrector failed down to continuation.step.min: look at the last point (a "
-             "contact changing regime, a fold); try more samples_per_period or "
-             "trace_oversampling (a smoother residual), a smaller step.min, or "
-             "turning_point_control: true";
+      return std::string(
+                 "the corrector failed down to continuation.step.min: look at the last point "
+                 "(a contact changing regime, a fold); try more samples_per_period or "
+                 "trace_oversampling (a smoother residual), or a smaller step.min") +
+             (C.turning_point_control ? "" : ", or turning_point_control: true");
     case TerminationType::kTimeLimit:
       return "raise continuation.max_wall_seconds, or reduce harmonics or samples_per_period";
     case TerminationType::kStartFailed:
@@ -390,6 +391,10 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
       }
     }
     for (std::size_t k = 0; k < nodes.size(); ++k) {
+      if (peak_amp[k] < 0) {  // no point on the curve: no peak
+        peaks[nodes[k].name] = nullptr;
+        continue;
+      }
       peaks[nodes[k].name] = {{"amplitude_m", peak_amp[k]},
                               {"frequency_hz", peak_w[k] / (2 * std::numbers::pi)},
                               {"omega_rad_s", peak_w[k]},
