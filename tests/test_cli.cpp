@@ -23,6 +23,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "frichb/core/scene.hpp"
 #include "frichb/plugin/abi.h"
 
 namespace {
@@ -292,6 +293,72 @@ TEST_F(Cli, SceneThatIsAFolderIsInvalidInput) {
   const Result r = frichb("validate " + quoted(scene));
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_THAT(r.output, HasSubstr(scene.string()));
+}
+
+// ---------------------------------------------------------------------------------------
+// Input hardening (docs/validation.md): numbers far outside what a key can mean are refused
+// with a message, not converted to int (undefined behaviour), enumerated (gigabytes) or wrapped
+// into a different value that has already passed its range check.
+// ---------------------------------------------------------------------------------------
+
+// (One file name for every scene of a test: expect_refused checks nothing else is written.)
+TEST_F(Cli, HugeIntegersAreRefusedNotWrapped) {
+  // max_harmonic: 1e12 was enumerated into a list of 1e12 harmonics (out of memory).
+  std::string out = expect_refused(
+      "huge.yaml", replace_once(quickstart_, "max_harmonic: 7", "max_harmonic: 1e12"));
+  EXPECT_THAT(out,
+              HasSubstr("harmonic_balance.max_harmonic: value 1e+12 is out of the integer range"));
+  // Within int but far beyond samples_per_period: the aliasing rule, before any enumeration.
+  out = expect_refused("huge.yaml",
+                       replace_once(quickstart_, "max_harmonic: 7", "max_harmonic: 2000000000"));
+  EXPECT_THAT(out, HasSubstr("2 * max_harmonic + 1 = 4000000001 (aliasing)"));
+  out = expect_refused("huge.yaml", replace_once(quickstart_, "samples_per_period: 128",
+                                                 "samples_per_period: 10000000"));
+  EXPECT_THAT(out, HasSubstr("harmonic_balance.samples_per_period: value 1e+07 violates "
+                             "samples_per_period <= 524288"));
+  // sectors: 1e300 passed `sectors >= 2`, then was rounded to 0: a scene without symmetry.
+  out = expect_refused("huge.yaml",
+                       replace_once(quickstart_, "\nname: friction_oscillator",
+                                    "\nname: friction_oscillator\ncyclic: {sectors: 1e300, "
+                                    "engine_order: 1}"));
+  EXPECT_THAT(out, HasSubstr("cyclic.sectors: value 1e+300 is out of the integer range"));
+}
+
+TEST_F(Cli, HugeHarmonicOrDofIndexIsRefused) {
+  // Both were converted to int / size_t out of range: undefined behaviour (UBSan).
+  std::string out = expect_refused(
+      "huge.yaml", replace_once(quickstart_, "max_harmonic: 7", "harmonics: [0, 1, 1e300]"));
+  EXPECT_THAT(out, HasSubstr("harmonic_balance.samples_per_period: value 128 violates "
+                             "samples_per_period >= 2 * max_harmonic + 1 = 2e+300 (aliasing)"));
+  out = expect_refused("huge.yaml",
+                       replace_once(quickstart_, "dofs: {blade: 0}", "dofs: {blade: 1e300}"));
+  EXPECT_THAT(out, HasSubstr("structure.dofs.blade: expected a DOF index"));
+}
+
+TEST_F(Cli, FrameVectorsOfExtremeMagnitudeAreNormalised) {
+  // The norm was the square root of the sum of squares: 1e200 overflowed to inf and the unit
+  // vector became 0 (accepted), 1e-200 underflowed to 0 ("is the zero vector").
+  for (const std::string magnitude : {"1.0e200", "-1.0e-200"}) {
+    const fs::path file = write_scene("frame.yaml", replace_once(quickstart_, "tangent1: [1.0]",
+                                                                 "tangent1: [" + magnitude + "]"));
+    const auto scene = frichb::core::load_scene(file);
+    ASSERT_EQ(scene.contacts.at(0).tangent1.size(), 1u);
+    EXPECT_EQ(scene.contacts[0].tangent1[0], magnitude[0] == '-' ? -1.0 : 1.0) << magnitude;
+  }
+}
+
+TEST_F(Cli, StudyPathIndexBeyondUnsignedLongIsInvalidInput) {
+  // std::stoul threw std::out_of_range past load_study's checks: exit 4, internal error.
+  const fs::path scene =
+      write_scene("huge_index.yaml",
+                  quickstart_ +
+                      "\nstudy:\n  sweep:\n"
+                      "    - {path: excitation.99999999999999999999.amplitude, values: [1]}\n");
+  const Result r = frichb("validate " + quoted(scene));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(scene.string() + ":"));
+  EXPECT_THAT(r.output, HasSubstr("study.sweep[0].path: "));
+  EXPECT_THAT(r.output, HasSubstr("99999999999999999999 is not a list index"));
 }
 
 // ---------------------------------------------------------------------------------------

@@ -183,6 +183,37 @@ TEST(StudySpec, BadInputNamesFileLineAndRun) {
               HasSubstr("study.parallel"));
 }
 
+// Input hardening (docs/validation.md): a list index beyond unsigned long escaped load_study as
+// std::out_of_range (`frichb validate` exited 4, internal error), and a huge count or grid
+// allocated gigabytes of values and runs before anything was checked.
+TEST(StudySpec, HugeIndicesCountsAndGridsAreInputErrors) {
+  TempDir dir;
+  const Registry registry(Registry::default_search_path());
+  auto error_of = [&](const std::string& sweep) {
+    const auto file = quickstart_with_study(dir, "study:\n  sweep:\n" + sweep);
+    try {
+      Scene scene = load_scene(file);
+      bind_plugins(scene, registry);
+      prepare_study_runs(scene, load_study(scene), registry);
+    } catch (const SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(error_of("    - {path: excitation.99999999999999999999.amplitude, values: [1]}\n"),
+              ::testing::AllOf(HasSubstr("study.sweep[0].path: "),
+                               HasSubstr("99999999999999999999 is not a list index")));
+  EXPECT_THAT(
+      error_of("    - {path: \"excitation[99999999999999999999].amplitude\", values: [1]}\n"),
+      HasSubstr("99999999999999999999 is not a list index"));
+  EXPECT_THAT(error_of("    - {path: excitation.0.amplitude, from: 1, to: 2, count: 1e6}\n"),
+              HasSubstr("study.sweep[0].count: value 1e+06 violates count <= 100000"));
+  EXPECT_THAT(
+      error_of("    - {path: excitation.0.amplitude, from: 1, to: 2, count: 1000}\n"
+               "    - {path: contacts.root_friction.params.mu, from: 0, to: 1, count: 1000}\n"),
+      HasSubstr("study.sweep: more than 100000 runs"));
+}
+
 // Each run equals `frichb run` on the scene edited by hand, and the fully stuck and fully
 // free limits equal the closed-form linear peaks.
 TEST(StudyRun, RunsMatchHandEditedScenesAndLinearLimits) {

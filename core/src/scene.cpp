@@ -6,8 +6,11 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <iomanip>
+#include <limits>
 #include <numbers>
 #include <set>
+#include <sstream>
 
 #include "frichb/plugin/sdk.hpp"
 
@@ -105,7 +108,8 @@ const std::vector<frichb_param_spec>& harmonic_balance_schema() {
           .at_least(-1),
       Param::integer("samples_per_period", "time samples N of the AFT; N >= 2 max_harmonic + 1")
           .defaults_to(128)
-          .at_least(2),
+          .at_least(2)
+          .at_most(1 << 19),
       Param::text("jacobian", "contact Jacobian: quasi-analytical, or finite differences")
           .defaults_to_text("analytic")
           .choices("analytic|finite_difference"),
@@ -194,10 +198,14 @@ std::vector<double> unit_vector(const std::vector<double>& v, const YAML::Node& 
     ctx.fail(node, path,
              "has " + std::to_string(v.size()) + " entries but the node has " +
                  std::to_string(components) + " components");
-  double norm = 0;
-  for (double x : v) norm += x * x;
-  norm = std::sqrt(norm);
-  if (norm == 0) ctx.fail(node, path, "is the zero vector");
+  // Scaled by the largest entry: the squares neither overflow (1e200 gave the zero vector)
+  // nor underflow (1e-200 was "the zero vector").
+  double scale = 0;
+  for (double x : v) scale = std::max(scale, std::abs(x));
+  if (scale == 0) ctx.fail(node, path, "is the zero vector");
+  double sum = 0;
+  for (double x : v) sum += (x / scale) * (x / scale);
+  const double norm = scale * std::sqrt(sum);
   std::vector<double> out;
   out.reserve(v.size());
   for (double x : v) out.push_back(x / norm);
@@ -286,7 +294,8 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
     if (node.name == "ground") ctx.fail(kv.first, path, "'ground' is reserved");
     auto read_index = [&](const YAML::Node& n) {
       double x = -1;
-      if (!n.IsScalar() || !YAML::convert<double>::decode(n, x) || x < 0 || x != std::floor(x))
+      if (!n.IsScalar() || !YAML::convert<double>::decode(n, x) || x < 0 || x != std::floor(x) ||
+          x > std::numeric_limits<int>::max())
         ctx.fail(n, path, "expected a DOF index (integer >= 0) or a list of them");
       node.dofs.push_back(static_cast<std::size_t>(x));
     };
@@ -311,26 +320,34 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
     ctx.fail(hbn ? hbn : root, "harmonic_balance",
              "give exactly one of `harmonics: [...]` or `max_harmonic: H`");
   auto& H = scene.harmonic_balance;
-  if (max_h >= 0) {
-    for (int n = 0; n <= max_h; ++n) H.harmonics.push_back(n);
-  } else {
-    std::set<int> seen;
+  {
+    std::set<double> seen;
     for (std::size_t i = 0; i < listed.size(); ++i) {
       const double x = listed[i];
-      if (x != std::floor(x) || !seen.insert(static_cast<int>(x)).second)
+      if (x != std::floor(x) || !seen.insert(x).second)
         ctx.fail(hbn["harmonics"][i], "harmonic_balance.harmonics[" + std::to_string(i) + "]",
                  "harmonics are distinct integers >= 0");
-      H.harmonics.push_back(static_cast<int>(x));
     }
   }
   H.samples_per_period = static_cast<int>(hbv.integer("samples_per_period"));
-  const int max_kept = *std::max_element(H.harmonics.begin(), H.harmonics.end());
-  if (H.samples_per_period < 2 * max_kept + 1)
+  // Checked before the harmonics are listed as int: a huge max_harmonic or harmonic is refused
+  // here (samples_per_period is bounded by its schema), not converted or enumerated.
+  const double max_kept =
+      max_h >= 0 ? static_cast<double>(max_h) : *std::max_element(listed.begin(), listed.end());
+  if (H.samples_per_period < 2 * max_kept + 1) {
+    std::ostringstream bound;
+    bound << std::setprecision(15) << 2 * max_kept + 1;
     ctx.fail(hbn["samples_per_period"] ? hbn["samples_per_period"] : hbn,
              "harmonic_balance.samples_per_period",
              "value " + std::to_string(H.samples_per_period) +
-                 " violates samples_per_period >= 2 * max_harmonic + 1 = " +
-                 std::to_string(2 * max_kept + 1) + " (aliasing)");
+                 " violates samples_per_period >= 2 * max_harmonic + 1 = " + bound.str() +
+                 " (aliasing)");
+  }
+  if (max_h >= 0) {
+    for (int n = 0; n <= max_h; ++n) H.harmonics.push_back(n);
+  } else {
+    for (double x : listed) H.harmonics.push_back(static_cast<int>(x));
+  }
   H.analytic_jacobian = hbv.text("jacobian") == "analytic";
   H.max_trace_passes = static_cast<int>(hbv.integer("max_trace_passes"));
   H.trace_oversampling = static_cast<int>(hbv.integer("trace_oversampling"));

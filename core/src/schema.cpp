@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 
 namespace frichb::core {
@@ -25,6 +26,9 @@ std::string number_text(double v) {
 std::string join_key(const std::string& path, const std::string& key) {
   return path.empty() ? key : path + "." + key;
 }
+
+// The largest magnitude of an INTEGER parameter: the range of int.
+constexpr int kMaxInteger = std::numeric_limits<int>::max();
 
 bool decode_real(const YAML::Node& node, double& out) {
   if (!node.IsScalar()) return false;
@@ -81,6 +85,13 @@ class ParamBuilder {
           ctx_.fail(node, path,
                     std::string("expected ") + (integer ? "an integer" : "a finite number") +
                         ", got " + describe_node(node));
+        // Integers are read as int by the core and the plugins (sdk::Params::integer rounds
+        // with llround, which has no defined result beyond long long): refuse what does not
+        // fit rather than let 1e300 become garbage that has passed its range check.
+        if (integer && std::abs(x) > kMaxInteger)
+          ctx_.fail(node, path,
+                    "value " + number_text(x) + " is out of the integer range [-" +
+                        std::to_string(kMaxInteger) + ", " + std::to_string(kMaxInteger) + "]");
         check_range(node, spec, path, x);
         v.real = x;
         break;

@@ -37,6 +37,10 @@ std::string cat(const Parts&... parts) {
   return out;
 }
 
+// The most runs a study may have: every run is validated, bound and kept in memory before
+// any computes (and a larger count was an allocation of gigabytes, or an overflow).
+constexpr std::size_t kMaxStudyRuns = 100000;
+
 const frichb_param_spec* sweep_fields() {
   static const frichb_param_spec f[] = {
       Param::text("path",
@@ -47,7 +51,8 @@ const frichb_param_spec* sweep_fields() {
       Param::real("to", "", "last value of a generated range").defaults_to(0),
       Param::integer("count", "number of values of a generated range (>= 2)")
           .defaults_to(0)
-          .at_least(0),
+          .at_least(0)
+          .at_most(static_cast<double>(kMaxStudyRuns)),
       Param::text("spacing", "spacing of a generated range")
           .defaults_to_text("linear")
           .choices("linear|log"),
@@ -94,6 +99,16 @@ std::string short_value(double x) {
   return os.str();
 }
 
+// A list index of a path (digits only); one beyond unsigned long is an invalid path, not a
+// std::out_of_range escaping the input checks.
+std::size_t list_index(const std::string& digits, const std::string& path) {
+  try {
+    return std::stoul(digits);
+  } catch (const std::out_of_range&) {
+    throw std::invalid_argument(cat("'", path, "': ", digits, " is not a list index"));
+  }
+}
+
 // One part of a path: a map key (or a contact's name) followed by list indices.
 struct PathPart {
   std::string key;
@@ -113,7 +128,7 @@ std::vector<PathPart> parse_path(const std::string& path) {
       const std::string digits = path.substr(i + 1, close - i - 1);
       if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
         throw std::invalid_argument(cat("'", path, "': [", digits, "] is not a list index"));
-      part.indices.push_back(std::stoul(digits));
+      part.indices.push_back(list_index(digits, path));
       i = close + 1;
     }
     if (part.key.empty() && (parts.empty() || part.indices.empty()))
@@ -150,7 +165,7 @@ YAML::Node resolve(YAML::Node document,  // NOLINT(performance-unnecessary-value
       const bool numeric = part.key.find_first_not_of("0123456789") == std::string::npos;
       if (node.IsSequence() && numeric) {
         // A number addresses a list entry by index (excitation.0.amplitude).
-        const std::size_t index = std::stoul(part.key);
+        const std::size_t index = list_index(part.key, path);
         if (index >= node.size())
           throw std::invalid_argument(cat("'", walked, "' has ", std::to_string(node.size()),
                                           " entries, so '", here, "' does not exist"));
@@ -386,6 +401,14 @@ StudySpec load_study(const Scene& scene) {
     }
     study.sweeps.push_back(std::move(sweep));
   }
+  std::size_t total = study.zip ? study.sweeps[0].values.size() : 1;  // saturates
+  for (const auto& sweep : study.sweeps)
+    if (!study.zip)
+      total = total > kMaxStudyRuns / sweep.values.size() ? kMaxStudyRuns + 1
+                                                          : total * sweep.values.size();
+  if (total > kMaxStudyRuns)
+    ctx.fail(sn["sweep"], "study.sweep",
+             "more than " + std::to_string(kMaxStudyRuns) + " runs (the most a study may have)");
   if (study.zip)
     for (std::size_t i = 1; i < study.sweeps.size(); ++i)
       if (study.sweeps[i].values.size() != study.sweeps[0].values.size())
