@@ -14,6 +14,7 @@ packages=(
   gnuplot-nox
   openmpi-bin libopenmpi-dev openssh-client
   clang-format clang-tidy
+  clang libclang-rt-dev llvm
 )
 
 missing=()
