@@ -95,6 +95,10 @@ extern "C" int LLVMFuzzerInitialize(int* /*argc*/, char*** /*argv*/) {
                        ("frichb-fuzz-scene-" + std::to_string(static_cast<long long>(getpid())));
   fs::create_directories(dir);
   g_scene_file = dir / "scene.yaml";
+  std::atexit([] {
+    std::error_code ec;
+    fs::remove_all(g_scene_file.parent_path(), ec);
+  });
   try {
     g_registry = std::make_unique<Registry>(std::vector<fs::path>{plugin_folder()});
   } catch (const std::exception& e) {
