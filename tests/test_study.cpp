@@ -148,20 +148,24 @@ TEST(StudySpec, GridZipAndRangesExpandToRuns) {
   EXPECT_EQ(prepare_study_runs(zs, load_study(zs), registry).size(), 3u);
 }
 
+// The error text of preparing every run of the quick-start scene with `study` appended
+// ("no error" when it is accepted).
+std::string study_error(const TempDir& dir, const std::string& study) {
+  const Registry registry(Registry::default_search_path());
+  const auto file = quickstart_with_study(dir, study);
+  try {
+    Scene scene = load_scene(file);
+    bind_plugins(scene, registry);
+    prepare_study_runs(scene, load_study(scene), registry);
+  } catch (const SceneError& e) {
+    return std::string(e.what());
+  }
+  return std::string("no error");
+}
+
 TEST(StudySpec, BadInputNamesFileLineAndRun) {
   TempDir dir;
-  const Registry registry(Registry::default_search_path());
-  auto error_of = [&](const std::string& study) {
-    const auto file = quickstart_with_study(dir, study);
-    try {
-      Scene scene = load_scene(file);
-      bind_plugins(scene, registry);
-      prepare_study_runs(scene, load_study(scene), registry);
-    } catch (const SceneError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
+  auto error_of = [&](const std::string& study) { return study_error(dir, study); };
   // A typo in the path: located at the path, with the closest key.
   EXPECT_THAT(error_of("study:\n  sweep:\n    - {path: contacts.root_friction.params.normal_lod, "
                        "values: [1]}\n"),
@@ -188,17 +192,8 @@ TEST(StudySpec, BadInputNamesFileLineAndRun) {
 // allocated gigabytes of values and runs before anything was checked.
 TEST(StudySpec, HugeIndicesCountsAndGridsAreInputErrors) {
   TempDir dir;
-  const Registry registry(Registry::default_search_path());
   auto error_of = [&](const std::string& sweep) {
-    const auto file = quickstart_with_study(dir, "study:\n  sweep:\n" + sweep);
-    try {
-      Scene scene = load_scene(file);
-      bind_plugins(scene, registry);
-      prepare_study_runs(scene, load_study(scene), registry);
-    } catch (const SceneError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return study_error(dir, "study:\n  sweep:\n" + sweep);
   };
   EXPECT_THAT(error_of("    - {path: excitation.99999999999999999999.amplitude, values: [1]}\n"),
               ::testing::AllOf(HasSubstr("study.sweep[0].path: "),

@@ -283,7 +283,9 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     // Start point: from the contact-free response; when Newton cannot get from there to
     // the solution (a contact far stiffer than the structure, stuck at a tiny fraction of
     // the free motion), from rest, then from the free response scaled down.
-    if (n > 0 && !solve_fixed_parameter(*model, y0, options).converged) {
+    const NewtonResult first = n > 0 ? solve_fixed_parameter(*model, y0, options) : NewtonResult{};
+    if (first.converged) y0 = first.y;  // trace_curve then starts from the solution itself
+    if (n > 0 && !first.converged) {
       for (const double shrink : {0.0, 1e-3, 1e-6}) {
         Eigen::VectorXd guess = y0;
         guess.head(n) *= shrink;
