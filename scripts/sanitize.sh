@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Sanitizer and fuzzing checks (issue 6, input hardening):
 #  1. build-asan: GCC, every target (plugins included) with AddressSanitizer + UBSan, warnings
-#     as errors; the ctest suites except the long and install ones.
+#     as errors; the ctest suites except the long and install ones, and except
+#     Cyclic.BladedDiskPeakConvergesWithTheNumberOfHarmonics (15 s in Release, about 9 min
+#     under ASan; the same code runs in the other cyclic tests at fewer harmonics).
 #  2. build-fuzz: clang, libFuzzer + ASan + UBSan; fuzz_scene_bounded fuzzes scene parsing and
 #     validation for FRICHB_FUZZ_SECONDS (default 60) from the shipped scenes.
 # Jobs default to the core count (FRICHB_JOBS overrides it).
@@ -19,7 +21,8 @@ cmake --build build-asan -j"$jobs"
 stamp "build-asan built"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-  ctest --test-dir build-asan --output-on-failure -j2 -LE "long|install"
+  ctest --test-dir build-asan --output-on-failure -j"$jobs" -LE "long|install" \
+    -E "^Cyclic\.BladedDiskPeakConvergesWithTheNumberOfHarmonics$"
 stamp "ASan/UBSan tests passed"
 
 cmake -S . -B build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
