@@ -388,6 +388,67 @@ TEST(Continuation, PassesACornerOfTheBranch) {
   EXPECT_EQ(trace_curve(Circle(), Eigen::Vector2d(0.0, -1.0), Sweep(-1.0, 1.0)).corners, 0);
 }
 
+TEST(Continuation, CornerJustAheadIsRecognisedFromTheTangentLines) {
+  // The same 87-degree corner, 5e-7 ahead of the start, with steps of 4e-6 down to 1e-6:
+  // the ratio of correction to step (0.88, 0.75, 0.5 times tan 87 degrees) never repeats
+  // within 10 %, so the halving test alone ends with step_too_small. The tangent lines of
+  // the start point and of the landed point meet at the kink, which is on the branch: the
+  // first step is taken across it.
+  const double kink = 1.0;
+  const auto g = [&](double l) { return l < kink ? 0.0 : 20.0 * (l - kink); };
+  const ScalarCurve corner(
+      [&](double x, double l) { return x - g(l); },
+      [&](double, double l) { return Eigen::Vector2d(1.0, l < kink ? 0 : -20.0); });
+  ContinuationOptions o = Sweep(kink - 5e-7, kink + 1e-3);
+  o.initial_step = 4e-6;
+  o.min_step = 1e-6;
+  o.max_step = 1e-4;
+  const auto summary = trace_curve(corner, Eigen::Vector2d(0.0, kink - 5e-7), o);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  EXPECT_EQ(summary.corners, 1);
+  EXPECT_EQ(summary.rejected_steps, 0);
+  ASSERT_GE(summary.points.size(), 2u);
+  EXPECT_TRUE(summary.points[1].passed_corner);
+  for (const auto& p : summary.points) EXPECT_NEAR(p.y(0), g(p.y(1)), 1e-12);
+  // A point on a parallel branch is not a corner: x = 1e-3 + 20 (lambda - 1) never meets
+  // x = 0 at a solution, and the tangent lines' meeting point is off both branches.
+  const ScalarCurve two_branches(
+      [&](double x, double l) { return l < kink + 1e-6 ? x : x - 1e-3 - 20.0 * (l - kink - 1e-6); },
+      [&](double, double l) { return Eigen::Vector2d(1.0, l < kink + 1e-6 ? 0 : -20.0); });
+  const auto jumped = trace_curve(two_branches, Eigen::Vector2d(0.0, kink - 5e-7), o);
+  EXPECT_EQ(jumped.corners, 0);
+  EXPECT_FALSE(jumped.reached_end());
+}
+
+TEST(Continuation, EachPointCarriesTheConditionOfItsNewtonMatrix) {
+  // e = a x - lambda: the bordered Newton matrix [a, -1; v^T] at every point, with the unit
+  // tangent v = (1, a) / |(1, a)|, has 1-norm condition number |A|_1 |A^-1|_1 computed
+  // here from the explicit inverse; the start point's e_x = a has condition 1.
+  for (const double a : {1.0, 1e-3, 1e6}) {
+    const ScalarCurve line([a](double x, double l) { return a * x - l; },
+                           [a](double, double) { return Eigen::Vector2d(a, -1.0); });
+    ContinuationOptions o = Sweep(0.0, 1.0);
+    o.max_step = 1e4;  // the line is 1 / a long
+    const auto summary = trace_curve(line, Eigen::Vector2d(0.0, 0.0), o);
+    ASSERT_TRUE(summary.reached_end()) << summary.message;
+    EXPECT_DOUBLE_EQ(summary.points.front().condition, 1.0);
+    Eigen::Matrix2d bordered;
+    const Eigen::Vector2d v = Eigen::Vector2d(1.0, a).normalized();
+    bordered << a, -1.0, v(0), v(1);
+    const auto norm1 = [](const Eigen::Matrix2d& m) {
+      return m.cwiseAbs().colwise().sum().maxCoeff();
+    };
+    const double exact = norm1(bordered) * norm1(bordered.inverse());
+    for (std::size_t i = 1; i < summary.points.size(); ++i) {
+      // The estimate bounds the condition from below, within a small factor.
+      EXPECT_LE(summary.points[i].condition, exact * (1 + 1e-9)) << a;
+      EXPECT_GE(summary.points[i].condition, exact / 3.0) << a;
+    }
+    EXPECT_GE(summary.max_condition, exact / 3.0);
+    EXPECT_LT(summary.max_condition_point, summary.points.size());
+  }
+}
+
 TEST(Continuation, SteepBranchCapsTheFollowingSteps) {
   // x = 0.01 lambda + tanh(50 (lambda - 0.5)): flat, then nearly vertical.
   const ScalarCurve steep(

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <complex>
 #include <fstream>
+#include <iomanip>
 #include <numbers>
 #include <sstream>
 
@@ -336,3 +337,78 @@ TEST(Stress, GapFoldsEndRightOrSayWhy) {
 }
 
 }  // namespace
+
+namespace {
+
+// Frequencies of the turning points of a traced curve: where the frequency stops rising or
+// falling along the points (the extremes of the point sequence).
+std::vector<double> folds(const Curve& c) {
+  std::vector<double> out;
+  for (std::size_t i = 1; i + 1 < c.hz.size(); ++i)
+    if ((c.hz[i] - c.hz[i - 1]) * (c.hz[i + 1] - c.hz[i]) < 0.0) out.push_back(c.hz[i]);
+  return out;
+}
+
+}  // namespace
+
+TEST(Stress, FineControlLocatesTheFoldsOfAClosingGap) {
+  // Item 4 of the robustness issue: the same curve traced with the thesis's fine step
+  // control at turning points and without it, at a large step (50), against a fine trace
+  // (step 10, with the control) whose points resolve both folds.
+  TempDir dir;
+  const fs::path file = kStress / "hertz_gap_folds.yaml";
+  auto timed = [&](const char* name, const std::function<void(YAML::Node&)>& edit) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Curve c = run(bound(file, edit), dir, name);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const auto f = folds(c);
+    std::cout << name << ": " << c.outcome.termination << ", " << c.summary.value("points", 0)
+              << " points, " << c.summary.value("rejected_steps", 0) << " rejected steps, "
+              << c.summary.value("fine_control_restarts", 0) << " fine-control restarts, " << s
+              << " s; folds at";
+    for (double hz : f) std::cout << " " << std::setprecision(10) << hz;
+    std::cout << " Hz\n";
+    EXPECT_EQ(c.outcome.exit_code, kExitOk) << c.outcome.message;
+    return std::make_pair(c, f);
+  };
+  const auto [fine, fine_folds] =
+      timed("reference", [](YAML::Node& d) { d["continuation"]["step"]["max"] = 10.0; });
+  const auto [with, with_folds] = timed("with fine control", {});
+  const auto [without, without_folds] =
+      timed("without", [](YAML::Node& d) { d["continuation"]["turning_point_control"] = false; });
+  // Two folds: the top of the bent resonance and the bottom of its unstable branch. The
+  // sampled contact force may fold the curve a few more times within 1e-3 Hz of the top
+  // (micro-folds of the time grid); the top fold is the highest, the bottom the lowest.
+  auto top = [](const std::vector<double>& f) { return *std::max_element(f.begin(), f.end()); };
+  auto bottom = [](const std::vector<double>& f) { return *std::min_element(f.begin(), f.end()); };
+  for (const auto* f : {&fine_folds, &with_folds, &without_folds}) {
+    ASSERT_GE(f->size(), 2u);
+    for (double hz : *f) EXPECT_TRUE(hz == bottom(*f) || hz > top(*f) - 1e-3) << hz;
+  }
+  EXPECT_NEAR(top(fine_folds), 474.30, 0.01);
+  EXPECT_NEAR(bottom(fine_folds), 402.14, 0.01);
+  // The control puts points at the folds; without it the large step cuts across them.
+  for (const auto& fold : {std::function(top), std::function(bottom)}) {
+    const double error_with = std::abs(fold(with_folds) - fold(fine_folds));
+    const double error_without = std::abs(fold(without_folds) - fold(fine_folds));
+    EXPECT_LT(error_with, 0.01);
+    EXPECT_LT(error_with, error_without);
+  }
+  EXPECT_GT(with.summary.value("fine_control_restarts", 0), 0);
+  EXPECT_EQ(without.summary.value("fine_control_restarts", 0), 0);
+  // summary.json lists the turning points; those within 0.3 Hz (1e-3 of the span) of the
+  // next one are micro-folds. With 128 samples the time grid folds the top many times.
+  EXPECT_EQ(with.summary["turning_point_frequencies"].size(), with_folds.size());
+  EXPECT_EQ(with.summary.value("micro_folds", -1), 0);
+  EXPECT_EQ(fine.summary.value("micro_folds", -1), static_cast<int>(fine_folds.size()) - 1);
+  const auto [coarse, coarse_folds] = timed(
+      "128 samples", [](YAML::Node& d) { d["harmonic_balance"]["samples_per_period"] = 128; });
+  EXPECT_GE(coarse.summary.value("micro_folds", 0), 4);
+  EXPECT_NEAR(top(coarse_folds), top(fine_folds), 0.1);
+  // The Newton matrix's condition estimate is reported, finite and at least 1.
+  EXPECT_GE(with.summary["newton_condition"].value("max", 0.0), 1.0);
+  // Below the lower fold the curve is single-valued and the gap closes every period: there
+  // harmonic balance agrees with time integration.
+  const double hz = 395.0;
+  EXPECT_NEAR(hb_at(file, hz) / timesim_amplitude(bound(file), hz), 1.0, 0.01);
+}

@@ -212,10 +212,19 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
   return out;
 }
 
-// Eq. 4.9: w = e_x^-1 e_lambda, v = dir * (-w, 1) / |(1, w)|.
-bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v) {
+// 1 / rcond: LAPACK-style estimate of the 1-norm condition number from the factors (O(n^2)
+// on top of the factorisation); infinite for a singular matrix.
+double ConditionOf(const Eigen::FullPivLU<MatrixXd>& lu) {
+  const double rcond = lu.rcond();
+  return rcond > 0.0 ? 1.0 / rcond : kInf;
+}
+
+// Eq. 4.9: w = e_x^-1 e_lambda, v = dir * (-w, 1) / |(1, w)|. `condition`: estimate of
+// the 1-norm condition number of e_x.
+bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v, double* condition) {
   const Index n = js.rows();
   const Eigen::FullPivLU<MatrixXd> lu(js.leftCols(n));
+  *condition = ConditionOf(lu);
   if (!lu.isInvertible()) return false;
   const VectorXd w = lu.solve(js.col(n));
   VectorXd t(n + 1);
@@ -226,16 +235,51 @@ bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v) {
 }
 
 // Eq. 4.10: [A; v_prev^T] v = [0; 1]; the last row keeps v . v_prev > 0, i.e. no reversal.
-bool NextTangent(const MatrixXd& js, const VectorXd& previous, VectorXd* v) {
+// `condition` (optional): estimate of the 1-norm condition number of the bordered matrix,
+// the Keller corrector's Newton matrix at the point.
+bool NextTangent(const MatrixXd& js, const VectorXd& previous, VectorXd* v,
+                 double* condition = nullptr) {
   const Index n = js.rows();
   MatrixXd a(n + 1, n + 1);
   a.topRows(n) = js;
   a.row(n) = previous.transpose();
   const Eigen::FullPivLU<MatrixXd> lu(a);
+  if (condition != nullptr) *condition = ConditionOf(lu);
   if (!lu.isInvertible()) return false;
   const VectorXd t = lu.solve(VectorXd::Unit(n + 1, n));
   *v = t / t.norm();
   return v->allFinite();
+}
+
+// A corrector that lands farther from the predictor than the step either jumped to another
+// branch or crossed a corner of this one (a contact sample changing regime makes the
+// residual's derivative jump, so the branch is piecewise smooth). It is a corner when the
+// two tangent lines - the last point's (y1, v1) and the landed point's (y2, v2) - meet,
+// ahead of the last point and behind the landed one, at a point that is itself on the
+// branch: two straight pieces meeting at a kink. A jump to another branch has tangent lines
+// that miss each other, or meet away from any solution. Lengths are relative to the path
+// through the corner. `min_cosine` bounds the turn.
+bool CornerBetween(const CurveProblem& problem, const Scaling& scaling, const NewtonOptions& newton,
+                   const VectorXd& y1, const VectorXd& v1, const VectorXd& y2, const VectorXd& v2,
+                   double min_cosine) {
+  constexpr double kRelativeTolerance = 0.05;
+  const double c = v1.dot(v2);
+  if (c < min_cosine || 1.0 - c * c < 1e-8) return false;  // too sharp, or parallel lines
+  // Closest points y1 + a v1 and y2 + b v2 of the two lines.
+  const VectorXd w = y1 - y2;
+  const double d = v1.dot(w), f = v2.dot(w);
+  const double a = (c * f - d) / (1.0 - c * c);
+  const double b = f + a * c;
+  const double path = a - b;
+  if (!(a >= 0.0 && b <= 0.0 && path > 0.0)) return false;
+  const VectorXd p1 = y1 + a * v1, p2 = y2 + b * v2;
+  if ((p1 - p2).norm() > kRelativeTolerance * path) return false;
+  // The kink estimate must lie on the branch: corrected on the hyperplane through it
+  // normal to the bisector of the two tangents, it moves by a small part of the path.
+  const VectorXd kink = 0.5 * (p1 + p2);
+  const VectorXd bisector = (v1 - v2).norm() > 1e-12 ? VectorXd((v1 - v2).normalized()) : v1;
+  const CoreResult onto = DampedNewton(problem, scaling, kink, newton, &bisector, &kink);
+  return onto.converged && (onto.ys - kink).norm() <= kRelativeTolerance * path;
 }
 
 }  // namespace
@@ -337,9 +381,16 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     summary.turning_points = 0;
     summary.residual_floor_points = 0;
     summary.corners = 0;
-    for (const auto& point : summary.points) {
+    summary.max_condition = 0.0;
+    summary.max_condition_point = 0;
+    for (std::size_t i = 0; i < summary.points.size(); ++i) {
+      const auto& point = summary.points[i];
       summary.residual_floor_points += point.at_residual_floor;
       summary.corners += point.passed_corner;
+      if (point.condition > summary.max_condition) {
+        summary.max_condition = point.condition;
+        summary.max_condition_point = i;
+      }
     }
     for (std::size_t i = 1; i < summary.points.size(); ++i)
       if (summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0)
@@ -376,7 +427,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   ContinuationPoint first;
   first.y = unscale(start.ys);
   first.y(n) = options.lambda_start;
-  if (!FirstTangent(start.js, direction, &first.tangent))
+  if (!FirstTangent(start.js, direction, &first.tangent, &first.condition))
     return finish(TerminationType::kStartFailed,
                   "start point: singular e_x, no tangent at " + FormatLambda(first.y(n)));
   first.newton_iterations = start.iterations;
@@ -420,27 +471,32 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     bool sign_change = false;
     bool ok = corr.converged;
     // A correction longer than the step cannot come from the branch's own curvature: the
-    // corrector has jumped onto another branch - unless that correction shrinks in proportion
-    // as the step is halved: then the branch has a corner here (a contact changing regime,
-    // the tangent turning by more than 45 degrees), and once the ratio of correction to step
-    // has repeated over three halvings the point across the corner is taken.
+    // corrector has jumped onto another branch - unless the branch has a corner here (a
+    // contact changing regime, the tangent turning by more than 45 degrees). A corner is
+    // recognised at once when the tangent lines meet on the branch (CornerBetween), or when
+    // the correction shrinks in proportion as the step is halved: once the ratio of
+    // correction to step has repeated over three halvings the point across it is taken.
     bool corner = false;
     if (ok && (corr.ys - predictor).norm() > step) {
       const double ratio = (corr.ys - predictor).norm() / step;
       corner_repeats = std::abs(ratio / corner_ratio - 1.0) < 0.1 ? corner_repeats + 1 : 0;
       corner_ratio = ratio;
+      VectorXd landed_tangent;
       if (corner_repeats >= 2 && ratio <= kMaxCornerRatio) {
+        corner = true;
+      } else if (NextTangent(corr.js, last.tangent, &landed_tangent) &&
+                 CornerBetween(problem, s, newton, ys_last, last.tangent, corr.ys, landed_tangent,
+                               1.0 / kMaxCornerRatio)) {
         corner = true;
       } else {
         ok = false;
         corr.message = "corrector jumped away from the predictor";
       }
     }
-    if (ok && !NextTangent(corr.js, last.tangent, &p.tangent)) {
+    if (ok && !NextTangent(corr.js, last.tangent, &p.tangent, &p.condition)) {
       ok = false;
       corr.message = "singular bordered Jacobian, no tangent";
     }
-
     if (ok) {
       p.y = unscale(corr.ys);
       p.newton_iterations = corr.iterations;
@@ -483,7 +539,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         summary.total_newton_iterations += land.iterations;
         ContinuationPoint end;
         if (land.converged && (land.ys - guess_s).norm() <= step &&
-            NextTangent(land.js, last.tangent, &end.tangent)) {
+            NextTangent(land.js, last.tangent, &end.tangent, &end.condition)) {
           end.y = unscale(land.ys);
           end.y(n) = options.lambda_end;
           end.newton_iterations = land.iterations;

@@ -142,9 +142,50 @@ std::optional<std::pair<double, double>> refine_peak(const HarmonicBalanceModel&
   return fc > fd ? std::make_pair(fc, c) : std::make_pair(fd, d);
 }
 
+// A Newton matrix whose condition estimate exceeds this has lost 10 of 16 digits: warned.
+constexpr double kIllConditioned = 1e10;
+
+// Turning points of the traced curve (sign changes of the tangent's frequency component) in
+// the scene's unit, and the micro-folds among them: turning points within
+// kMicroFoldWidth of the sweep span of the next one along the curve. A penalty contact's
+// sampled force is piecewise smooth (a sample entering contact bends the residual), and near
+// a fold of a lightly damped resonance these bends fold the curve back and forth over a
+// fraction of a hertz; the clusters narrow as samples_per_period grows (docs/validation.md).
+struct TurningPointReport {
+  std::vector<double> frequencies;
+  int micro_folds = 0;         // turning points that belong to a cluster
+  double cluster_width = 0.0;  // the clustering distance, in the scene's unit
+  double first_cluster = 0.0;  // where the first cluster is
+};
+constexpr double kMicroFoldWidth = 1e-3;
+
+TurningPointReport report_turning_points(const ContinuationSummary& summary, Eigen::Index n,
+                                         double unit, double span) {
+  TurningPointReport report;
+  for (std::size_t i = 1; i < summary.points.size(); ++i)
+    if (summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0)
+      report.frequencies.push_back(summary.points[i].y(n) / unit);
+  report.cluster_width = kMicroFoldWidth * span;
+  const auto& f = report.frequencies;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const bool near_previous = i > 0 && std::abs(f[i] - f[i - 1]) < report.cluster_width;
+    const bool near_next = i + 1 < f.size() && std::abs(f[i + 1] - f[i]) < report.cluster_width;
+    if (!near_previous && !near_next) continue;
+    if (report.micro_folds == 0) report.first_cluster = f[i];
+    ++report.micro_folds;
+  }
+  return report;
+}
+
 // What a user can change when the curve ends early, by reason (printed and in summary.json).
 std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
   const auto& C = scene.continuation;
+  const std::string many_folds =
+      summary.turning_points >= 4
+          ? "; " + std::to_string(summary.turning_points) +
+                " turning points: where they cluster (summary.json micro_folds), raise "
+                "harmonic_balance.samples_per_period"
+          : "";
   switch (summary.termination) {
     case TerminationType::kReachedEnd:
       return "";
@@ -152,13 +193,14 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
       return "the curve needs more than continuation.max_points = " + std::to_string(C.max_points) +
              " points (" + std::to_string(summary.turning_points) +
              " turning points so far): raise max_points, or continuation.step.max to take "
-             "longer steps where the curve is smooth";
+             "longer steps where the curve is smooth" +
+             many_folds;
     case TerminationType::kStepTooSmall:
       return std::string(
                  "the corrector failed down to continuation.step.min: look at the last point "
                  "(a contact changing regime, a fold); try more samples_per_period or "
                  "trace_oversampling (a smoother residual), or a smaller step.min") +
-             (C.turning_point_control ? "" : ", or turning_point_control: true");
+             (C.turning_point_control ? "" : ", or turning_point_control: true") + many_folds;
     case TerminationType::kTimeLimit:
       return "raise continuation.max_wall_seconds, or reduce harmonics or samples_per_period";
     case TerminationType::kStartFailed:
@@ -354,7 +396,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
       header.push_back(nc.name + "_amplitude_m");
       for (int h : harmonics) header.push_back(nc.name + "_h" + std::to_string(h) + "_m");
     }
-    header.insert(header.end(), {"newton_iterations", "step"});
+    header.insert(header.end(), {"newton_iterations", "step", "condition"});
     std::vector<std::vector<double>> rows;
     nlohmann::json peaks = nlohmann::json::object();
     std::vector<double> peak_amp(nodes.size(), -1.0), peak_w(nodes.size(), 0.0);
@@ -374,6 +416,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
       }
       row.push_back(p.newton_iterations);
       row.push_back(p.step);
+      row.push_back(std::isfinite(p.condition) ? p.condition : 0.0);  // 0: not estimated
       rows.push_back(std::move(row));
     }
 
@@ -501,6 +544,32 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
         plugins.push_back(plugin_json(*c.plugin));
       }
     const auto& stats = model->stats();
+    const TurningPointReport folds = report_turning_points(summary, n, unit, span);
+    if (folds.micro_folds > 0)
+      spdlog::warn(
+          "{}: {} of the {} turning points come in clusters narrower than {} {} (near {} {}): "
+          "micro-folds of the time grid of a non-smooth contact force, not physics; they "
+          "shrink as harmonic_balance.samples_per_period grows (the outermost folds of a "
+          "cluster are the physical ones)",
+          scene.file.string(), folds.micro_folds, summary.turning_points,
+          format_number(folds.cluster_width), unit_name(C.unit), format_number(folds.first_cluster),
+          unit_name(C.unit));
+    nlohmann::json condition = nullptr;
+    if (!summary.points.empty() && summary.max_condition > 0.0) {
+      const double worst = summary.max_condition;
+      const double at = summary.points[summary.max_condition_point].y(n) / unit;
+      condition = {{"max", std::isfinite(worst) ? nlohmann::json(worst) : nlohmann::json()},
+                   {"frequency", at},
+                   {"digits_lost", std::isfinite(worst) ? std::log10(worst) : 16.0}};
+      if (!(worst <= kIllConditioned))
+        spdlog::warn(
+            "{}: the Newton matrix is ill-conditioned at {} {} (condition estimate {:.3g}: "
+            "about {:.0f} of 16 digits lost in a Newton update); check for a rigid-body mode "
+            "or a contact far stiffer than the structure, or set "
+            "continuation.displacement_scale",
+            scene.file.string(), format_number(at), unit_name(C.unit), worst,
+            std::min(16.0, std::log10(worst)));
+    }
     nlohmann::json last = nullptr;
     if (!summary.points.empty()) {
       const auto& p = summary.points.back();
@@ -521,6 +590,9 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
         {"points", summary.points.size()},
         {"rejected_steps", summary.rejected_steps},
         {"turning_points", summary.turning_points},
+        {"turning_point_frequencies", folds.frequencies},
+        {"micro_folds", folds.micro_folds},
+        {"newton_condition", condition},
         {"fine_control_restarts", summary.fine_control_restarts},
         {"steep_branch_caps", summary.steep_branch_caps},
         {"residual_floor_points", summary.residual_floor_points},

@@ -103,6 +103,11 @@ struct ContinuationPoint {
   double residual_norm = 0.0;      // scaled infinity norm at convergence
   bool at_residual_floor = false;  // converged on the residual alone (NewtonOptions)
   bool passed_corner = false;      // reached across a corner of the branch (trace_curve)
+  // Estimate of the 1-norm condition number of the Newton matrix at the point, in scaled
+  // variables: the bordered Keller matrix [e_x e_lambda; tangent^T] (e_x alone at the start
+  // point), from the factorisation that gives the tangent. About log10(condition) of the
+  // 16 significant digits are lost in a Newton update there; infinite when singular.
+  double condition = 0.0;
 };
 
 enum class TerminationType {
@@ -130,6 +135,8 @@ struct ContinuationSummary {
   int corners = 0;  // points reached across a corner of the branch: a correction longer
                     // than the step whose ratio to the step repeated over three halvings
   int total_newton_iterations = 0;
+  double max_condition = 0.0;           // the largest ContinuationPoint::condition
+  std::size_t max_condition_point = 0;  // the index of that point
   double wall_seconds = 0.0;
   bool reached_end() const { return termination == TerminationType::kReachedEnd; }
 };
