@@ -482,13 +482,11 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       corner_repeats = std::abs(ratio / corner_ratio - 1.0) < 0.1 ? corner_repeats + 1 : 0;
       corner_ratio = ratio;
       VectorXd landed_tangent;
-      if (corner_repeats >= 2 && ratio <= kMaxCornerRatio) {
-        corner = true;
-      } else if (NextTangent(corr.js, last.tangent, &landed_tangent) &&
-                 CornerBetween(problem, s, newton, ys_last, last.tangent, corr.ys, landed_tangent,
-                               1.0 / kMaxCornerRatio)) {
-        corner = true;
-      } else {
+      const bool repeated = corner_repeats >= 2 && ratio <= kMaxCornerRatio;
+      corner = repeated || (NextTangent(corr.js, last.tangent, &landed_tangent) &&
+                            CornerBetween(problem, s, newton, ys_last, last.tangent, corr.ys,
+                                          landed_tangent, 1.0 / kMaxCornerRatio));
+      if (!corner) {
         ok = false;
         corr.message = "corrector jumped away from the predictor";
       }
@@ -497,6 +495,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       ok = false;
       corr.message = "singular bordered Jacobian, no tangent";
     }
+
     if (ok) {
       p.y = unscale(corr.ys);
       p.newton_iterations = corr.iterations;
