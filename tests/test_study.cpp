@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "frichb/core/convergence.hpp"
+#include "frichb/core/output.hpp"
 #include "frichb/core/study.hpp"
 #include "test_support.hpp"
 
@@ -277,6 +278,69 @@ TEST(StudyRun, InvalidStudyWritesNothing) {
   StudyCommunicator serial;
   EXPECT_EQ(run_study({file, dir.path() / "out", -1}, serial), kExitInvalidInput);
   EXPECT_FALSE(fs::exists(dir.path() / "out"));
+}
+
+TEST(StudySpec, GeneratedRangesEndExactlyWhereWritten) {
+  // 0.1 + (0.3 - 0.1) * 1 is 0.30000000000000004 in doubles; the last value is the `to`
+  // the user wrote, linear or log.
+  TempDir dir;
+  const auto file = quickstart_with_study(
+      dir,
+      "study:\n  combine: zip\n  sweep:\n"
+      "    - {path: contacts.root_friction.params.mu, from: 0.1, to: 0.3, count: 3}\n"
+      "    - {path: excitation.0.amplitude, from: 0.3, to: 0.7, count: 3, spacing: log}\n");
+  Scene scene = load_scene(file);
+  const auto study = load_study(scene);
+  EXPECT_EQ(study.sweeps[0].values.back(), 0.3);
+  EXPECT_EQ(study.sweeps[1].values.back(), 0.7);
+  EXPECT_EQ(study.sweeps[0].values.front(), 0.1);
+  EXPECT_EQ(study.sweeps[1].values.front(), 0.3);
+}
+
+// Rank 1 of 2 whose rank 0 reports a failed validation: the broadcast verdict.
+class RankOneOfTwo : public StudyCommunicator {
+ public:
+  explicit RankOneOfTwo(std::string verdict) : verdict_(std::move(verdict)) {}
+  int rank() const override { return 1; }
+  int size() const override { return 2; }
+  std::vector<std::string> gather(const std::string&) override {
+    ++gathers;
+    return {};
+  }
+  std::string broadcast(const std::string&) override {
+    ++broadcasts;
+    return verdict_;
+  }
+  int gathers = 0, broadcasts = 0;
+
+ private:
+  std::string verdict_;
+};
+
+TEST(StudyRun, ARankStopsWhenAnotherCouldNotValidate) {
+  // This rank validates the study; rank 0 did not (exit code 2): it returns that code
+  // before computing anything, instead of waiting for collectives rank 0 never enters.
+  TempDir dir;
+  const auto file = quickstart_with_study(
+      dir, "study:\n  sweep:\n    - {path: contacts.root_friction.params.kt, values: [1e5]}\n");
+  RankOneOfTwo rank_one(std::to_string(kExitInvalidInput));
+  EXPECT_EQ(run_study({file, dir.path() / "out", 1}, rank_one), kExitInvalidInput);
+  EXPECT_FALSE(fs::exists(dir.path() / "out"));
+  // One collective pair, the verdict; no staging folder broadcast, no outcomes gathered.
+  EXPECT_EQ(rank_one.gathers, 1);
+  EXPECT_EQ(rank_one.broadcasts, 1);
+}
+
+TEST(Output, JsonWithTextThatIsNotUtf8IsWritten) {
+  // A message quoting a Latin-1 file name: written with a replacement character instead of
+  // throwing (nlohmann::json refuses invalid UTF-8 by default).
+  TempDir dir;
+  const nlohmann::json doc = {{"message", std::string("cannot read caf\xe9.yaml")}};
+  ASSERT_NO_THROW(write_json(dir.path() / "summary.json", doc));
+  const auto text = read_text(dir.path() / "summary.json");
+  EXPECT_THAT(text, HasSubstr("cannot read caf\xef\xbf\xbd.yaml"));
+  EXPECT_EQ(nlohmann::json::parse(text).at("message").get<std::string>(),
+            "cannot read caf\xef\xbf\xbd.yaml");
 }
 
 // The convergence report: errors against the finest setting shrink with more harmonics, and

@@ -70,7 +70,8 @@ void write_csv(const fs::path& file, const std::vector<std::string>& header,
 void write_json(const fs::path& file, const nlohmann::json& document) {
   std::ofstream out(file);
   if (!out) throw std::runtime_error("cannot write " + file.string());
-  out << document.dump(2) << "\n";
+  // Text that is not UTF-8 (a file name, a plugin's message) is replaced, not thrown on.
+  out << document.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
 }
 
 void write_text(const fs::path& file, const std::string& text) {

@@ -15,6 +15,7 @@
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <system_error>
 #include <thread>
 
 #include "frichb/core/output.hpp"
@@ -396,7 +397,9 @@ StudySpec load_study(const Scene& scene) {
         ctx.fail(entry, key + ".spacing", "log spacing needs from > 0 and to > 0");
       for (std::size_t k = 0; k < n; ++k) {
         const double s = static_cast<double>(k) / static_cast<double>(n - 1);
-        sweep.values.push_back(log ? from * std::pow(to / from, s) : from + (to - from) * s);
+        sweep.values.push_back(k + 1 == n ? to  // exactly the end the user wrote
+                               : log      ? from * std::pow(to / from, s)
+                                          : from + (to - from) * s);
       }
     }
     study.sweeps.push_back(std::move(sweep));
@@ -492,18 +495,33 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
   const bool leader = comm.rank() == 0;
   Scene scene;
   std::unique_ptr<Registry> registry;
-  if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
   StudySpec study;
   std::vector<StudyRun> runs;
-  try {
-    study = load_study(scene);
-    runs = prepare_study_runs(scene, study, *registry);
-  } catch (const SceneError& e) {
-    spdlog::error("{}", e.what());
-    return kExitInvalidInput;
-  } catch (const std::exception& e) {
-    spdlog::error("{}: {}", request.scene_file.string(), e.what());
-    return kExitInvalidInput;
+  const int validation = [&] {
+    if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
+    try {
+      study = load_study(scene);
+      runs = prepare_study_runs(scene, study, *registry);
+    } catch (const SceneError& e) {
+      spdlog::error("{}", e.what());
+      return kExitInvalidInput;
+    } catch (const std::exception& e) {
+      spdlog::error("{}: {}", request.scene_file.string(), e.what());
+      return kExitInvalidInput;
+    }
+    return kExitOk;
+  }();
+  // Every rank takes part in the verdict, so that a rank failing validation alone (another
+  // plugin folder on its node, say) stops them all instead of leaving them waiting.
+  std::string verdict = std::to_string(validation);
+  for (const auto& status : comm.gather(verdict))
+    if (status != std::to_string(kExitOk)) verdict = status;
+  verdict = comm.broadcast(verdict);
+  if (verdict != std::to_string(kExitOk)) {
+    if (validation == kExitOk)
+      spdlog::error("rank {}: another rank could not validate {}: stopping", comm.rank(),
+                    request.scene_file.string());
+    return std::stoi(verdict);
   }
   int threads = request.threads >= 0 ? request.threads : study.threads;
   if (threads <= 0) {
@@ -534,7 +552,8 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
   for (std::size_t i = static_cast<std::size_t>(comm.rank()); i < runs.size();
        i += static_cast<std::size_t>(comm.size()))
     mine.push_back(i);
-  threads = std::max(1, std::min<int>(threads, static_cast<int>(mine.size())));
+  constexpr int kMaxThreads = 256;  // a typo's 100000 threads would exhaust the process
+  threads = std::clamp(std::min<int>(threads, static_cast<int>(mine.size())), 1, kMaxThreads);
   if (leader)
     spdlog::info("study of {}: {} runs ({} on {} process(es) x {} thread(s)) -> {}",
                  scene.file.string(), runs.size(), study.zip ? "zip" : "grid", comm.size(), threads,
@@ -543,7 +562,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
     spdlog::debug("rank {}: {} runs on {} thread(s)", comm.rank(), mine.size(), threads);
 
   std::vector<RunOutcome> outcomes(runs.size());
-  Progress progress(runs.size(), leader);
+  Progress progress(mine.size(), leader);  // under MPI: rank 0's share of the runs
   std::atomic<std::size_t> next{0};
   auto worker = [&] {
     for (std::size_t k = next++; k < mine.size(); k = next++) {
@@ -571,14 +590,24 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
     }
   };
   std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  for (int t = 1; t < threads; ++t) {
+    try {
+      pool.emplace_back(worker);
+    } catch (const std::system_error& e) {
+      spdlog::warn("could not start thread {} of {} ({}): going on with {}", t + 1, threads,
+                   e.what(), t);
+      break;
+    }
+  }
   worker();
   for (auto& t : pool) t.join();
 
   // Rank 0 collects every rank's outcomes.
   nlohmann::json my_outcomes = nlohmann::json::array();
   for (std::size_t i : mine) my_outcomes.push_back(outcome_json(runs[i], outcomes[i]));
-  const auto gathered = comm.gather(my_outcomes.dump());
+  // Messages may quote file names that are not UTF-8: replaced, not thrown on.
+  const auto gathered =
+      comm.gather(my_outcomes.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   int code = kExitOk;
   if (leader) {
     try {
@@ -733,7 +762,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
             std::string cond = "1", label;
             for (std::size_t s = 1; s < study.sweeps.size(); ++s) {
               cond += " && abs(column(" + std::to_string(s + 2) + ") - (" +
-                      format_value(others[g][s - 1]) + ")) <= 1e-12 * (1 + abs(" +
+                      format_value(others[g][s - 1]) + ")) <= 1e-9 * (1 + abs(" +
                       format_value(others[g][s - 1]) + "))";
               label += (s > 1 ? ", " : "") +
                        study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) +
