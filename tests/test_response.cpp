@@ -182,6 +182,73 @@ TEST(ResidualJacobian, EqualsCentralDifferencesIncludingFrequency) {
   EXPECT_GT((jac.leftCols(n) - Eigen::MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff(), 1e-3);
 }
 
+TEST(ResidualJacobian, ManyContactsOfSeveralSizesEqualCentralDifferences) {
+  // Three 3-DOF blades in a ring joined by coupled 3D shroud contacts (3 components each, kn
+  // > 0: variable normal load), plus a 2D contact of blade 0 with the ground (2 components):
+  // the Jacobian is assembled block by block, one block per contact, and must equal central
+  // differences of the whole residual in every row and column.
+  test::TempDir dir;
+  const char* scene = R"(
+structure:
+  provider: lumped
+  params:
+    masses: [0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1]
+    springs:
+      - {between: [ground, 0], k: 4.0e5}
+      - {between: [ground, 1], k: 5.0e5}
+      - {between: [ground, 2], k: 6.0e5}
+      - {between: [ground, 3], k: 4.2e5}
+      - {between: [ground, 4], k: 5.2e5}
+      - {between: [ground, 5], k: 6.2e5}
+      - {between: [ground, 6], k: 4.4e5}
+      - {between: [ground, 7], k: 5.4e5}
+      - {between: [ground, 8], k: 6.4e5}
+    modal_damping: [0.01]
+  dofs: {b0: [0, 1, 2], b1: [3, 4, 5], b2: [6, 7, 8]}
+excitation:
+  - {dof: b0, amplitude: 2.0, direction: [1, 1, 1]}
+  - {dof: b1, amplitude: 2.0, phase_deg: 120, direction: [1, 1, 1]}
+  - {dof: b2, amplitude: 2.0, phase_deg: 240, direction: [1, 1, 1]}
+contacts:
+  - {name: s01, law: coupled_3d, between: [b0, b1], params: {kt: 2.0e5, kn: 1.0e5, mu: 0.5, normal_load: 5.0},
+     frame: {tangent1: [0, 1, 0], tangent2: [0, 0, 1], normal: [-1, 0, 0]}}
+  - {name: s12, law: coupled_3d, between: [b1, b2], params: {kt: 2.0e5, kn: 1.0e5, mu: 0.5, normal_load: 5.0},
+     frame: {tangent1: [0, 1, 0], tangent2: [0, 0, 1], normal: [-1, 0, 0]}}
+  - {name: root, law: uncoupled_2d, between: [ground, b0], params: {kt: 1.0e5, mu: 0.3, normal_load: 3.0},
+     frame: {tangent1: [1, 0, 0], tangent2: [0, 1, 0], normal: [0, 0, 1]}}
+  - {name: s20, law: coupled_3d, between: [b2, b0], params: {kt: 2.0e5, kn: 1.0e5, mu: 0.5, normal_load: 5.0},
+     frame: {tangent1: [0, 1, 0], tangent2: [0, 0, 1], normal: [-1, 0, 0]}}
+harmonic_balance: {harmonics: [0, 1, 2, 3], samples_per_period: 64}
+continuation:
+  frequency: {from: 250, to: 350, unit: Hz}
+)";
+  Built b = build(dir.write("scene.yaml", scene));
+  const Eigen::Index n = b.model->equation_count();
+  ASSERT_EQ(n, (3 * 3 + 2) * 7);
+  Eigen::VectorXd y(n + 1);
+  const double w = 2 * M_PI * 300;
+  y.head(n) = 3.0 * b.model->linear_response(w);  // every contact slips over part of the period
+  y(n) = w;
+  Eigen::VectorXd e, ep, em;
+  Eigen::MatrixXd jac;
+  std::string message;
+  ASSERT_TRUE(b.model->evaluate(y, e, &jac, &message)) << message;
+  Eigen::MatrixXd fd(n, n + 1);
+  for (Eigen::Index q = 0; q <= n; ++q) {
+    const double h = q < n ? 1e-7 * y.head(n).cwiseAbs().maxCoeff() : 1e-6 * w;
+    Eigen::VectorXd yp = y, ym = y;
+    yp(q) += h;
+    ym(q) -= h;
+    ASSERT_TRUE(b.model->evaluate(yp, ep, nullptr, &message));
+    ASSERT_TRUE(b.model->evaluate(ym, em, nullptr, &message));
+    fd.col(q) = (ep - em) / (2 * h);
+  }
+  EXPECT_LT((jac - fd).cwiseAbs().maxCoeff(), 1e-6 * fd.cwiseAbs().maxCoeff());
+  // The contacts couple: off-diagonal blocks between contacts are not zero (the receptance
+  // joins them), and the contact blocks differ from stuck springs.
+  EXPECT_GT(jac.block(0, 3 * 7, 3 * 7, 3 * 7).cwiseAbs().maxCoeff(), 1e-3);
+}
+
 TEST(ResponseCurve, AnalyticAndFiniteDifferenceJacobiansTraceTheSameCurve) {
   test::TempDir dir;
   const std::string law = "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}";

@@ -151,11 +151,9 @@ Eigen::Index HarmonicBalanceModel::kept_index(std::size_t dof) const {
 }
 
 void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces,
-                                         Eigen::MatrixXd* dforces, std::string* message,
-                                         bool& ok) const {
+                                         bool with_jacobian, std::string* message, bool& ok) const {
   const int c = layout_.coefficient_count();
   forces.setZero(unknown_count_);
-  if (dforces) dforces->setZero(unknown_count_, unknown_count_);
   ok = true;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const auto& contact = contacts_[i];
@@ -163,7 +161,7 @@ void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::Vector
     const Eigen::Index first = static_cast<Eigen::Index>(contact.offset) * c;
     ContactTrace& t = traces_[i];
     std::string error;
-    if (!contact.tracer->trace(y.segment(first, p), dforces ? mode_ : JacobianMode::kNone, t,
+    if (!contact.tracer->trace(y.segment(first, p), with_jacobian ? mode_ : JacobianMode::kNone, t,
                                &error)) {
       if (message) *message = "contact '" + contact.name + "': " + error;
       ok = false;
@@ -175,7 +173,6 @@ void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::Vector
       stats_.last_trace_diagnostic = "contact '" + contact.name + "': " + t.diagnostic;
     }
     forces.segment(first, p) = t.force_coefficients;
-    if (dforces) dforces->block(first, first, p, p) = t.jacobian;
   }
 }
 
@@ -204,19 +201,18 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
   ++stats_.residual_evaluations;
   if (jacobian) ++stats_.jacobian_evaluations;
   Eigen::VectorXd forces;
-  Eigen::MatrixXd dforces;
   bool ok = true;
-  gather_forces(y, forces, jacobian ? &dforces : nullptr, message, ok);
+  gather_forces(y, forces, jacobian != nullptr, message, ok);
   if (!ok) return false;
 
   residual = y.head(n);
   // Real form of each harmonic's complex receptance: with X = c - i s and R = A + i B,
-  // [c; s] = [[A, B], [-B, A]] [fc; fs].
-  Eigen::MatrixXd real_receptance, d_real_receptance;
-  if (jacobian) {
-    real_receptance.setZero(n, n);
-    d_real_receptance.setZero(n, n);
-  }
+  // [c; s] = [[A, B], [-B, A]] [fc; fs]. Written straight into the Jacobian's first n
+  // columns, which then become I + R dF/dU block by block (no n x n temporaries).
+  if (jacobian) jacobian->setZero(n, n + 1);
+  auto real_receptance = [&](Eigen::Index row, Eigen::Index col) -> double& {
+    return (*jacobian)(row, col);
+  };
   Eigen::VectorXd dresidual_dw = Eigen::VectorXd::Zero(n);
   Eigen::MatrixXcd r, dr;
   const auto& h = layout_.harmonics();
@@ -271,8 +267,15 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
     return false;
   }
   if (jacobian) {
-    jacobian->resize(n, n + 1);
-    jacobian->leftCols(n).noalias() = real_receptance * dforces;
+    // dF/dU is block diagonal, one block per contact (its unknowns are contiguous):
+    // J = I + R dF/dU costs n^2 p (p a contact's unknowns) instead of n^3.
+    Eigen::MatrixXd columns;
+    for (std::size_t i = 0; i < contacts_.size(); ++i) {
+      const Eigen::Index first = static_cast<Eigen::Index>(contacts_[i].offset) * c;
+      const Eigen::Index p = contacts_[i].tracer->unknown_count();
+      columns = jacobian->middleCols(first, p);
+      jacobian->middleCols(first, p).noalias() = columns * traces_[i].jacobian;
+    }
     jacobian->leftCols(n).diagonal().array() += 1.0;
     jacobian->col(n) = dresidual_dw;
     if (!jacobian->allFinite()) {
@@ -289,7 +292,7 @@ std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(const Eigen::V
   Eigen::VectorXd forces;
   bool ok = true;
   std::string message;
-  gather_forces(y, forces, nullptr, &message, ok);
+  gather_forces(y, forces, false, &message, ok);
   if (!ok) throw std::runtime_error("response recovery: " + message);
   const auto& h = layout_.harmonics();
   std::vector<Eigen::VectorXcd> out;

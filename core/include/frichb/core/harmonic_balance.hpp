@@ -69,7 +69,9 @@ class HarmonicBalanceModel final : public CurveProblem {
   JacobianMode jacobian_mode() const { return mode_; }
 
  private:
-  void gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces, Eigen::MatrixXd* dforces,
+  // Traces every contact at y: their force coefficients into `forces`; with_jacobian: each
+  // contact's block dF/dU into traces_[i].jacobian.
+  void gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces, bool with_jacobian,
                      std::string* message, bool& ok) const;
 
   HarmonicLayout layout_;

@@ -1,0 +1,164 @@
+// frichb-bench, part 2: the cost of the harmonic-balance Jacobian against the number of
+// contacts and harmonics (issue 7), on a generated shroud ring.
+//
+// The ring: P blades, each a 3-DOF lumped node (0.1 kg per DOF on springs of 4e5, 5e5 and
+// 6e5 N/m to the ground, 0.5 % modal damping), the shroud of blade i in coupled_3d contact
+// with that of blade i+1 (mod P; one blade: with the ground), kt = 2e5, kn = 1e5 N/m,
+// mu = 0.5, N0 = 5 N. A travelling-wave excitation (engine order 1: 2 N per direction with
+// phase 360 i / P degrees) moves every contact. The state: three times the contact-free
+// response at 300 Hz, so that every contact slips over part of the period.
+//
+// Benchmarks BM_Jacobian/<method>/<contacts>/<harmonics> (harmonics 0..H kept, 256 samples):
+//   residual   the residual alone (no Jacobian)
+//   analytic   residual and Jacobian, contact tangents from the laws in the same pass (AFT)
+//   local_fd   residual and Jacobian, each contact's block by finite differences of its trace
+//   global_fd  the thesis's baseline: every unknown perturbed and the whole residual
+//              re-evaluated. Where that takes longer than a few seconds, a sample of columns
+//              is timed and the time scaled to all n + 1 columns (the label says so).
+// Not a test: timings are reported, never asserted; ratios come from one run
+// (scripts/performance_report.py, docs/performance.md).
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Dense>
+#include <chrono>
+#include <memory>
+#include <numbers>
+#include <sstream>
+#include <string>
+
+#include "frichb/core/harmonic_balance.hpp"
+#include "frichb/core/registry.hpp"
+#include "frichb/core/scene.hpp"
+
+namespace {
+
+using namespace frichb::core;
+
+std::string ring_scene(int blades, int harmonics, bool analytic) {
+  std::ostringstream s;
+  s << "name: shroud_ring_" << blades << "\nstructure:\n  provider: lumped\n  params:\n"
+    << "    masses: [";
+  for (int i = 0; i < 3 * blades; ++i) s << (i ? ", " : "") << "0.1";
+  s << "]\n    springs:\n";
+  for (int i = 0; i < blades; ++i)
+    for (int d = 0; d < 3; ++d)
+      s << "      - {between: [ground, " << 3 * i + d << "], k: " << (4 + d) << ".0e5}\n";
+  s << "    modal_damping: [0.005]\n  dofs: {";
+  for (int i = 0; i < blades; ++i)
+    s << (i ? ", " : "") << "b" << i << ": [" << 3 * i << ", " << 3 * i + 1 << ", " << 3 * i + 2
+      << "]";
+  s << "}\nexcitation:\n";
+  for (int i = 0; i < blades; ++i)
+    for (int d = 0; d < 3; ++d)
+      s << "  - {dof: b" << i << ", amplitude: 2.0, phase_deg: " << 360.0 * i / blades
+        << ", direction: [" << (d == 0 ? 1 : 0) << ", " << (d == 1 ? 1 : 0) << ", "
+        << (d == 2 ? 1 : 0) << "]}\n";
+  s << "contacts:\n";
+  for (int i = 0; i < blades; ++i) {
+    s << "  - name: shroud" << i << "\n    law: coupled_3d\n    between: [b" << i << ", "
+      << (blades == 1 ? std::string("ground") : "b" + std::to_string((i + 1) % blades)) << "]\n"
+      << "    frame: {tangent1: [0, 1, 0], tangent2: [0, 0, 1], normal: [-1, 0, 0]}\n"
+      << "    params: {kt: 2.0e5, kn: 1.0e5, mu: 0.5, normal_load: 5.0}\n";
+  }
+  s << "harmonic_balance:\n  max_harmonic: " << harmonics << "\n  samples_per_period: 256\n"
+    << "  jacobian: " << (analytic ? "analytic" : "finite_difference") << "\n"
+    << "continuation:\n  frequency: {from: 250, to: 350, unit: Hz}\n";
+  return s.str();
+}
+
+struct Ring {
+  Scene scene;
+  std::unique_ptr<StructureInstance> structure;
+  std::unique_ptr<HarmonicBalanceModel> model;
+  Eigen::VectorXd y;
+};
+
+std::unique_ptr<Ring> make_ring(int blades, int harmonics, bool analytic) {
+  static const Registry registry({FRICHB_PLUGIN_DIR});
+  auto r = std::make_unique<Ring>();
+  r->scene = load_scene(YAML::Load(ring_scene(blades, harmonics, analytic)), "shroud_ring.yaml");
+  bind_plugins(r->scene, registry);
+  r->structure =
+      std::make_unique<StructureInstance>(r->scene.structure.plugin, r->scene.structure.values);
+  r->model = std::make_unique<HarmonicBalanceModel>(r->scene, *r->structure);
+  const Eigen::Index n = r->model->equation_count();
+  const double w = 2 * std::numbers::pi * 300.0;
+  r->y.resize(n + 1);
+  r->y.head(n) = 3.0 * r->model->linear_response(w);
+  r->y(n) = w;
+  return r;
+}
+
+void fail(benchmark::State& state, const std::string& message) {
+  state.SkipWithError(message.c_str());
+}
+
+void BM_Jacobian(benchmark::State& state, const std::string& method, int contacts, int harmonics) {
+  const auto ring = make_ring(contacts, harmonics, method != "local_fd");
+  const auto& model = *ring->model;
+  const Eigen::Index n = model.equation_count();
+  Eigen::VectorXd e;
+  Eigen::MatrixXd jacobian;
+  std::string message;
+  if (method == "residual" || method == "analytic" || method == "local_fd") {
+    Eigen::MatrixXd* j = method == "residual" ? nullptr : &jacobian;
+    for (auto _ : state) {
+      if (!model.evaluate(ring->y, e, j, &message)) return fail(state, message);
+      benchmark::DoNotOptimize(e.data());
+    }
+  } else {  // global_fd: one residual per perturbed unknown (forward differences)
+    Eigen::VectorXd e0, yp;
+    // Columns timed per iteration: all of them up to 2000 unknowns, else a sample.
+    const Eigen::Index columns = std::min<Eigen::Index>(n + 1, 2000 / std::max(1, harmonics));
+    jacobian.resize(n, columns);
+    for (auto _ : state) {
+      const auto t0 = std::chrono::steady_clock::now();
+      if (!model.evaluate(ring->y, e0, nullptr, &message)) return fail(state, message);
+      yp = ring->y;
+      for (Eigen::Index k = 0; k < columns; ++k) {
+        const Eigen::Index i = k * (n + 1) / columns;  // spread over the unknowns
+        const double h = 1e-7 * std::max(1e-6, std::abs(yp(i)));
+        yp(i) += h;
+        if (!model.evaluate(yp, e, nullptr, &message)) return fail(state, message);
+        jacobian.col(k) = (e - e0) / h;
+        yp(i) = ring->y(i);
+      }
+      benchmark::DoNotOptimize(jacobian.data());
+      const double seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      state.SetIterationTime(seconds * static_cast<double>(n + 2) /
+                             static_cast<double>(columns + 1));
+    }
+    if (columns < n + 1)
+      state.SetLabel("scaled from " + std::to_string(columns) + " of " + std::to_string(n + 1) +
+                     " columns");
+  }
+  state.counters["unknowns"] = static_cast<double>(n);
+  state.counters["contacts"] = contacts;
+  state.counters["harmonics"] = harmonics;
+}
+
+// Registered at start-up: the grid of the issue. FRICHB_BENCH_MAX_CONTACTS (default 200)
+// bounds the contact counts, since the 500-contact Jacobian at H = 10 is 31500 x 31501
+// doubles (8 GB).
+const bool registered = [] {
+  int max_contacts = 200;
+  if (const char* v = std::getenv("FRICHB_BENCH_MAX_CONTACTS")) max_contacts = std::atoi(v);
+  for (const char* method : {"residual", "analytic", "local_fd", "global_fd"})
+    for (int contacts : {1, 10, 50, 200, 500}) {
+      if (contacts > max_contacts) continue;
+      for (int harmonics : {1, 5, 10}) {
+        const std::string name = std::string("BM_Jacobian/") + method + "/" +
+                                 std::to_string(contacts) + "/" + std::to_string(harmonics);
+        auto* b = benchmark::RegisterBenchmark(
+            name.c_str(), [method = std::string(method), contacts, harmonics](benchmark::State& s) {
+              BM_Jacobian(s, method, contacts, harmonics);
+            });
+        b->Unit(benchmark::kMillisecond);
+        if (std::string(method) == "global_fd") b->UseManualTime()->Iterations(1);
+      }
+    }
+  return true;
+}();
+
+}  // namespace
