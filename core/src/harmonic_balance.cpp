@@ -141,6 +141,20 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     for (std::size_t d = 0; d < dofs.size(); ++d)
       excitation_[k](kept_index(dofs[d])) += a * e.direction[d];
   }
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
+    ContactReceptance cr;
+    cr.modal = b.diagonal_damping;
+    if (cr.modal) {
+      cr.projected = gather_[k] * b.rows;
+      cr.modal_force = b.rows.adjoint() * excitation_[k];
+      if (b.residual_flexibility.size()) {
+        cr.flexibility = gather_[k] * b.residual_flexibility * gather_[k].adjoint();
+        cr.flexible_motion = gather_[k] * (b.residual_flexibility * excitation_[k]);
+      }
+    }
+    contact_receptance_.push_back(std::move(cr));
+  }
 }
 
 HarmonicBalanceModel::~HarmonicBalanceModel() = default;
@@ -214,16 +228,48 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
     return (*jacobian)(row, col);
   };
   Eigen::VectorXd dresidual_dw = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXcd r, dr;
+  Eigen::MatrixXcd r, dr, rc, drc;
+  Eigen::VectorXcd u0, du0, inv_z, dinv_z;
   const auto& h = layout_.harmonics();
+  const std::complex<double> imaginary_unit(0.0, 1.0);
   for (std::size_t k = 0; k < h.size(); ++k) {
     const int hn = h[k];
-    structure_->receptance(harmonic_index_[k], hn * w, r, &dr);
-    const Eigen::MatrixXcd& g = gather_[k];
-    const Eigen::MatrixXcd rc = g * r * g.adjoint();
-    const Eigen::MatrixXcd drc = static_cast<double>(hn) * (g * dr * g.adjoint());
-    const Eigen::VectorXcd u0 = g * (r * excitation_[k]);
-    const Eigen::VectorXcd du0 = static_cast<double>(hn) * (g * (dr * excitation_[k]));
+    const ContactReceptance& cr = contact_receptance_[k];
+    if (cr.modal) {
+      // z_r = w_r^2 - W^2 + i W c_r at W = hn w; d(1/z_r)/dw = -hn z_r' / z_r^2.
+      const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
+      const double big_w = hn * w;
+      const Eigen::Index m = b.frequencies.size();
+      inv_z.resize(m);
+      dinv_z.resize(m);
+      for (Eigen::Index q = 0; q < m; ++q) {
+        const double wr = b.frequencies(q);
+        const std::complex<double> z =
+            wr * wr - big_w * big_w + imaginary_unit * big_w * b.damping(q, q);
+        inv_z(q) = 1.0 / z;
+        dinv_z(q) =
+            -static_cast<double>(hn) * (-2.0 * big_w + imaginary_unit * b.damping(q, q)) / (z * z);
+      }
+      rc.noalias() = cr.projected * inv_z.asDiagonal() * cr.projected.adjoint();
+      u0.noalias() = cr.projected * inv_z.cwiseProduct(cr.modal_force);
+      if (cr.flexibility.size()) {
+        rc += cr.flexibility;
+        u0 += cr.flexible_motion;
+      }
+      if (jacobian) {
+        drc.noalias() = cr.projected * dinv_z.asDiagonal() * cr.projected.adjoint();
+        du0.noalias() = cr.projected * dinv_z.cwiseProduct(cr.modal_force);
+      }
+    } else {
+      structure_->receptance(harmonic_index_[k], hn * w, r, jacobian ? &dr : nullptr);
+      const Eigen::MatrixXcd& g = gather_[k];
+      rc = g * r * g.adjoint();
+      u0 = g * (r * excitation_[k]);
+      if (jacobian) {
+        drc = static_cast<double>(hn) * (g * dr * g.adjoint());
+        du0 = static_cast<double>(hn) * (g * (dr * excitation_[k]));
+      }
+    }
     if (!rc.allFinite() || !u0.allFinite()) {
       if (message)
         *message = "receptance at harmonic " + std::to_string(hn) + " is singular (" +
@@ -235,29 +281,31 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
     const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
     for (int a = 0; a < components_; ++a) {
       residual(a * c + ci) -= u0(a).real();
-      dresidual_dw(a * c + ci) -= du0(a).real();
-      if (hn > 0) {
-        residual(a * c + si) -= -u0(a).imag();
-        dresidual_dw(a * c + si) -= -du0(a).imag();
+      if (hn > 0) residual(a * c + si) -= -u0(a).imag();
+      for (int b = 0; b < components_; ++b) {
+        const double A = rc(a, b).real(), B = rc(a, b).imag();
+        const double fc = forces(b * c + ci);
+        const double fs = hn > 0 ? forces(b * c + si) : 0.0;
+        residual(a * c + ci) += A * fc + (hn > 0 ? B * fs : 0.0);
+        if (hn > 0) residual(a * c + si) += -B * fc + A * fs;
       }
+    }
+    if (!jacobian) continue;
+    for (int a = 0; a < components_; ++a) {
+      dresidual_dw(a * c + ci) -= du0(a).real();
+      if (hn > 0) dresidual_dw(a * c + si) -= -du0(a).imag();
       for (int b = 0; b < components_; ++b) {
         const double A = rc(a, b).real(), B = rc(a, b).imag();
         const double dA = drc(a, b).real(), dB = drc(a, b).imag();
         const double fc = forces(b * c + ci);
         const double fs = hn > 0 ? forces(b * c + si) : 0.0;
-        residual(a * c + ci) += A * fc + (hn > 0 ? B * fs : 0.0);
         dresidual_dw(a * c + ci) += dA * fc + (hn > 0 ? dB * fs : 0.0);
+        if (hn > 0) dresidual_dw(a * c + si) += -dB * fc + dA * fs;
+        real_receptance(a * c + ci, b * c + ci) = A;
         if (hn > 0) {
-          residual(a * c + si) += -B * fc + A * fs;
-          dresidual_dw(a * c + si) += -dB * fc + dA * fs;
-        }
-        if (jacobian) {
-          real_receptance(a * c + ci, b * c + ci) = A;
-          if (hn > 0) {
-            real_receptance(a * c + ci, b * c + si) = B;
-            real_receptance(a * c + si, b * c + ci) = -B;
-            real_receptance(a * c + si, b * c + si) = A;
-          }
+          real_receptance(a * c + ci, b * c + si) = B;
+          real_receptance(a * c + si, b * c + ci) = -B;
+          real_receptance(a * c + si, b * c + si) = A;
         }
       }
     }

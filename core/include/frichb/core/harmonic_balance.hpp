@@ -83,7 +83,20 @@ class HarmonicBalanceModel final : public CurveProblem {
   // Per kept harmonic: u_n = G_n x_n (components x kept DOFs), with the cyclic phase factors of
   // sides in neighbouring sectors; real and equal for all n without them.
   std::vector<Eigen::MatrixXcd> gather_;
-  std::vector<int> harmonic_index_;           // per kept harmonic
+  std::vector<int> harmonic_index_;  // per kept harmonic
+  // Per kept harmonic, the receptance seen by the contacts, precomputed where the modal
+  // damping is diagonal: G R(W) G^H = P diag(1 / z(W)) P^H + G F G^H with P = G Phi (contact
+  // components x modes), and the contact-free response G R(W) f = P (q / z(W)) + G F f with
+  // q = Phi^H f. An evaluation then costs components^2 x modes per harmonic, with no product
+  // over the kept DOFs.
+  struct ContactReceptance {
+    bool modal = false;            // false: non-diagonal modal damping, R(W) is formed and gathered
+    Eigen::MatrixXcd projected;    // P = G Phi
+    Eigen::VectorXcd modal_force;  // q = Phi^H f
+    Eigen::MatrixXcd flexibility;  // G F G^H, or empty
+    Eigen::VectorXcd flexible_motion;  // G F f, or empty
+  };
+  std::vector<ContactReceptance> contact_receptance_;
   std::vector<Eigen::VectorXcd> excitation_;  // per kept harmonic, over kept DOFs
   int components_ = 0;
   Eigen::Index unknown_count_ = 0;
