@@ -75,6 +75,19 @@ bool EvaluateScaled(const CurveProblem& problem, const Scaling& s, const VectorX
   return true;
 }
 
+// Dense LU with partial pivoting (blocked, the fast factorisation of large Newton matrices)
+// and its reciprocal condition estimate (LAPACK-style, O(n^2) on top). A matrix is taken as
+// singular when that estimate is below machine precision or not finite.
+struct Lu {
+  explicit Lu(const MatrixXd& a) : lu(a), rcond(a.allFinite() ? lu.rcond() : 0.0) {}
+  bool invertible() const {
+    return std::isfinite(rcond) && rcond > std::numeric_limits<double>::epsilon();
+  }
+  double condition() const { return std::isfinite(rcond) && rcond > 0.0 ? 1.0 / rcond : kInf; }
+  Eigen::PartialPivLU<MatrixXd> lu;
+  double rcond;
+};
+
 struct CoreResult {
   bool converged = false;
   bool first_evaluation_failed = false;
@@ -137,12 +150,12 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
   VectorXd floor_ys = out.ys;
   MatrixXd floor_js = out.js;
   while (out.iterations < opt.max_iterations) {
-    const Eigen::FullPivLU<MatrixXd> lu(a);
-    if (!lu.isInvertible()) {
+    const Lu lu(a);
+    if (!lu.invertible()) {
       out.message = "singular Jacobian at " + FormatLambda(out.ys(n) * s.unknown(n));
       return out;
     }
-    VectorXd dz = lu.solve(-r);
+    VectorXd dz = lu.lu.solve(-r);
     if (!dz.allFinite()) {
       out.message = "non-finite Newton update at " + FormatLambda(out.ys(n) * s.unknown(n));
       return out;
@@ -212,21 +225,14 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
   return out;
 }
 
-// 1 / rcond: LAPACK-style estimate of the 1-norm condition number from the factors (O(n^2)
-// on top of the factorisation); infinite for a singular matrix.
-double ConditionOf(const Eigen::FullPivLU<MatrixXd>& lu) {
-  const double rcond = lu.rcond();
-  return rcond > 0.0 ? 1.0 / rcond : kInf;
-}
-
 // Eq. 4.9: w = e_x^-1 e_lambda, v = dir * (-w, 1) / |(1, w)|. `condition`: estimate of
 // the 1-norm condition number of e_x.
 bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v, double* condition) {
   const Index n = js.rows();
-  const Eigen::FullPivLU<MatrixXd> lu(js.leftCols(n));
-  *condition = ConditionOf(lu);
-  if (!lu.isInvertible()) return false;
-  const VectorXd w = lu.solve(js.col(n));
+  const Lu lu(js.leftCols(n));
+  *condition = lu.condition();
+  if (!lu.invertible()) return false;
+  const VectorXd w = lu.lu.solve(js.col(n));
   VectorXd t(n + 1);
   t.head(n) = -w;
   t(n) = 1.0;
@@ -243,10 +249,10 @@ bool NextTangent(const MatrixXd& js, const VectorXd& previous, VectorXd* v,
   MatrixXd a(n + 1, n + 1);
   a.topRows(n) = js;
   a.row(n) = previous.transpose();
-  const Eigen::FullPivLU<MatrixXd> lu(a);
-  if (condition != nullptr) *condition = ConditionOf(lu);
-  if (!lu.isInvertible()) return false;
-  const VectorXd t = lu.solve(VectorXd::Unit(n + 1, n));
+  const Lu lu(a);
+  if (condition != nullptr) *condition = lu.condition();
+  if (!lu.invertible()) return false;
+  const VectorXd t = lu.lu.solve(VectorXd::Unit(n + 1, n));
   *v = t / t.norm();
   return v->allFinite();
 }
