@@ -33,8 +33,8 @@ def main(path):
             labels[(method, contacts, harmonics)] = b["label"]
     grid = sorted({(c, h) for (_, c, h) in times})
     ctx = run["context"]
-    print(f"Machine: {ctx.get('num_cpus')} CPUs at {ctx.get('mhz_per_cpu')} MHz, "
-          f"{ctx.get('date', '')}; library build: {ctx.get('library_build_type', '?')}.\n")
+    print(f"Machine: {ctx.get('num_cpus')} CPUs at {ctx.get('mhz_per_cpu')} MHz, run "
+          f"{ctx.get('date', '')}; CPU time per call.\n")
     print("| contacts | H | unknowns | residual | analytic | local_fd | global_fd | "
           "analytic / residual | global_fd / analytic | local_fd / analytic |")
     print("|---|---|---|---|---|---|---|---|---|---|")
@@ -58,7 +58,9 @@ def main(path):
               f"{fmt(t['local_fd'])} | {g} | {ratio(t['analytic'], t['residual'])} | "
               f"{ratio(t['global_fd'], t['analytic'])} | {ratio(t['local_fd'], t['analytic'])} |")
     if labels:
-        print("\n\\* scaled to all columns from the 256 timed (one residual each).")
+        sampled = sorted({labels[k].split(" of ")[0].replace("scaled from ", "") for k in labels})
+        print("\n\\* global_fd timed on " + " / ".join(sampled) + " columns spread over the "
+              "unknowns (each one residual) and scaled to all n + 1 columns.")
 
 
 if __name__ == "__main__":

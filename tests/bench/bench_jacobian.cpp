@@ -21,6 +21,7 @@
 
 #include <Eigen/Dense>
 #include <chrono>
+#include <cstdlib>
 #include <memory>
 #include <numbers>
 #include <sstream>
@@ -108,9 +109,11 @@ void BM_Jacobian(benchmark::State& state, const std::string& method, int contact
     }
   } else {  // global_fd: one residual per perturbed unknown (forward differences)
     Eigen::VectorXd e0, yp;
-    // Columns timed: all of them up to 256, else 256 spread over the unknowns (each column
-    // costs one residual, whatever the unknown).
-    const Eigen::Index columns = std::min<Eigen::Index>(n + 1, 256);
+    // Columns timed: all of them up to FRICHB_BENCH_FD_COLUMNS (default 256), else that many
+    // spread over the unknowns (each column costs one residual, whatever the unknown).
+    Eigen::Index sample = 256;
+    if (const char* v = std::getenv("FRICHB_BENCH_FD_COLUMNS")) sample = std::max(1, std::atoi(v));
+    const Eigen::Index columns = std::min<Eigen::Index>(n + 1, sample);
     jacobian.resize(n, columns);
     for (auto _ : state) {
       const auto t0 = std::chrono::steady_clock::now();
