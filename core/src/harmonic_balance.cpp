@@ -1,6 +1,7 @@
 #include "frichb/core/harmonic_balance.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -126,6 +127,17 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     gather_.push_back(std::move(g));
   }
   unknown_count_ = static_cast<Eigen::Index>(components_) * layout_.coefficient_count();
+  // evaluate() writes each row of the Jacobian through the cos and sin indices of the kept
+  // harmonics: they must cover every coefficient exactly once.
+  {
+    std::vector<int> seen(static_cast<std::size_t>(layout_.coefficient_count()), 0);
+    for (std::size_t k = 0; k < layout_.harmonics().size(); ++k) {
+      ++seen[static_cast<std::size_t>(layout_.cos_index(k))];
+      if (layout_.harmonics()[k] > 0) ++seen[static_cast<std::size_t>(layout_.sin_index(k))];
+    }
+    if (std::any_of(seen.begin(), seen.end(), [](int v) { return v != 1; }))
+      throw std::logic_error("HarmonicLayout: cos/sin indices do not cover the coefficients");
+  }
   traces_.resize(contacts_.size());
 
   const auto& h = layout_.harmonics();
@@ -209,127 +221,150 @@ Eigen::VectorXd HarmonicBalanceModel::linear_response(double w) const {
 
 bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
                                     Eigen::MatrixXd* jacobian, std::string* message) const {
+  using Clock = std::chrono::steady_clock;
+  const auto elapsed = [](Clock::time_point since) {
+    return std::chrono::duration<double>(Clock::now() - since).count();
+  };
   const int c = layout_.coefficient_count();
   const Eigen::Index n = unknown_count_;
   const double w = y(n);
   ++stats_.residual_evaluations;
   if (jacobian) ++stats_.jacobian_evaluations;
-  Eigen::VectorXd forces;
+  Workspace& ws = work_;
+  auto t_part = Clock::now();
   bool ok = true;
-  gather_forces(y, forces, jacobian != nullptr, message, ok);
+  gather_forces(y, ws.forces, jacobian != nullptr, message, ok);
+  stats_.contact_seconds += elapsed(t_part);
   if (!ok) return false;
+  const Eigen::VectorXd& forces = ws.forces;
 
+  // Per kept harmonic n, with complex amplitudes X = c - i s (layout of HarmonicLayout):
+  //   e_n = U_n - U0_n + Rc_n F_n = U_n + m_n,  m_n = Rc_n F_n - U0_n = G R (G^H F_n - f_n),
+  // so that the residual needs matrix-vector products only. The Jacobian needs Rc_n itself
+  // (components x components), kept per harmonic for the assembly below.
+  t_part = Clock::now();
   residual = y.head(n);
-  // Real form of each harmonic's complex receptance: with X = c - i s and R = A + i B,
-  // [c; s] = [[A, B], [-B, A]] [fc; fs]. Written straight into the Jacobian's first n
-  // columns, which then become I + R dF/dU block by block (no n x n temporaries).
-  if (jacobian) jacobian->setZero(n, n + 1);
-  auto real_receptance = [&](Eigen::Index row, Eigen::Index col) -> double& {
-    return (*jacobian)(row, col);
-  };
-  Eigen::VectorXd dresidual_dw = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXcd r, dr, rc, drc;
-  Eigen::VectorXcd u0, du0, inv_z, dinv_z;
+  if (jacobian) {
+    jacobian->resize(n, n + 1);  // the first n columns are all written by the assembly
+    jacobian->col(n).setZero();
+    ws.contact_receptance.resize(static_cast<Eigen::Index>(components_),
+                                 static_cast<Eigen::Index>(components_) *
+                                     static_cast<Eigen::Index>(layout_.harmonics().size()));
+  }
   const auto& h = layout_.harmonics();
   const std::complex<double> imaginary_unit(0.0, 1.0);
   for (std::size_t k = 0; k < h.size(); ++k) {
     const int hn = h[k];
+    const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
     const ContactReceptance& cr = contact_receptance_[k];
+    ws.force.resize(components_);
+    for (int a = 0; a < components_; ++a)
+      ws.force(a) = std::complex<double>(forces(a * c + ci), hn > 0 ? -forces(a * c + si) : 0.0);
+    auto rc = ws.contact_receptance.middleCols(static_cast<Eigen::Index>(k) * components_,
+                                               jacobian ? components_ : 0);
     if (cr.modal) {
       // z_r = w_r^2 - W^2 + i W c_r at W = hn w; d(1/z_r)/dw = -hn z_r' / z_r^2.
       const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
       const double big_w = hn * w;
       const Eigen::Index m = b.frequencies.size();
-      inv_z.resize(m);
-      dinv_z.resize(m);
+      ws.inv_z.resize(m);
+      ws.dinv_z.resize(m);
       for (Eigen::Index q = 0; q < m; ++q) {
         const double wr = b.frequencies(q);
         const std::complex<double> z =
             wr * wr - big_w * big_w + imaginary_unit * big_w * b.damping(q, q);
-        inv_z(q) = 1.0 / z;
-        dinv_z(q) =
+        ws.inv_z(q) = 1.0 / z;
+        ws.dinv_z(q) =
             -static_cast<double>(hn) * (-2.0 * big_w + imaginary_unit * b.damping(q, q)) / (z * z);
       }
-      rc.noalias() = cr.projected * inv_z.asDiagonal() * cr.projected.adjoint();
-      u0.noalias() = cr.projected * inv_z.cwiseProduct(cr.modal_force);
+      // Phi^H (G^H F - f) = P^H F - q
+      ws.modal.noalias() = cr.projected.adjoint() * ws.force;
+      ws.modal -= cr.modal_force;
+      ws.motion.noalias() = cr.projected * ws.inv_z.cwiseProduct(ws.modal);
       if (cr.flexibility.size()) {
-        rc += cr.flexibility;
-        u0 += cr.flexible_motion;
+        ws.motion.noalias() += cr.flexibility * ws.force;
+        ws.motion -= cr.flexible_motion;
       }
       if (jacobian) {
-        drc.noalias() = cr.projected * dinv_z.asDiagonal() * cr.projected.adjoint();
-        du0.noalias() = cr.projected * dinv_z.cwiseProduct(cr.modal_force);
+        ws.motion_derivative.noalias() = cr.projected * ws.dinv_z.cwiseProduct(ws.modal);
+        rc.noalias() = cr.projected * ws.inv_z.asDiagonal() * cr.projected.adjoint();
+        if (cr.flexibility.size()) rc += cr.flexibility;
       }
     } else {
-      structure_->receptance(harmonic_index_[k], hn * w, r, jacobian ? &dr : nullptr);
+      structure_->receptance(harmonic_index_[k], hn * w, ws.receptance,
+                             jacobian ? &ws.receptance_derivative : nullptr);
       const Eigen::MatrixXcd& g = gather_[k];
-      rc = g * r * g.adjoint();
-      u0 = g * (r * excitation_[k]);
+      ws.modal.noalias() = g.adjoint() * ws.force;  // G^H F - f over the kept DOFs
+      ws.modal -= excitation_[k];
+      ws.motion.noalias() = g * (ws.receptance * ws.modal);
       if (jacobian) {
-        drc = static_cast<double>(hn) * (g * dr * g.adjoint());
-        du0 = static_cast<double>(hn) * (g * (dr * excitation_[k]));
+        ws.motion_derivative.noalias() =
+            static_cast<double>(hn) * (g * (ws.receptance_derivative * ws.modal));
+        rc.noalias() = g * ws.receptance * g.adjoint();
       }
     }
-    if (!rc.allFinite() || !u0.allFinite()) {
+    if (!ws.motion.allFinite() || (jacobian && !rc.allFinite())) {
       if (message)
         *message = "receptance at harmonic " + std::to_string(hn) + " is singular (" +
                    (hn == 0 ? "a rigid-body mode: drop harmonic 0 or ground the structure"
                             : "undamped resonance") +
                    ")";
+      stats_.receptance_seconds += elapsed(t_part);
       return false;
     }
-    const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
     for (int a = 0; a < components_; ++a) {
-      residual(a * c + ci) -= u0(a).real();
-      if (hn > 0) residual(a * c + si) -= -u0(a).imag();
-      for (int b = 0; b < components_; ++b) {
-        const double A = rc(a, b).real(), B = rc(a, b).imag();
-        const double fc = forces(b * c + ci);
-        const double fs = hn > 0 ? forces(b * c + si) : 0.0;
-        residual(a * c + ci) += A * fc + (hn > 0 ? B * fs : 0.0);
-        if (hn > 0) residual(a * c + si) += -B * fc + A * fs;
-      }
+      residual(a * c + ci) += ws.motion(a).real();
+      if (hn > 0) residual(a * c + si) -= ws.motion(a).imag();
     }
     if (!jacobian) continue;
     for (int a = 0; a < components_; ++a) {
-      dresidual_dw(a * c + ci) -= du0(a).real();
-      if (hn > 0) dresidual_dw(a * c + si) -= -du0(a).imag();
-      for (int b = 0; b < components_; ++b) {
-        const double A = rc(a, b).real(), B = rc(a, b).imag();
-        const double dA = drc(a, b).real(), dB = drc(a, b).imag();
-        const double fc = forces(b * c + ci);
-        const double fs = hn > 0 ? forces(b * c + si) : 0.0;
-        dresidual_dw(a * c + ci) += dA * fc + (hn > 0 ? dB * fs : 0.0);
-        if (hn > 0) dresidual_dw(a * c + si) += -dB * fc + dA * fs;
-        real_receptance(a * c + ci, b * c + ci) = A;
-        if (hn > 0) {
-          real_receptance(a * c + ci, b * c + si) = B;
-          real_receptance(a * c + si, b * c + ci) = -B;
-          real_receptance(a * c + si, b * c + si) = A;
-        }
-      }
+      (*jacobian)(a * c + ci, n) += ws.motion_derivative(a).real();
+      if (hn > 0) (*jacobian)(a * c + si, n) -= ws.motion_derivative(a).imag();
     }
   }
+  stats_.receptance_seconds += elapsed(t_part);
   if (!residual.allFinite()) {
     if (message) *message = "the residual is not finite at w = " + std::to_string(w) + " rad/s";
     return false;
   }
-  if (jacobian) {
-    // dF/dU is block diagonal, one block per contact (its unknowns are contiguous):
-    // J = I + R dF/dU costs n^2 p (p a contact's unknowns) instead of n^3.
-    Eigen::MatrixXd columns;
-    for (std::size_t i = 0; i < contacts_.size(); ++i) {
-      const Eigen::Index first = static_cast<Eigen::Index>(contacts_[i].offset) * c;
-      const Eigen::Index p = contacts_[i].tracer->unknown_count();
-      columns = jacobian->middleCols(first, p);
-      jacobian->middleCols(first, p).noalias() = columns * traces_[i].jacobian;
+  if (!jacobian) return true;
+
+  // J = I + Rc dF/dU. dF/dU is block diagonal (one block T per contact, whose unknowns are
+  // contiguous) and Rc is block diagonal over the harmonics, so the columns of contact i in
+  // the rows of harmonic n are Rc_n[:, i's components] (T's cos rows - i T's sin rows) of
+  // harmonic n: components x d x p complex multiply-adds per harmonic and contact, about
+  // 4 d (H + 1) / (2H + 1) per entry of J, each entry written once.
+  t_part = Clock::now();
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Eigen::Index first = static_cast<Eigen::Index>(contacts_[i].offset) * c;
+    const Eigen::Index p = contacts_[i].tracer->unknown_count();
+    const Eigen::Index d = p / c;
+    const Eigen::MatrixXd& block = traces_[i].jacobian;
+    for (std::size_t k = 0; k < h.size(); ++k) {
+      const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
+      ws.force_block.resize(d, p);
+      for (Eigen::Index b = 0; b < d; ++b) {
+        if (h[k] > 0)
+          ws.force_block.row(b) = block.row(b * c + ci).cast<std::complex<double>>() -
+                                  imaginary_unit * block.row(b * c + si);
+        else
+          ws.force_block.row(b) = block.row(b * c + ci).cast<std::complex<double>>();
+      }
+      ws.product.noalias() =
+          ws.contact_receptance.block(
+              0, static_cast<Eigen::Index>(k) * components_ + contacts_[i].offset, components_, d) *
+          ws.force_block;
+      for (int a = 0; a < components_; ++a) {
+        jacobian->row(a * c + ci).segment(first, p) = ws.product.row(a).real();
+        if (h[k] > 0) jacobian->row(a * c + si).segment(first, p) = -ws.product.row(a).imag();
+      }
     }
-    jacobian->leftCols(n).diagonal().array() += 1.0;
-    jacobian->col(n) = dresidual_dw;
-    if (!jacobian->allFinite()) {
-      if (message) *message = "the Jacobian is not finite at w = " + std::to_string(w) + " rad/s";
-      return false;
-    }
+  }
+  jacobian->leftCols(n).diagonal().array() += 1.0;
+  stats_.assembly_seconds += elapsed(t_part);
+  if (!jacobian->allFinite()) {
+    if (message) *message = "the Jacobian is not finite at w = " + std::to_string(w) + " rad/s";
+    return false;
   }
   return true;
 }

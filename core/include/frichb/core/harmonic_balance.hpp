@@ -36,6 +36,12 @@ struct EvaluationStats {
   long contacts_with_fd_jacobian = 0;  // contact traces that fell back to finite differences
   long non_periodic_traces = 0;
   std::string last_trace_diagnostic;
+  // Wall time spent in evaluate(), by part (seconds, summed over calls): the contact traces
+  // (AFT, with the contacts' Jacobian blocks when asked), the receptances at the contacts with
+  // the residual's receptance products, and the assembly of I + Rc dF/dU.
+  double contact_seconds = 0.0;
+  double receptance_seconds = 0.0;
+  double assembly_seconds = 0.0;
 };
 
 class HarmonicBalanceModel final : public CurveProblem {
@@ -102,6 +108,14 @@ class HarmonicBalanceModel final : public CurveProblem {
   Eigen::Index unknown_count_ = 0;
   mutable EvaluationStats stats_;
   mutable std::vector<ContactTrace> traces_;
+  // Work buffers of evaluate(), kept between calls so that the hot loop does not allocate.
+  struct Workspace {
+    Eigen::VectorXd forces;
+    Eigen::MatrixXcd contact_receptance, receptance, receptance_derivative, product;
+    Eigen::MatrixXcd force_block;
+    Eigen::VectorXcd inv_z, dinv_z, force, motion, motion_derivative, modal;
+  };
+  mutable Workspace work_;
 };
 
 }  // namespace frichb::core
