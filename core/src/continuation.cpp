@@ -1,5 +1,7 @@
 #include "frichb/core/continuation.hpp"
 
+#include "frichb/core/dense_lu.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -51,6 +53,27 @@ bool MakeScaling(const ContinuationOptions& options, Index n, Scaling* scaling, 
 // Evaluates the problem at scaled unknowns and returns the scaled residual and the scaled
 // n x (n + 1) Jacobian. Non-finite output counts as a failed evaluation so that NaN can never
 // leak into an accepted point.
+// The profile of the solve running on this thread (trace_curve, solve_fixed_parameter), or
+// none. Each thread runs its own solves, so the pointer is per thread.
+thread_local SolveProfile* current_profile = nullptr;
+
+class ProfileScope {
+ public:
+  explicit ProfileScope(SolveProfile* profile) : previous_(current_profile) {
+    current_profile = profile;
+  }
+  ~ProfileScope() { current_profile = previous_; }
+  ProfileScope(const ProfileScope&) = delete;
+  ProfileScope& operator=(const ProfileScope&) = delete;
+
+ private:
+  SolveProfile* previous_;
+};
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 bool EvaluateScaled(const CurveProblem& problem, const Scaling& s, const VectorXd& ys, VectorXd* es,
                     MatrixXd* js, std::string* message) {
   const Index n = s.residual.size();
@@ -58,7 +81,13 @@ bool EvaluateScaled(const CurveProblem& problem, const Scaling& s, const VectorX
   VectorXd e(n);
   MatrixXd j(n, n + 1);
   std::string why;
-  if (!problem.evaluate(y, e, &j, &why)) {
+  const auto start = std::chrono::steady_clock::now();
+  const bool evaluated = problem.evaluate(y, e, &j, &why);
+  if (current_profile != nullptr) {
+    ++current_profile->evaluations;
+    current_profile->evaluation_seconds += SecondsSince(start);
+  }
+  if (!evaluated) {
     *message = "evaluation failed at " + FormatLambda(y(n)) + (why.empty() ? "" : ": " + why);
     return false;
   }
@@ -71,7 +100,9 @@ bool EvaluateScaled(const CurveProblem& problem, const Scaling& s, const VectorX
     return false;
   }
   *es = e.cwiseQuotient(s.residual);
-  *js = s.residual.cwiseInverse().asDiagonal() * j * s.unknown.asDiagonal();
+  j.array().colwise() /= s.residual.array();             // rows by the residual scales
+  j.array().rowwise() *= s.unknown.transpose().array();  // columns by the unknown scales
+  *js = std::move(j);
   return true;
 }
 
@@ -79,13 +110,26 @@ bool EvaluateScaled(const CurveProblem& problem, const Scaling& s, const VectorX
 // and its reciprocal condition estimate (LAPACK-style, O(n^2) on top). A matrix is taken as
 // singular when that estimate is below machine precision or not finite.
 struct Lu {
-  explicit Lu(const MatrixXd& a) : lu(a), rcond(a.allFinite() ? lu.rcond() : 0.0) {}
-  bool invertible() const {
-    return std::isfinite(rcond) && rcond > std::numeric_limits<double>::epsilon();
+  explicit Lu(const MatrixXd& a) : start(std::chrono::steady_clock::now()), lu(a) {
+    Account();
+    if (current_profile != nullptr) ++current_profile->factorisations;
   }
-  double condition() const { return std::isfinite(rcond) && rcond > 0.0 ? 1.0 / rcond : kInf; }
-  Eigen::PartialPivLU<MatrixXd> lu;
-  double rcond;
+  VectorXd solve(const VectorXd& b) const {
+    start = std::chrono::steady_clock::now();
+    VectorXd x = lu.solve(b);
+    Account();
+    return x;
+  }
+  void Account() const {
+    if (current_profile == nullptr) return;
+    current_profile->factorisation_seconds += SecondsSince(start);
+  }
+  bool invertible() const {
+    return std::isfinite(lu.rcond()) && lu.rcond() > std::numeric_limits<double>::epsilon();
+  }
+  double condition() const { return lu.rcond() > 0.0 ? 1.0 / lu.rcond() : kInf; }
+  mutable std::chrono::steady_clock::time_point start;
+  DenseLu lu;
 };
 
 struct CoreResult {
@@ -155,7 +199,7 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
       out.message = "singular Jacobian at " + FormatLambda(out.ys(n) * s.unknown(n));
       return out;
     }
-    VectorXd dz = lu.lu.solve(-r);
+    VectorXd dz = lu.solve(-r);
     if (!dz.allFinite()) {
       out.message = "non-finite Newton update at " + FormatLambda(out.ys(n) * s.unknown(n));
       return out;
@@ -232,7 +276,7 @@ bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v, double* con
   const Lu lu(js.leftCols(n));
   *condition = lu.condition();
   if (!lu.invertible()) return false;
-  const VectorXd w = lu.lu.solve(js.col(n));
+  const VectorXd w = lu.solve(js.col(n));
   VectorXd t(n + 1);
   t.head(n) = -w;
   t(n) = 1.0;
@@ -252,7 +296,7 @@ bool NextTangent(const MatrixXd& js, const VectorXd& previous, VectorXd* v,
   const Lu lu(a);
   if (condition != nullptr) *condition = lu.condition();
   if (!lu.invertible()) return false;
-  const VectorXd t = lu.lu.solve(VectorXd::Unit(n + 1, n));
+  const VectorXd t = lu.solve(VectorXd::Unit(n + 1, n));
   *v = t / t.norm();
   return v->allFinite();
 }
@@ -359,6 +403,7 @@ NewtonResult solve_fixed_parameter(const CurveProblem& problem, const VectorXd& 
     return result;
   }
   if (!MakeScaling(options, n, &s, &result.message)) return result;
+  const ProfileScope profile(&result.profile);
   const CoreResult core =
       DampedNewton(problem, s, y_guess.cwiseQuotient(s.unknown), options.newton);
   result.converged = core.converged;
@@ -378,6 +423,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   };
   ContinuationSummary summary;
+  const ProfileScope profile(&summary.profile);
   const Index n = problem.equation_count();
   auto finish = [&](TerminationType t, const std::string& reason) {
     summary.termination = t;

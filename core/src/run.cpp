@@ -1,6 +1,7 @@
 #include "frichb/core/run.hpp"
 
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
 
 #include <chrono>
 #include <cmath>
@@ -9,6 +10,7 @@
 #include <sstream>
 
 #include "frichb/core/continuation.hpp"
+#include "frichb/core/dense_lu.hpp"
 #include "frichb/core/harmonic_balance.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/core/response.hpp"
@@ -19,6 +21,33 @@ namespace frichb::core {
 namespace fs = std::filesystem;
 
 namespace {
+
+// Where the response curve's wall time went, for users sizing a study: the continuation's
+// evaluations and LU factorisations (ContinuationSummary::profile), the parts of all the
+// model's evaluations (EvaluationStats, including the start point and the output pass), and
+// the process's peak resident memory (getrusage; for the whole process, so a study's threads
+// share it).
+nlohmann::json profile_json(const ContinuationSummary& summary, const EvaluationStats& stats) {
+  const SolveProfile& p = summary.profile;
+  const double other = summary.wall_seconds - p.evaluation_seconds - p.factorisation_seconds;
+  rusage usage{};
+  nlohmann::json peak_memory = nullptr;
+  if (getrusage(RUSAGE_SELF, &usage) == 0)
+    peak_memory = static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: kilobytes
+  return {{"continuation",
+           {{"wall_s", summary.wall_seconds},
+            {"evaluations", p.evaluations},
+            {"evaluation_s", p.evaluation_seconds},
+            {"factorisations", p.factorisations},
+            {"factorisation_s", p.factorisation_seconds},
+            {"other_s", std::max(0.0, other)}}},
+          {"model_evaluations",
+           {{"contact_traces_s", stats.contact_seconds},
+            {"receptance_s", stats.receptance_seconds},
+            {"jacobian_assembly_s", stats.assembly_seconds}}},
+          {"dense_solver", dense_solver_description()},
+          {"peak_memory_mib", peak_memory}};
+}
 
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) {
@@ -610,6 +639,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
         {"peak", peaks},
         {"friction_loops", loops},
         {"wall_time_s", timing},
+        {"profile", profile_json(summary, stats)},
         {"plugins", plugins},
         {"validated_scene", scene_to_json(scene)}};
     if (!stats.last_trace_diagnostic.empty())

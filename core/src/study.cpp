@@ -1,5 +1,7 @@
 #include "frichb/core/study.hpp"
 
+#include "frichb/core/dense_lu.hpp"
+
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -554,6 +556,15 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
     mine.push_back(i);
   constexpr int kMaxThreads = 256;  // a typo's 100000 threads would exhaust the process
   threads = std::clamp(std::min<int>(threads, static_cast<int>(mine.size())), 1, kMaxThreads);
+  {
+    // Each run factorises on the cores its process and threads leave (OpenBLAS), so that the
+    // study's threads and ranks do not oversubscribe the cores.
+    int local_ranks = 1;
+    if (const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE"))
+      local_ranks = std::max(1, std::atoi(local));
+    const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    set_dense_solver_threads(std::max(1, cores / (local_ranks * threads)));
+  }
   if (leader)
     spdlog::info("study of {}: {} runs ({} on {} process(es) x {} thread(s)) -> {}",
                  scene.file.string(), runs.size(), study.zip ? "zip" : "grid", comm.size(), threads,

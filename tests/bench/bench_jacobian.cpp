@@ -18,6 +18,7 @@
 // Not a test: timings are reported, never asserted; ratios come from one run
 // (scripts/performance_report.py, docs/performance.md).
 #include <benchmark/benchmark.h>
+#include <sys/resource.h>
 
 #include <Eigen/Dense>
 #include <chrono>
@@ -27,6 +28,7 @@
 #include <sstream>
 #include <string>
 
+#include "frichb/core/continuation.hpp"
 #include "frichb/core/harmonic_balance.hpp"
 #include "frichb/core/registry.hpp"
 #include "frichb/core/scene.hpp"
@@ -90,6 +92,12 @@ std::unique_ptr<Ring> make_ring(int blades, int harmonics, bool analytic) {
   return r;
 }
 
+// Peak resident memory of the process so far, MiB (getrusage: kilobytes on Linux).
+double peak_memory_mib() {
+  rusage usage{};
+  return getrusage(RUSAGE_SELF, &usage) == 0 ? static_cast<double>(usage.ru_maxrss) / 1024.0 : 0.0;
+}
+
 void fail(benchmark::State& state, const std::string& message) {
   state.SkipWithError(message.c_str());
 }
@@ -142,6 +150,69 @@ void BM_Jacobian(benchmark::State& state, const std::string& method, int contact
   state.counters["harmonics"] = harmonics;
 }
 
+// One Newton iteration of the continuation's solver on the ring, and where its time goes.
+// solve_fixed_parameter runs K = 3 iterations without line search from the slipping state, so
+// that it makes K + 1 evaluations (residual and Jacobian) and K LU factorisations; one
+// iteration is one evaluation, one factorisation with its solve, and the solver's own work
+// (scaling, copies). Counters (milliseconds per iteration, from the solver's profile and the
+// model's EvaluationStats): evaluation and its parts (contact traces = AFT with the contacts'
+// Jacobian blocks, receptance = Rc_n at the contacts, assembly = I + Rc dF/dU),
+// factorisation, other; floor = contact traces + receptance + factorisation, the parts no
+// formulation of Newton's method avoids; ratio = iteration / floor.
+void BM_NewtonIteration(benchmark::State& state, int contacts, int harmonics) {
+  const auto ring = make_ring(contacts, harmonics, true);
+  const auto& model = *ring->model;
+  ContinuationOptions options;
+  options.newton.max_iterations = 3;
+  options.newton.max_line_search_halvings = 0;
+  options.newton.residual_tolerance = 1e-300;  // never converged: every iteration is run
+  options.newton.step_tolerance = 1e-300;
+  SolveProfile total;
+  EvaluationStats before = model.stats(), after;
+  double wall = 0.0;
+  for (auto _ : state) {
+    before = model.stats();
+    const auto t0 = std::chrono::steady_clock::now();
+    const NewtonResult result = solve_fixed_parameter(model, ring->y, options);
+    wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    benchmark::DoNotOptimize(result.y.data());
+    after = model.stats();
+    total.evaluations += result.profile.evaluations;
+    total.evaluation_seconds += result.profile.evaluation_seconds;
+    total.factorisations += result.profile.factorisations;
+    total.factorisation_seconds += result.profile.factorisation_seconds;
+  }
+  const double evaluations = static_cast<double>(total.evaluations);
+  const double iterations = static_cast<double>(total.factorisations);
+  if (iterations == 0.0) return fail(state, "no Newton iteration ran");
+  // Per-evaluation means of the model's parts (the last batch; every batch is the same work).
+  const double batch_evaluations =
+      static_cast<double>(after.residual_evaluations - before.residual_evaluations);
+  const double per_eval = 1e3 / batch_evaluations;
+  const double contact_ms = (after.contact_seconds - before.contact_seconds) * per_eval;
+  const double receptance_ms = (after.receptance_seconds - before.receptance_seconds) * per_eval;
+  const double assembly_ms = (after.assembly_seconds - before.assembly_seconds) * per_eval;
+  const double evaluation_ms = 1e3 * total.evaluation_seconds / evaluations;
+  const double factorisation_ms = 1e3 * total.factorisation_seconds / iterations;
+  // One iteration: the wall time less the solve's first evaluation, over the iterations.
+  const double iteration_ms =
+      1e3 *
+      (wall - total.evaluation_seconds / evaluations * static_cast<double>(state.iterations())) /
+      iterations;
+  const double floor_ms = contact_ms + receptance_ms + factorisation_ms;
+  state.counters["unknowns"] = static_cast<double>(model.equation_count());
+  state.counters["iteration_ms"] = iteration_ms;
+  state.counters["evaluation_ms"] = evaluation_ms;
+  state.counters["contact_ms"] = contact_ms;
+  state.counters["receptance_ms"] = receptance_ms;
+  state.counters["assembly_ms"] = assembly_ms;
+  state.counters["factorisation_ms"] = factorisation_ms;
+  state.counters["other_ms"] = iteration_ms - evaluation_ms - factorisation_ms;
+  state.counters["floor_ms"] = floor_ms;
+  state.counters["iteration_per_floor"] = iteration_ms / floor_ms;
+  state.counters["peak_memory_mib"] = peak_memory_mib();
+}
+
 // Registered at start-up: the grid of the issue. FRICHB_BENCH_MAX_CONTACTS (default 200)
 // bounds the contact counts, since the 500-contact Jacobian at H = 10 is 31500 x 31501
 // doubles (8 GB).
@@ -162,6 +233,24 @@ const bool registered = [] {
         if (std::string(method) == "global_fd") b->UseManualTime()->Iterations(1);
       }
     }
+  // Newton iterations: bounded by FRICHB_BENCH_MAX_UNKNOWNS (default 7000), since a dense
+  // factorisation costs n^3 (12 600 unknowns: minutes per iteration on two cores).
+  long max_unknowns = 7000;
+  if (const char* v = std::getenv("FRICHB_BENCH_MAX_UNKNOWNS")) max_unknowns = std::atol(v);
+  for (int contacts : {1, 10, 50, 100, 200, 500}) {
+    if (contacts > max_contacts && contacts != 100) continue;
+    for (int harmonics : {1, 5, 10}) {
+      if (3L * contacts * (2 * harmonics + 1) > max_unknowns) continue;
+      const std::string name =
+          "BM_NewtonIteration/" + std::to_string(contacts) + "/" + std::to_string(harmonics);
+      benchmark::RegisterBenchmark(name.c_str(),
+                                   [contacts, harmonics](benchmark::State& s) {
+                                     BM_NewtonIteration(s, contacts, harmonics);
+                                   })
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime();
+    }
+  }
   return true;
 }();
 

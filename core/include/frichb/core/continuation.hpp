@@ -95,6 +95,17 @@ struct ContinuationOptions {
   bool IsValid(std::string* why) const;
 };
 
+// Where a solve spent its time (wall seconds, summed): the problem's evaluations (residual
+// and Jacobian), the dense LU factorisations of the Newton and tangent matrices with their
+// solves and condition estimates, and how many of each. The rest of a solve's wall time is
+// the continuation's own bookkeeping (scaling, copies, step control).
+struct SolveProfile {
+  long evaluations = 0;
+  double evaluation_seconds = 0.0;
+  long factorisations = 0;
+  double factorisation_seconds = 0.0;
+};
+
 struct ContinuationPoint {
   Eigen::VectorXd y;        // unscaled unknowns, lambda last
   Eigen::VectorXd tangent;  // unit tangent in scaled variables, oriented along the sweep
@@ -138,6 +149,7 @@ struct ContinuationSummary {
   double max_condition = 0.0;           // the largest ContinuationPoint::condition
   std::size_t max_condition_point = 0;  // the index of that point
   double wall_seconds = 0.0;
+  SolveProfile profile;
   bool reached_end() const { return termination == TerminationType::kReachedEnd; }
 };
 
@@ -148,6 +160,7 @@ struct NewtonResult {
   Eigen::VectorXd y;               // last iterate, unscaled, lambda last
   bool at_residual_floor = false;  // converged on the residual alone (NewtonOptions)
   std::string message;
+  SolveProfile profile;
 };
 
 // Solves e(x, lambda) = 0 for x at the lambda given in y_guess (last entry, held fixed).

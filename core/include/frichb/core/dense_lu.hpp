@@ -1,0 +1,47 @@
+// Dense LU factorisation with partial pivoting of the continuation's Newton and tangent
+// matrices, with the reciprocal condition number estimate (1-norm, LAPACK dgecon).
+//
+// Backend: LAPACK dgetrf/dgetrs/dgecon from OpenBLAS when FricHB is built with it (CMake finds
+// Debian's libopenblas-dev; blocked, vectorised for the running CPU, multithreaded), else
+// Eigen's PartialPivLU. Both give the same factors up to rounding (same pivoting rule).
+//
+// Threading: an object is used by one thread. OpenBLAS itself may run a factorisation on
+// several threads; set_dense_solver_threads bounds them (a study running one scene per core
+// sets 1, so that its threads do not oversubscribe the cores).
+// Failure: factorising a matrix with a non-finite entry gives rcond() == 0; a singular matrix
+// gives rcond() == 0 (exactly singular) or a tiny estimate. solve() on such a matrix returns
+// non-finite entries rather than throwing; callers test invertible() first.
+#pragma once
+
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+namespace frichb::core {
+
+class DenseLu {
+ public:
+  DenseLu() = default;
+  // Factorises the square matrix a (copied; a is not modified).
+  explicit DenseLu(const Eigen::MatrixXd& a) { compute(a); }
+  void compute(const Eigen::MatrixXd& a);
+  // Reciprocal condition number estimate in the 1-norm, in [0, 1]; 0 when singular.
+  double rcond() const { return rcond_; }
+  // Solves A x = b.
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
+  Eigen::Index size() const { return size_; }
+
+ private:
+  Eigen::MatrixXd factors_;  // L (unit diagonal, below) and U (on and above), LAPACK layout
+  std::vector<int> pivots_;  // 1-based row interchanges (LAPACK ipiv)
+  Eigen::PartialPivLU<Eigen::MatrixXd> eigen_lu_;  // the Eigen backend
+  double rcond_ = 0.0;
+  Eigen::Index size_ = 0;
+};
+
+// The backend in use, e.g. "OpenBLAS 0.3.21 (LAPACK dgetrf, 2 threads)" or "Eigen 3.4".
+std::string dense_solver_description();
+// Bounds the threads of one factorisation (OpenBLAS); no effect with Eigen. n <= 0: all cores.
+void set_dense_solver_threads(int n);
+
+}  // namespace frichb::core
