@@ -19,11 +19,16 @@
 // (scripts/performance_report.py, docs/performance.md).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <Eigen/Dense>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -31,6 +36,7 @@
 #include "frichb/core/continuation.hpp"
 #include "frichb/core/harmonic_balance.hpp"
 #include "frichb/core/registry.hpp"
+#include "frichb/core/run.hpp"
 #include "frichb/core/scene.hpp"
 
 namespace {
@@ -213,6 +219,57 @@ void BM_NewtonIteration(benchmark::State& state, int contacts, int harmonics) {
   state.counters["peak_memory_mib"] = peak_memory_mib();
 }
 
+// The full response curve of the ring (issue 7: 100 contact pairs, H = 5, 256 samples), as
+// `frichb run` computes it: set-up, continuation with the thesis's step control, peak
+// refinement and output files (no plots), in a temporary folder. Counters from its
+// summary.json: points, Newton iterations, evaluations, factorisations, the profile's parts
+// (seconds), peak memory. FRICHB_BENCH_CURVE_CONTACTS overrides the contacts,
+// FRICHB_BENCH_KEEP_CURVE=1 keeps the run's folder (its path is the label).
+void BM_ResponseCurve(benchmark::State& state, int contacts, int harmonics) {
+  static const Registry registry({FRICHB_PLUGIN_DIR});
+  std::string text = ring_scene(contacts, harmonics, true);
+  text += "output:\n  response: [b0]\n  plots: false\n";
+  YAML::Node root = YAML::Load(text);
+  // The window around the ring's first (normal-direction) resonance, about 318 Hz free;
+  // FRICHB_BENCH_CURVE_HZ="from,to" overrides it.
+  double from = 300.0, to = 340.0;
+  if (const char* v = std::getenv("FRICHB_BENCH_CURVE_HZ")) std::sscanf(v, "%lf,%lf", &from, &to);
+  root["continuation"]["frequency"]["from"] = from;
+  root["continuation"]["frequency"]["to"] = to;
+  Scene scene = load_scene(root, "shroud_ring.yaml");
+  bind_plugins(scene, registry);
+  const std::filesystem::path out =
+      std::filesystem::temp_directory_path() / ("frichb-bench-curve-" + std::to_string(getpid()));
+  RunOutcome outcome;
+  RunOptions options;
+  options.quiet = true;
+  options.plots = 0;
+  for (auto _ : state) {
+    std::filesystem::remove_all(out);
+    outcome = run_bound_scene(scene, out, options);
+  }
+  if (!outcome.wrote_output) return fail(state, outcome.message);
+  std::ifstream in(out / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(in);
+  const bool keep = std::getenv("FRICHB_BENCH_KEEP_CURVE") != nullptr;
+  if (!keep) std::filesystem::remove_all(out);
+  const auto& profile = summary["profile"];
+  state.counters["points"] = summary["points"].get<double>();
+  state.counters["newton_iterations"] = summary["newton_iterations"].get<double>();
+  state.counters["unknowns"] = summary["unknowns"].get<double>();
+  state.counters["evaluations"] = profile["continuation"]["evaluations"].get<double>();
+  state.counters["evaluation_s"] = profile["continuation"]["evaluation_s"].get<double>();
+  state.counters["factorisations"] = profile["continuation"]["factorisations"].get<double>();
+  state.counters["factorisation_s"] = profile["continuation"]["factorisation_s"].get<double>();
+  state.counters["other_s"] = profile["continuation"]["other_s"].get<double>();
+  state.counters["contact_s"] = profile["model_evaluations"]["contact_traces_s"].get<double>();
+  state.counters["receptance_s"] = profile["model_evaluations"]["receptance_s"].get<double>();
+  state.counters["assembly_s"] = profile["model_evaluations"]["jacobian_assembly_s"].get<double>();
+  state.counters["peak_memory_mib"] = profile["peak_memory_mib"].get<double>();
+  state.SetLabel(summary["termination"]["reason"].get<std::string>() +
+                 (keep ? " " + out.string() : std::string()));
+}
+
 // Registered at start-up: the grid of the issue. FRICHB_BENCH_MAX_CONTACTS (default 200)
 // bounds the contact counts, since the 500-contact Jacobian at H = 10 is 31500 x 31501
 // doubles (8 GB).
@@ -233,6 +290,15 @@ const bool registered = [] {
         if (std::string(method) == "global_fd") b->UseManualTime()->Iterations(1);
       }
     }
+  int curve_contacts = 100;
+  if (const char* v = std::getenv("FRICHB_BENCH_CURVE_CONTACTS")) curve_contacts = std::atoi(v);
+  const std::string curve = "BM_ResponseCurve/" + std::to_string(curve_contacts) + "/5";
+  benchmark::RegisterBenchmark(
+      curve.c_str(),
+      [curve_contacts](benchmark::State& s) { BM_ResponseCurve(s, curve_contacts, 5); })
+      ->Unit(benchmark::kSecond)
+      ->UseRealTime()
+      ->Iterations(1);
   // Newton iterations: bounded by FRICHB_BENCH_MAX_UNKNOWNS (default 7000), since a dense
   // factorisation costs n^3 (12 600 unknowns: minutes per iteration on two cores).
   long max_unknowns = 7000;
