@@ -40,7 +40,7 @@ def main(path):
     grid = sorted({(c, h) for (_, c, h) in times})
     ctx = run["context"]
     print(f"Machine: {ctx.get('num_cpus')} CPUs at {ctx.get('mhz_per_cpu')} MHz, run "
-          f"{ctx.get("date", "")}; wall time per call.\n")
+          f"{ctx.get('date', '')}; wall time per call.\n")
     print("| contacts | H | unknowns | residual | analytic | local_fd | global_fd | "
           "analytic / residual | global_fd / analytic | local_fd / analytic |")
     print("|---|---|---|---|---|---|---|---|---|---|")
