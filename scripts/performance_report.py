@@ -72,8 +72,8 @@ def main(path):
         print("\n### One Newton iteration\n")
         print("Milliseconds per iteration (wall time, BLAS threads included).\n")
         print("| contacts | H | unknowns | iteration | evaluation | contact traces | receptance | "
-              "assembly | factorisation | other | floor | iteration / floor | peak memory |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+              "assembly | factorisation | other | floor | iteration / floor |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         key = lambda b: tuple(int(x) for x in b["run_name"].split("/")[1:3])
         for b in sorted(newton, key=key):
             c, h = key(b)
@@ -81,8 +81,7 @@ def main(path):
             print(f"| {c} | {h} | {int(b['unknowns'])} | {f('iteration_ms')} | "
                   f"{f('evaluation_ms')} | {f('contact_ms')} | {f('receptance_ms')} | "
                   f"{f('assembly_ms')} | {f('factorisation_ms')} | {f('other_ms')} | "
-                  f"{f('floor_ms')} | {b['iteration_per_floor']:.2f} | "
-                  f"{b['peak_memory_mib']:.0f} MiB |")
+                  f"{f('floor_ms')} | {b['iteration_per_floor']:.2f} |")
     for b in curves:
         c, h = b["run_name"].split("/")[1:3]
         unit = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}[b["time_unit"]]
