@@ -509,6 +509,94 @@ TEST(Continuation, NanResidualNeverEntersAPoint) {
   }
 }
 
+// n coupled hardening springs under a load growing with lambda:
+//   e(x, lambda) = K x + g x.^3 - lambda b,
+// K tridiagonal (2 on the diagonal, -1 beside it, a chain held at both ends).
+class SpringChain : public CurveProblem {
+ public:
+  explicit SpringChain(Eigen::Index n, double g = 1.0) : n_(n), g_(g) {}
+  Eigen::Index equation_count() const override { return n_; }
+  bool evaluate(const VectorXd& y, VectorXd& residual, MatrixXd* jacobian,
+                std::string*) const override {
+    const VectorXd x = y.head(n_);
+    const double lambda = y(n_);
+    residual = Stiffness() * x + g_ * x.array().cube().matrix() - lambda * Load();
+    if (jacobian != nullptr) {
+      jacobian->resize(n_, n_ + 1);
+      jacobian->leftCols(n_) = Stiffness();
+      jacobian->leftCols(n_).diagonal() += 3.0 * g_ * x.array().square().matrix();
+      jacobian->col(n_) = -Load();
+      ++jacobians;
+    }
+    return true;
+  }
+  MatrixXd Stiffness() const {
+    MatrixXd k = MatrixXd::Zero(n_, n_);
+    for (Eigen::Index i = 0; i < n_; ++i) {
+      k(i, i) = 2.0;
+      if (i > 0) k(i, i - 1) = k(i - 1, i) = -1.0;
+    }
+    return k;
+  }
+  VectorXd Load() const { return VectorXd::LinSpaced(n_, 1.0, 2.0); }
+  mutable int jacobians = 0;
+
+ private:
+  Eigen::Index n_;
+  double g_;
+};
+
+TEST(Continuation, ChordCorrectorSolvesTheSameEquationsWithFewerFactorisations) {
+  const SpringChain chain(30);
+  ContinuationOptions o = Sweep(0.0, 40.0);
+  o.max_step = 0.5;
+  o.reuse_factorisation_from = 0;  // never: Newton at every step
+  const auto newton = trace_curve(chain, VectorXd::Zero(31), o);
+  const int newton_jacobians = chain.jacobians;
+  o.reuse_factorisation_from = 1;  // always
+  chain.jacobians = 0;
+  const auto chord = trace_curve(chain, VectorXd::Zero(31), o);
+  ASSERT_TRUE(newton.reached_end()) << newton.message;
+  ASSERT_TRUE(chord.reached_end()) << chord.message;
+  EXPECT_EQ(newton.chord_points, 0);
+  EXPECT_GT(chord.chord_points, static_cast<int>(chord.points.size()) / 2);
+  EXPECT_LT(chord.profile.factorisations, newton.profile.factorisations);
+  EXPECT_LT(chain.jacobians, newton_jacobians);
+  EXPECT_GT(chord.profile.residual_only_evaluations, 0);
+  // Every point solves e = 0 (checked here, not by the solver's own norm), and both curves
+  // end on the same solution at lambda = 40.
+  for (const auto& p : chord.points) {
+    VectorXd e;
+    ASSERT_TRUE(chain.evaluate(p.y, e, nullptr, nullptr));
+    EXPECT_LT(e.lpNorm<Eigen::Infinity>(), 1e-8 * (1.0 + 2.0 * p.y(30)));
+  }
+  EXPECT_NEAR(chord.points.back().y(30), 40.0, 1e-12);
+  EXPECT_LT((chord.points.back().y - newton.points.back().y).lpNorm<Eigen::Infinity>(), 1e-9);
+}
+
+TEST(Continuation, ChordCorrectorPassesTheFoldsOfTheSCurve) {
+  // One equation: the chord is used from the second step on, and gives way to Newton near
+  // the folds, where the Jacobian changes fastest.
+  const ScalarCurve curve = SCurve();
+  ContinuationOptions o = Sweep(-2.0, 2.0);
+  o.reuse_factorisation_from = 1;
+  const auto summary = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), o);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  EXPECT_EQ(summary.turning_points, 2);
+  EXPECT_GT(summary.chord_points, 0);
+  EXPECT_NEAR(summary.points.back().y(0), CubicRoot(2.0), 1e-9);
+  for (const auto& p : summary.points) {
+    const double x = p.y(0);
+    EXPECT_LT(std::abs(x * x * x - x - p.y(1)), 1e-9);
+  }
+  o.reuse_factorisation_from = -1;
+  std::string why;
+  EXPECT_FALSE(o.IsValid(&why));
+  o.reuse_factorisation_from = 0;
+  o.max_chord_iterations = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+}
+
 TEST(Continuation, BudgetsAndCancellationStopTheTrace) {
   const ScalarCurve curve = SCurve();
   ContinuationOptions o = Sweep(-2.0, 2.0);

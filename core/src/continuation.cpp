@@ -17,6 +17,8 @@ using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// Weight of a chord iteration in the step adaptation (eq. 4.13), against a Newton iteration.
+constexpr double kChordIterationWeight = 0.5;
 
 std::string FormatLambda(double lambda) {
   std::ostringstream out;
@@ -79,63 +81,99 @@ bool EvaluateScaled(const CurveProblem& problem, const Scaling& s, const VectorX
   const Index n = s.residual.size();
   const VectorXd y = ys.cwiseProduct(s.unknown);
   VectorXd e(n);
-  MatrixXd j(n, n + 1);
+  // The Jacobian is written into js's own storage (kept between calls of the same size).
+  if (js != nullptr) js->resize(n, n + 1);
   std::string why;
   const auto start = std::chrono::steady_clock::now();
-  const bool evaluated = problem.evaluate(y, e, &j, &why);
+  const bool evaluated = problem.evaluate(y, e, js, &why);
   if (current_profile != nullptr) {
     ++current_profile->evaluations;
     current_profile->evaluation_seconds += SecondsSince(start);
+    if (js == nullptr) ++current_profile->residual_only_evaluations;
   }
   if (!evaluated) {
     *message = "evaluation failed at " + FormatLambda(y(n)) + (why.empty() ? "" : ": " + why);
     return false;
   }
-  if (e.size() != n || j.rows() != n || j.cols() != n + 1) {
+  if (e.size() != n || (js != nullptr && (js->rows() != n || js->cols() != n + 1))) {
     *message = "evaluate() returned wrongly sized residual or Jacobian";
     return false;
   }
-  if (!e.allFinite() || !j.allFinite()) {
+  if (!e.allFinite() || (js != nullptr && !js->allFinite())) {
     *message = "non-finite residual or Jacobian at " + FormatLambda(y(n));
     return false;
   }
   *es = e.cwiseQuotient(s.residual);
-  j.array().colwise() /= s.residual.array();             // rows by the residual scales
-  j.array().rowwise() *= s.unknown.transpose().array();  // columns by the unknown scales
-  *js = std::move(j);
+  if (js != nullptr) {
+    // Rows by the residual scales and columns by the unknown scales, in one pass.
+    const VectorXd inverse_residual_scale = s.residual.cwiseInverse();
+    for (Index c = 0; c <= n; ++c)
+      js->col(c) = js->col(c).cwiseProduct(inverse_residual_scale) * s.unknown(c);
+  }
   return true;
 }
 
 // Dense LU with partial pivoting (blocked, the fast factorisation of large Newton matrices)
 // and its reciprocal condition estimate (LAPACK-style, O(n^2) on top). A matrix is taken as
-// singular when that estimate is below machine precision or not finite.
-struct Lu {
-  explicit Lu(const MatrixXd& a) : start(std::chrono::steady_clock::now()), lu(a) {
-    Account();
-    if (current_profile != nullptr) ++current_profile->factorisations;
+// singular when that estimate is below machine precision or not finite. One object is
+// refactorised in place over the iterations of a solve (its storage is allocated once).
+class Lu {
+ public:
+  Lu() = default;
+  explicit Lu(const Eigen::Ref<const MatrixXd>& a) { factorise(a); }
+  void factorise(const Eigen::Ref<const MatrixXd>& a) {
+    const auto start = std::chrono::steady_clock::now();
+    lu_.compute(a);
+    Account(start, true);
+  }
+  // [top; last_row^T]
+  void factorise_bordered(const Eigen::Ref<const MatrixXd>& top,
+                          const Eigen::Ref<const VectorXd>& last_row) {
+    const auto start = std::chrono::steady_clock::now();
+    lu_.compute_bordered(top, last_row);
+    Account(start, true);
   }
   VectorXd solve(const VectorXd& b) const {
-    start = std::chrono::steady_clock::now();
-    VectorXd x = lu.solve(b);
-    Account();
+    const auto start = std::chrono::steady_clock::now();
+    VectorXd x = lu_.solve(b);
+    Account(start, false);
     return x;
   }
-  void Account() const {
+  bool invertible() const {
+    return std::isfinite(lu_.rcond()) && lu_.rcond() > std::numeric_limits<double>::epsilon();
+  }
+  double condition() const { return lu_.rcond() > 0.0 ? 1.0 / lu_.rcond() : kInf; }
+
+ private:
+  static void Account(std::chrono::steady_clock::time_point start, bool factorisation) {
     if (current_profile == nullptr) return;
     current_profile->factorisation_seconds += SecondsSince(start);
+    if (factorisation) ++current_profile->factorisations;
   }
-  bool invertible() const {
-    return std::isfinite(lu.rcond()) && lu.rcond() > std::numeric_limits<double>::epsilon();
+  DenseLu lu_;
+};
+
+// The factorisation of the Keller matrix A = [J; v_prev^T] at an accepted point, kept for the
+// next step's chord iterations, with t = A^-1 e_n (the point's tangent v = t / |t|).
+// The next corrector's matrix is B = [J; v^T] = A + e_n d^T with d = v - v_prev; B^-1 comes
+// from A's factors by the Sherman-Morrison formula: B^-1 b = x - t (d . x) / (1 + d . t),
+// x = A^-1 b (and 1 + d . t = |t| in exact arithmetic).
+struct KellerFactor {
+  Lu lu;
+  VectorXd t;
+  VectorXd d;
+  double denominator = 1.0;
+  VectorXd solve(const VectorXd& b) const {
+    const VectorXd x = lu.solve(b);
+    return x - t * (d.dot(x) / denominator);
   }
-  double condition() const { return lu.rcond() > 0.0 ? 1.0 / lu.rcond() : kInf; }
-  mutable std::chrono::steady_clock::time_point start;
-  DenseLu lu;
 };
 
 struct CoreResult {
   bool converged = false;
   bool first_evaluation_failed = false;
   int iterations = 0;
+  int chord_iterations = 0;  // of them, chord iterations on a kept factorisation
   double residual_norm = kInf;
   bool at_residual_floor = false;  // accepted on the residual alone (see DampedNewton)
   VectorXd ys;                     // scaled, lambda last
@@ -146,6 +184,8 @@ struct CoreResult {
 // Damped Newton in scaled variables. Without a tangent, lambda stays fixed and the n
 // equations are solved for x; with a tangent v and predictor y1, the Keller system
 // [e; v^T (y - y1)] = 0 is solved for all n + 1 unknowns.
+// Memory: besides the problem's own, at most three n x (n + 1) Jacobians (current, trial,
+// best trial of the line search) and one factorisation, each allocated once per call.
 CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const VectorXd& ys0,
                         const NewtonOptions& opt, const VectorXd* tangent = nullptr,
                         const VectorXd* predictor = nullptr) {
@@ -153,28 +193,20 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
   const bool keller = tangent != nullptr;
   const Index m = keller ? n + 1 : n;
 
-  // Square residual and Jacobian of the system being solved, from the full evaluation.
-  auto system = [&](const VectorXd& ys, VectorXd* r, MatrixXd* a, MatrixXd* js, std::string* msg) {
+  // Residual of the system being solved and the full scaled Jacobian, from one evaluation.
+  auto system = [&](const VectorXd& ys, VectorXd* r, MatrixXd* js, std::string* msg) {
     VectorXd es;
     if (!EvaluateScaled(problem, s, ys, &es, js, msg)) return false;
     r->resize(m);
     r->head(n) = es;
-    if (keller) {
-      (*r)(n) = tangent->dot(ys - *predictor);
-      a->resize(m, m);
-      a->topRows(n) = *js;
-      a->row(n) = tangent->transpose();
-    } else {
-      *a = js->leftCols(n);
-    }
+    if (keller) (*r)(n) = tangent->dot(ys - *predictor);
     return true;
   };
 
   CoreResult out;
   out.ys = ys0;
   VectorXd r;
-  MatrixXd a;
-  if (!system(out.ys, &r, &a, &out.js, &out.message)) {
+  if (!system(out.ys, &r, &out.js, &out.message)) {
     out.first_evaluation_failed = true;
     return out;
   }
@@ -188,13 +220,18 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
   // where Newton cycles between pieces with updates that never shrink. A point whose
   // residual meets the tolerance there is a solution to that tolerance.
   // The cycle may visit iterates above the tolerance: the best iterate is kept, and
-  // returned once the best residual has not halved for that many iterations.
+  // returned once the best residual has not halved for that many iterations (its Jacobian
+  // is then evaluated again rather than kept from every improvement).
   int since_best = 0;
   double floor_residual = out.residual_norm;
   VectorXd floor_ys = out.ys;
-  MatrixXd floor_js = out.js;
+  Lu lu;
+  MatrixXd trial_js, best_js;
   while (out.iterations < opt.max_iterations) {
-    const Lu lu(a);
+    if (keller)
+      lu.factorise_bordered(out.js, *tangent);
+    else
+      lu.factorise(out.js.leftCols(n));
     if (!lu.invertible()) {
       out.message = "singular Jacobian at " + FormatLambda(out.ys(n) * s.unknown(n));
       return out;
@@ -213,20 +250,17 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
     double best_norm = kInf;
     double best_factor = 0.0;
     VectorXd best_r;
-    MatrixXd best_a, best_js;
     std::string trial_message;
     double factor = 1.0;
     for (int h = 0; h <= opt.max_line_search_halvings; ++h, factor *= 0.5) {
       VectorXd tr;
-      MatrixXd ta, tjs;
-      if (!system(out.ys + factor * dy, &tr, &ta, &tjs, &trial_message)) continue;
+      if (!system(out.ys + factor * dy, &tr, &trial_js, &trial_message)) continue;
       const double tn = tr.lpNorm<Eigen::Infinity>();
       if (tn < best_norm) {
         best_norm = tn;
         best_factor = factor;
         best_r = std::move(tr);
-        best_a = std::move(ta);
-        best_js = std::move(tjs);
+        best_js.swap(trial_js);
       }
       if (tn <= out.residual_norm) break;
     }
@@ -236,8 +270,7 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
     }
     out.ys += best_factor * dy;
     r = std::move(best_r);
-    a = std::move(best_a);
-    out.js = std::move(best_js);
+    out.js.swap(best_js);
     out.residual_norm = best_norm;
     const double update_norm = best_factor * dy.lpNorm<Eigen::Infinity>();
     if ((out.residual_norm <= opt.residual_tolerance && update_norm <= opt.step_tolerance) ||
@@ -249,13 +282,15 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
     if (out.residual_norm < floor_residual) {
       floor_residual = out.residual_norm;
       floor_ys = out.ys;
-      floor_js = out.js;
     }
     // Counted only once the best residual meets the tolerance.
     since_best = (floor_residual > opt.residual_tolerance || halved) ? 0 : since_best + 1;
     if (floor_residual <= opt.residual_tolerance && since_best >= opt.residual_floor_iterations) {
-      out.ys = floor_ys;
-      out.js = floor_js;
+      if (floor_ys != out.ys) {
+        VectorXd floor_r;
+        if (!system(floor_ys, &floor_r, &out.js, &out.message)) return out;
+        out.ys = floor_ys;
+      }
       out.residual_norm = floor_residual;
       out.converged = true;
       out.at_residual_floor = true;
@@ -266,6 +301,51 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
   msg << "Newton did not converge in " << opt.max_iterations << " iterations (residual "
       << out.residual_norm << ") at " << FormatLambda(out.ys(n) * s.unknown(n));
   out.message = msg.str();
+  return out;
+}
+
+// Keller corrector by chord iterations on the factorisation kept from the last point
+// (KellerFactor): each iteration costs one residual evaluation (no Jacobian) and two
+// triangular solves instead of an evaluation with the Jacobian and a factorisation. Gives up
+// - returning not converged, for the full Newton corrector to take over from `best` - when
+// the residual does not at least halve per iteration (the Jacobian has changed too much:
+// a contact changed regime, or the step is long) or after `max_chord` iterations. Converged:
+// the Jacobian at the solution is evaluated once (the tangent needs it).
+CoreResult ChordKeller(const CurveProblem& problem, const Scaling& s, const KellerFactor& factor,
+                       const NewtonOptions& opt, const VectorXd& tangent, const VectorXd& predictor,
+                       int max_chord, VectorXd* best) {
+  constexpr double kMaxContraction = 0.5;
+  const Index n = s.residual.size();
+  CoreResult out;
+  out.ys = predictor;
+  *best = predictor;
+  VectorXd es;
+  VectorXd r(n + 1);
+  if (!EvaluateScaled(problem, s, out.ys, &es, nullptr, &out.message)) return out;
+  r.head(n) = es;
+  r(n) = 0.0;
+  out.residual_norm = r.lpNorm<Eigen::Infinity>();
+  double update_norm = kInf;
+  while (!(out.residual_norm <= 1e-3 * opt.residual_tolerance ||
+           (out.residual_norm <= opt.residual_tolerance && update_norm <= opt.step_tolerance))) {
+    if (out.chord_iterations >= max_chord) return out;
+    const VectorXd dz = factor.solve(-r);
+    if (!dz.allFinite()) return out;
+    const VectorXd trial = out.ys + dz;
+    if (!EvaluateScaled(problem, s, trial, &es, nullptr, &out.message)) return out;
+    ++out.chord_iterations;
+    r.head(n) = es;
+    r(n) = tangent.dot(trial - predictor);
+    const double norm = r.lpNorm<Eigen::Infinity>();
+    if (!(norm <= kMaxContraction * out.residual_norm)) return out;
+    out.ys = trial;
+    *best = trial;
+    out.residual_norm = norm;
+    update_norm = dz.lpNorm<Eigen::Infinity>();
+  }
+  if (!EvaluateScaled(problem, s, out.ys, &es, &out.js, &out.message)) return out;
+  out.iterations = out.chord_iterations;
+  out.converged = true;
   return out;
 }
 
@@ -286,19 +366,22 @@ bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v, double* con
 
 // Eq. 4.10: [A; v_prev^T] v = [0; 1]; the last row keeps v . v_prev > 0, i.e. no reversal.
 // `condition` (optional): estimate of the 1-norm condition number of the bordered matrix,
-// the Keller corrector's Newton matrix at the point.
+// the Keller corrector's Newton matrix at the point. `keep` (optional): receives the
+// factorisation for the next step's chord iterations.
 bool NextTangent(const MatrixXd& js, const VectorXd& previous, VectorXd* v,
-                 double* condition = nullptr) {
+                 double* condition = nullptr, KellerFactor* keep = nullptr) {
   const Index n = js.rows();
-  MatrixXd a(n + 1, n + 1);
-  a.topRows(n) = js;
-  a.row(n) = previous.transpose();
-  const Lu lu(a);
-  if (condition != nullptr) *condition = lu.condition();
-  if (!lu.invertible()) return false;
-  const VectorXd t = lu.solve(VectorXd::Unit(n + 1, n));
-  *v = t / t.norm();
-  return v->allFinite();
+  KellerFactor local;
+  KellerFactor& f = keep != nullptr ? *keep : local;
+  f.lu.factorise_bordered(js, previous);
+  if (condition != nullptr) *condition = f.lu.condition();
+  if (!f.lu.invertible()) return false;
+  f.t = f.lu.solve(VectorXd::Unit(n + 1, n));
+  *v = f.t / f.t.norm();
+  if (!v->allFinite()) return false;
+  f.d = *v - previous;
+  f.denominator = 1.0 + f.d.dot(f.t);
+  return std::isfinite(f.denominator) && std::abs(f.denominator) > 0.0;
 }
 
 // A corrector that lands farther from the predictor than the step either jumped to another
@@ -387,6 +470,8 @@ bool ContinuationOptions::IsValid(std::string* why) const {
   if (newton.max_iterations < 1) return Fail(why, "newton.max_iterations must be >= 1");
   if (!PositiveFinite(newton.residual_tolerance) || !PositiveFinite(newton.step_tolerance))
     return Fail(why, "newton tolerances must be positive");
+  if (reuse_factorisation_from < 0) return Fail(why, "reuse_factorisation_from must be >= 0");
+  if (max_chord_iterations < 1) return Fail(why, "max_chord_iterations must be >= 1");
   if (newton.max_line_search_halvings < 0)
     return Fail(why, "newton.max_line_search_halvings must be >= 0");
   return true;
@@ -499,6 +584,11 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   double refine_cap = kInf;
   std::size_t fold_floor = 0;  // restarts never undo an accepted fold (no ping-pong)
   const long max_attempts = 64L * options.max_points + 1000L;
+  // Chord corrector (ContinuationOptions::reuse_factorisation_from): the factorisation of the
+  // Keller matrix at the point of index kept_index, and the one of a candidate point.
+  const bool chord = options.reuse_factorisation_from > 0 && n >= options.reuse_factorisation_from;
+  KellerFactor kept, candidate;
+  std::size_t kept_index = std::numeric_limits<std::size_t>::max();
 
   for (long attempt = 0;; ++attempt) {
     if (summary.points.size() >= static_cast<std::size_t>(options.max_points))
@@ -517,7 +607,24 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
 
     const VectorXd ys_last = last.y.cwiseQuotient(s.unknown);
     const VectorXd predictor = ys_last + step * last.tangent;
-    CoreResult corr = DampedNewton(problem, s, predictor, newton, &last.tangent, &predictor);
+    CoreResult corr;
+    if (chord && kept_index == summary.points.size() - 1) {
+      VectorXd from = predictor;
+      corr = ChordKeller(problem, s, kept, newton, last.tangent, predictor,
+                         options.max_chord_iterations, &from);
+      summary.chord_iterations += corr.chord_iterations;
+      if (corr.converged) {
+        ++summary.chord_points;
+      } else {
+        ++summary.chord_fallbacks;
+        const int chord_iterations = corr.chord_iterations;
+        corr = DampedNewton(problem, s, from, newton, &last.tangent, &predictor);
+        corr.iterations += chord_iterations;
+        corr.chord_iterations = chord_iterations;
+      }
+    } else {
+      corr = DampedNewton(problem, s, predictor, newton, &last.tangent, &predictor);
+    }
     summary.total_newton_iterations += corr.iterations;
     ContinuationPoint p;
     bool sign_change = false;
@@ -543,7 +650,8 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         corr.message = "corrector jumped away from the predictor";
       }
     }
-    if (ok && !NextTangent(corr.js, last.tangent, &p.tangent, &p.condition)) {
+    if (ok && !NextTangent(corr.js, last.tangent, &p.tangent, &p.condition,
+                           chord ? &candidate : nullptr)) {
       ok = false;
       corr.message = "singular bordered Jacobian, no tangent";
     }
@@ -633,10 +741,18 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       ++summary.steep_branch_caps;
     }
     // Eq. 4.13; an exact predictor (0 iterations) counts as 1 so the growth cap decides.
+    // A chord iteration counts as half a Newton iteration: it contracts less, but costs one
+    // residual and two triangular solves instead of a Jacobian and a factorisation.
+    const double effective_iterations =
+        (corr.iterations - corr.chord_iterations) + kChordIterationWeight * corr.chord_iterations;
     const double ratio =
-        static_cast<double>(options.target_newton_iterations) / std::max(p.newton_iterations, 1);
+        static_cast<double>(options.target_newton_iterations) / std::max(effective_iterations, 1.0);
     ds = std::clamp(std::min(step * std::sqrt(ratio), 2.0 * step), options.min_step,
                     options.max_step);
+    if (chord) {
+      std::swap(kept, candidate);
+      kept_index = summary.points.size();  // the index p takes
+    }
     if (!emit(p)) return finish(TerminationType::kCancelled, "cancelled by callback");
   }
 }

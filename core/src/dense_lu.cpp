@@ -36,17 +36,33 @@ int checked_int(Eigen::Index n) {
 
 }  // namespace
 
-void DenseLu::compute(const Eigen::MatrixXd& a) {
+void DenseLu::compute(const Eigen::Ref<const Eigen::MatrixXd>& a) {
   if (a.rows() != a.cols()) throw std::invalid_argument("DenseLu: the matrix is not square");
+  factors_.resize(a.rows(), a.cols());
+  factors_ = a;
+  factorise_stored();
+}
+
+void DenseLu::compute_bordered(const Eigen::Ref<const Eigen::MatrixXd>& top,
+                               const Eigen::Ref<const Eigen::VectorXd>& last_row) {
+  const Eigen::Index n = top.rows();
+  if (top.cols() != n + 1 || last_row.size() != n + 1)
+    throw std::invalid_argument("DenseLu: the bordered matrix is not square");
+  factors_.resize(n + 1, n + 1);
+  factors_.topRows(n) = top;
+  factors_.row(n) = last_row.transpose();
+  factorise_stored();
+}
+
+void DenseLu::factorise_stored() {
   rcond_ = 0.0;
-  size_ = a.rows();
-  if (!a.allFinite()) {
+  size_ = factors_.rows();
+  if (!factors_.allFinite()) {
     return;
   }
 #ifdef FRICHB_WITH_OPENBLAS
-  const int n = checked_int(a.rows());
-  const double anorm = a.cwiseAbs().colwise().sum().maxCoeff();  // 1-norm
-  factors_ = a;
+  const int n = checked_int(factors_.rows());
+  const double anorm = factors_.cwiseAbs().colwise().sum().maxCoeff();  // 1-norm
   pivots_.assign(static_cast<std::size_t>(n), 0);
   int info = 0;
   const int lda = std::max(1, n);
@@ -59,7 +75,7 @@ void DenseLu::compute(const Eigen::MatrixXd& a) {
   dgecon_("1", &n, factors_.data(), &lda, &anorm, &rcond_, work.data(), iwork.data(), &info, 1);
   if (info != 0 || !std::isfinite(rcond_)) rcond_ = 0.0;
 #else
-  eigen_lu_.compute(a);
+  eigen_lu_.compute(factors_);
   rcond_ = eigen_lu_.rcond();
   if (!std::isfinite(rcond_)) rcond_ = 0.0;
 #endif

@@ -1,5 +1,7 @@
 #include "frichb/core/harmonic_balance.hpp"
 
+#include "frichb/core/dense_products.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -159,6 +161,9 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     cr.modal = b.diagonal_damping;
     if (cr.modal) {
       cr.projected = gather_[k] * b.rows;
+      // Without cyclic phase factors and with real modes P is real: Rc_n is then formed by
+      // one real product of twice the rows instead of a complex one (half the flops).
+      if (cr.projected.imag().cwiseAbs().maxCoeff() == 0.0) cr.projected_real = cr.projected.real();
       cr.modal_force = b.rows.adjoint() * excitation_[k];
       if (b.residual_flexibility.size()) {
         cr.flexibility = gather_[k] * b.residual_flexibility * gather_[k].adjoint();
@@ -217,6 +222,30 @@ Eigen::VectorXd HarmonicBalanceModel::linear_response(double w) const {
     }
   }
   return u0;
+}
+
+void HarmonicBalanceModel::form_modal_receptance(const ContactReceptance& cr, Workspace& ws,
+                                                 Eigen::Ref<Eigen::MatrixXcd> rc) const {
+  // Rc = P diag(1/z) P^H by one level-3 product (BLAS when built with OpenBLAS).
+  const Eigen::Index modes = ws.inv_z.size();
+  if (cr.projected_real.size()) {
+    // Real P: [Re Rc; Im Rc] = [P diag(Re 1/z); P diag(Im 1/z)] P^T.
+    ws.scaled_real.resize(2 * components_, modes);
+    ws.scaled_real.topRows(components_).noalias() =
+        cr.projected_real * ws.inv_z.real().asDiagonal();
+    ws.scaled_real.bottomRows(components_).noalias() =
+        cr.projected_real * ws.inv_z.imag().asDiagonal();
+    ws.stacked_real.resize(2 * components_, components_);
+    multiply(1.0, ws.scaled_real, MatrixOperation::kNone, cr.projected_real,
+             MatrixOperation::kTranspose, 0.0, ws.stacked_real);
+    rc.real() = ws.stacked_real.topRows(components_);
+    rc.imag() = ws.stacked_real.bottomRows(components_);
+  } else {
+    ws.scaled.resize(components_, modes);
+    ws.scaled.noalias() = cr.projected * ws.inv_z.asDiagonal();
+    multiply(1.0, ws.scaled, MatrixOperation::kNone, cr.projected, MatrixOperation::kAdjoint, 0.0,
+             rc);
+  }
 }
 
 bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
@@ -287,7 +316,7 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
       }
       if (jacobian) {
         ws.motion_derivative.noalias() = cr.projected * ws.dinv_z.cwiseProduct(ws.modal);
-        rc.noalias() = cr.projected * ws.inv_z.asDiagonal() * cr.projected.adjoint();
+        form_modal_receptance(cr, ws, rc);
         if (cr.flexibility.size()) rc += cr.flexibility;
       }
     } else {
@@ -300,7 +329,10 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
       if (jacobian) {
         ws.motion_derivative.noalias() =
             static_cast<double>(hn) * (g * (ws.receptance_derivative * ws.modal));
-        rc.noalias() = g * ws.receptance * g.adjoint();
+        ws.scaled.resize(components_, g.cols());
+        multiply(1.0, g, MatrixOperation::kNone, ws.receptance, MatrixOperation::kNone, 0.0,
+                 ws.scaled);
+        multiply(1.0, ws.scaled, MatrixOperation::kNone, g, MatrixOperation::kAdjoint, 0.0, rc);
       }
     }
     if (!ws.motion.allFinite() || (jacobian && !rc.allFinite())) {

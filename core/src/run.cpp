@@ -38,8 +38,12 @@ nlohmann::json profile_json(const ContinuationSummary& summary, const Evaluation
            {{"wall_s", summary.wall_seconds},
             {"evaluations", p.evaluations},
             {"evaluation_s", p.evaluation_seconds},
+            {"residual_only_evaluations", p.residual_only_evaluations},
             {"factorisations", p.factorisations},
             {"factorisation_s", p.factorisation_seconds},
+            {"chord_points", summary.chord_points},
+            {"chord_iterations", summary.chord_iterations},
+            {"chord_fallbacks", summary.chord_fallbacks},
             {"other_s", std::max(0.0, other)}}},
           {"model_evaluations",
            {{"contact_traces_s", stats.contact_seconds},
@@ -339,6 +343,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     options.target_newton_iterations = C.target_newton_iterations;
     options.max_points = C.max_points;
     options.max_wall_seconds = C.max_wall_seconds;
+    options.reuse_factorisation_from = C.reuse_factorisation_from;
     options.turning_point_control = C.turning_point_control;
     options.steep_branch_alpha = C.steep_branch_alpha;
     options.newton.max_iterations = C.max_newton_iterations;

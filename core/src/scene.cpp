@@ -152,6 +152,11 @@ const std::vector<frichb_param_spec>& continuation_schema() {
                   "scale of the displacement unknowns in the arclength; 0 = automatic")
           .defaults_to(0)
           .at_least(0),
+      Param::integer("reuse_factorisation_from",
+                     "unknowns from which a step is first corrected by chord iterations on the "
+                     "last point's factorisation (full Newton when they stall); 0 = never")
+          .defaults_to(1000)
+          .at_least(0),
   };
   return s;
 }
@@ -508,6 +513,7 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   C.steep_branch_alpha = co.real("steep_branch_alpha");
   C.max_wall_seconds = co.real("max_wall_seconds");
   C.displacement_scale = co.real("displacement_scale");
+  C.reuse_factorisation_from = static_cast<int>(co.integer("reuse_factorisation_from"));
   nlohmann::json cj = cov.to_json(continuation_schema());
   cj["frequency"] = fr.to_json(frequency_schema());
   cj["step"] = st.to_json(step_schema());

@@ -87,6 +87,16 @@ struct ContinuationOptions {
 
   NewtonOptions newton;
 
+  // Chord corrector: from this many equations n on (0 = never), each step is first corrected
+  // by chord iterations on the factorisation of the last point's Keller matrix, kept from its
+  // tangent - one residual evaluation without Jacobian and two triangular solves each, where
+  // a Newton iteration evaluates the Jacobian and factorises it (O(n^3)). The full Newton
+  // corrector takes over when the residual stops halving or after max_chord_iterations; the
+  // step adaptation (eq. 4.13) counts a chord iteration as half a Newton iteration. Converged
+  // points solve the same equations to the same tolerances either way.
+  Eigen::Index reuse_factorisation_from = 1000;
+  int max_chord_iterations = 16;
+
   // When the curve passes lambda_end, the last point is corrected onto lambda = lambda_end
   // exactly (a fixed-parameter Newton solve) before stopping.
   bool land_on_end = true;
@@ -104,6 +114,7 @@ struct SolveProfile {
   double evaluation_seconds = 0.0;
   long factorisations = 0;
   double factorisation_seconds = 0.0;
+  long residual_only_evaluations = 0;  // of the evaluations, those without Jacobian
 };
 
 struct ContinuationPoint {
@@ -145,7 +156,10 @@ struct ContinuationSummary {
   int residual_floor_points = 0;  // points accepted at a residual floor (NewtonOptions)
   int corners = 0;  // points reached across a corner of the branch: a correction longer
                     // than the step whose ratio to the step repeated over three halvings
-  int total_newton_iterations = 0;
+  int total_newton_iterations = 0;      // chord iterations included
+  int chord_points = 0;                 // points corrected by chord iterations alone
+  int chord_iterations = 0;             // chord iterations, those of the fallbacks included
+  int chord_fallbacks = 0;              // steps where the chord iterations gave way to full Newton
   double max_condition = 0.0;           // the largest ContinuationPoint::condition
   std::size_t max_condition_point = 0;  // the index of that point
   double wall_seconds = 0.0;

@@ -23,8 +23,14 @@ class DenseLu {
  public:
   DenseLu() = default;
   // Factorises the square matrix a (copied; a is not modified).
-  explicit DenseLu(const Eigen::MatrixXd& a) { compute(a); }
-  void compute(const Eigen::MatrixXd& a);
+  explicit DenseLu(const Eigen::Ref<const Eigen::MatrixXd>& a) { compute(a); }
+  // Factorises a, copied into storage kept from the previous factorisation of the same size:
+  // one object refactorised over and over allocates once.
+  void compute(const Eigen::Ref<const Eigen::MatrixXd>& a);
+  // Factorises the bordered matrix [top; last_row^T] ((n + 1) x (n + 1), top n x (n + 1)),
+  // formed directly in the factor storage.
+  void compute_bordered(const Eigen::Ref<const Eigen::MatrixXd>& top,
+                        const Eigen::Ref<const Eigen::VectorXd>& last_row);
   // Reciprocal condition number estimate in the 1-norm, in [0, 1]; 0 when singular.
   double rcond() const { return rcond_; }
   // Solves A x = b.
@@ -32,6 +38,8 @@ class DenseLu {
   Eigen::Index size() const { return size_; }
 
  private:
+  void factorise_stored();  // factorises factors_ in place (it holds the matrix on entry)
+
   Eigen::MatrixXd factors_;  // L (unit diagonal, below) and U (on and above), LAPACK layout
   std::vector<int> pivots_;  // 1-based row interchanges (LAPACK ipiv)
   Eigen::PartialPivLU<Eigen::MatrixXd> eigen_lu_;  // the Eigen backend

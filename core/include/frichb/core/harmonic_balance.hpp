@@ -80,6 +80,12 @@ class HarmonicBalanceModel final : public CurveProblem {
   void gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces, bool with_jacobian,
                      std::string* message, bool& ok) const;
 
+  struct ContactReceptance;
+  struct Workspace;
+  // Rc_n = P diag(1/z) P^H from ws.inv_z into rc (components x components).
+  void form_modal_receptance(const ContactReceptance& cr, Workspace& ws,
+                             Eigen::Ref<Eigen::MatrixXcd> rc) const;
+
   HarmonicLayout layout_;
   HarmonicLayout trace_layout_;  // the contacts' tracing grid (oversampled layout_)
   JacobianMode mode_;
@@ -96,10 +102,11 @@ class HarmonicBalanceModel final : public CurveProblem {
   // q = Phi^H f. An evaluation then costs components^2 x modes per harmonic, with no product
   // over the kept DOFs.
   struct ContactReceptance {
-    bool modal = false;            // false: non-diagonal modal damping, R(W) is formed and gathered
-    Eigen::MatrixXcd projected;    // P = G Phi
-    Eigen::VectorXcd modal_force;  // q = Phi^H f
-    Eigen::MatrixXcd flexibility;  // G F G^H, or empty
+    bool modal = false;          // false: non-diagonal modal damping, R(W) is formed and gathered
+    Eigen::MatrixXcd projected;  // P = G Phi
+    Eigen::MatrixXd projected_real;  // P when it is real (no cyclic phase, real modes), else empty
+    Eigen::VectorXcd modal_force;    // q = Phi^H f
+    Eigen::MatrixXcd flexibility;    // G F G^H, or empty
     Eigen::VectorXcd flexible_motion;  // G F f, or empty
   };
   std::vector<ContactReceptance> contact_receptance_;
@@ -112,7 +119,8 @@ class HarmonicBalanceModel final : public CurveProblem {
   struct Workspace {
     Eigen::VectorXd forces;
     Eigen::MatrixXcd contact_receptance, receptance, receptance_derivative, product;
-    Eigen::MatrixXcd force_block;
+    Eigen::MatrixXcd force_block, scaled;
+    Eigen::MatrixXd scaled_real, stacked_real;
     Eigen::VectorXcd inv_z, dinv_z, force, motion, motion_derivative, modal;
   };
   mutable Workspace work_;

@@ -78,7 +78,8 @@ struct ContinuationSpec {
   bool turning_point_control = true;
   double steep_branch_alpha = 30;
   double max_wall_seconds = 600;
-  double displacement_scale = 0;  // m; 0: automatic
+  double displacement_scale = 0;        // m; 0: automatic
+  int reuse_factorisation_from = 1000;  // unknowns; chord corrector from there on, 0: never
   // Factor from `unit` to rad/s.
   double to_rad_per_s() const;
 };
