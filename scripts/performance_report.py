@@ -86,10 +86,18 @@ def main(path):
         c, h = b["run_name"].split("/")[1:3]
         unit = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}[b["time_unit"]]
         wall = b["real_time"] * unit
-        print(f"\n### Response curve: {c} contacts, H = {h}, 256 samples\n")
-        print(f"- wall time {wall:.1f} s ({b.get('label', '').split(' ')[0]}), "
-              f"{int(b['points'])} points, {int(b['newton_iterations'])} Newton iterations, "
+        corrector = b["run_name"].split("/")[3] if b["run_name"].count("/") >= 3 else "newton"
+        print(f"\n### Response curve: {c} contacts, H = {h}, 256 samples, "
+              f"{'chord corrector' if corrector == 'chord' else 'Newton corrector only'}\n")
+        print(f"- wall time {wall:.1f} s ({b.get('label', '').split(' ')[0]}, last point at "
+              f"{b.get('last_hz', 0):.2f} of {b.get('to_hz', 0):.0f} Hz), "
+              f"{int(b['points'])} points, {int(b['newton_iterations'])} corrector iterations, "
               f"{int(b['unknowns'])} unknowns, peak memory {b['peak_memory_mib']:.0f} MiB")
+        if "chord_points" in b:
+            print(f"- chord corrector: {int(b['chord_points'])} points by chord iterations "
+                  f"alone, {int(b['chord_iterations'])} chord iterations, "
+                  f"{int(b['chord_fallbacks'])} steps handed to Newton; "
+                  f"{int(b['residual_only_evaluations'])} of the evaluations without Jacobian")
         print(f"- continuation: {int(b['evaluations'])} evaluations in {b['evaluation_s']:.1f} s "
               f"(contact traces {b['contact_s']:.1f} s, receptance {b['receptance_s']:.1f} s, "
               f"assembly {b['assembly_s']:.1f} s, over all the run's evaluations), "

@@ -394,6 +394,10 @@ TEST(FeSector, MassNormalisedModesAndReceptanceInvertTheHarmonicDynamicStiffness
       const double err = (r * d - Eigen::MatrixXcd::Identity(nk, nk)).norm();
       worst = std::max(worst, err);
       EXPECT_LT(err, 1e-8) << "h = " << h << ", W = " << omega;
+      // The response to a force without forming R: D x = f.
+      const Eigen::VectorXcd force = Eigen::VectorXcd::LinSpaced(nk, 1.0, -2.0) * (1.0 + 0.5 * h);
+      const Eigen::VectorXcd x = rs.respond(h, omega, force);
+      EXPECT_LT((d * x - force).norm(), 1e-8 * force.norm()) << "h = " << h << ", W = " << omega;
     }
   }
   std::printf("[ measured ] all modes kept: |R_h D_h - I| worst %.2e\n", worst);

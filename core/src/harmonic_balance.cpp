@@ -211,11 +211,10 @@ Eigen::VectorXd HarmonicBalanceModel::linear_response(double w) const {
   const int c = layout_.coefficient_count();
   const auto& h = layout_.harmonics();
   Eigen::VectorXd u0 = Eigen::VectorXd::Zero(unknown_count_);
-  Eigen::MatrixXcd r;
   for (std::size_t k = 0; k < h.size(); ++k) {
     if (excitation_[k].cwiseAbs().maxCoeff() == 0.0) continue;
-    structure_->receptance(harmonic_index_[k], h[k] * w, r);
-    const Eigen::VectorXcd x = gather_[k] * (r * excitation_[k]);
+    const Eigen::VectorXcd x =
+        gather_[k] * structure_->respond(harmonic_index_[k], h[k] * w, excitation_[k]);
     for (int a = 0; a < components_; ++a) {
       u0(a * c + layout_.cos_index(k)) = x(a).real();
       if (h[k] > 0) u0(a * c + layout_.sin_index(k)) = -x(a).imag();
@@ -411,7 +410,6 @@ std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(const Eigen::V
   if (!ok) throw std::runtime_error("response recovery: " + message);
   const auto& h = layout_.harmonics();
   std::vector<Eigen::VectorXcd> out;
-  Eigen::MatrixXcd r;
   for (std::size_t k = 0; k < h.size(); ++k) {
     Eigen::VectorXcd f_local(components_);
     for (int a = 0; a < components_; ++a) {
@@ -419,8 +417,8 @@ std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(const Eigen::V
       const double fs = h[k] > 0 ? forces(a * c + layout_.sin_index(k)) : 0.0;
       f_local(a) = std::complex<double>(fc, -fs);
     }
-    structure_->receptance(harmonic_index_[k], h[k] * w, r);
-    out.push_back(r * (excitation_[k] - gather_[k].adjoint() * f_local));
+    out.push_back(structure_->respond(harmonic_index_[k], h[k] * w,
+                                      excitation_[k] - gather_[k].adjoint() * f_local));
   }
   return out;
 }

@@ -90,4 +90,27 @@ void ReducedStructure::receptance(int harmonic_index, double w, Eigen::MatrixXcd
   if (b.residual_flexibility.size()) r += b.residual_flexibility;
 }
 
+Eigen::VectorXcd ReducedStructure::respond(int harmonic_index, double w,
+                                           const Eigen::VectorXcd& force) const {
+  const Basis& b = basis(harmonic_index);
+  if (force.size() != b.rows.rows())
+    throw std::invalid_argument("ReducedStructure::respond: force of the wrong size");
+  const std::complex<double> i(0.0, 1.0);
+  const Eigen::Index m = b.frequencies.size();
+  Eigen::VectorXcd modal = b.rows.adjoint() * force;
+  if (b.diagonal_damping) {
+    for (Eigen::Index k = 0; k < m; ++k) {
+      const double wr = b.frequencies(k);
+      modal(k) /= wr * wr - w * w + i * w * b.damping(k, k);
+    }
+  } else {
+    Eigen::MatrixXcd z = -w * w * Eigen::MatrixXcd::Identity(m, m) + i * w * b.damping;
+    z.diagonal() += b.frequencies.array().square().matrix().cast<std::complex<double>>();
+    modal = z.partialPivLu().solve(modal).eval();
+  }
+  Eigen::VectorXcd x = b.rows * modal;
+  if (b.residual_flexibility.size()) x += b.residual_flexibility * force;
+  return x;
+}
+
 }  // namespace frichb::core

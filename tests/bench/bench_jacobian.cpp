@@ -225,11 +225,14 @@ void BM_NewtonIteration(benchmark::State& state, int contacts, int harmonics) {
 // summary.json: points, Newton iterations, evaluations, factorisations, the profile's parts
 // (seconds), peak memory. FRICHB_BENCH_CURVE_CONTACTS overrides the contacts,
 // FRICHB_BENCH_KEEP_CURVE=1 keeps the run's folder (its path is the label).
-void BM_ResponseCurve(benchmark::State& state, int contacts, int harmonics) {
+// `chord`: false turns the chord corrector off (continuation.reuse_factorisation_from = 0),
+// so that every corrector iteration is a Newton iteration with its factorisation.
+void BM_ResponseCurve(benchmark::State& state, int contacts, int harmonics, bool chord) {
   static const Registry registry({FRICHB_PLUGIN_DIR});
   std::string text = ring_scene(contacts, harmonics, true);
   text += "output:\n  response: [b0]\n  plots: false\n";
   YAML::Node root = YAML::Load(text);
+  if (!chord) root["continuation"]["reuse_factorisation_from"] = 0;
   // The window around the ring's first (normal-direction) resonance, about 318 Hz free;
   // FRICHB_BENCH_CURVE_HZ="from,to" overrides it.
   double from = 300.0, to = 340.0;
@@ -266,20 +269,33 @@ void BM_ResponseCurve(benchmark::State& state, int contacts, int harmonics) {
   state.counters["receptance_s"] = profile["model_evaluations"]["receptance_s"].get<double>();
   state.counters["assembly_s"] = profile["model_evaluations"]["jacobian_assembly_s"].get<double>();
   state.counters["peak_memory_mib"] = profile["peak_memory_mib"].get<double>();
+  state.counters["residual_only_evaluations"] =
+      profile["continuation"]["residual_only_evaluations"].get<double>();
+  state.counters["chord_points"] = profile["continuation"]["chord_points"].get<double>();
+  state.counters["chord_iterations"] = profile["continuation"]["chord_iterations"].get<double>();
+  state.counters["chord_fallbacks"] = profile["continuation"]["chord_fallbacks"].get<double>();
+  const auto& last = summary["termination"]["last_point"];
+  state.counters["last_hz"] = last.is_null() ? 0.0 : last["frequency"].get<double>();
+  state.counters["to_hz"] = to;
   state.SetLabel(summary["termination"]["reason"].get<std::string>() +
                  (keep ? " " + out.string() : std::string()));
 }
 
-// Registered at start-up: the grid of the issue. FRICHB_BENCH_MAX_CONTACTS (default 200)
-// bounds the contact counts, since the 500-contact Jacobian at H = 10 is 31500 x 31501
-// doubles (8 GB).
+// Registered at start-up: the grid of the issue. FRICHB_BENCH_MAX_CONTACTS (default 500)
+// bounds the contact counts, and FRICHB_BENCH_MAX_JACOBIAN_GIB (default 4) the size of one
+// dense Jacobian: the 500-contact Jacobian at H = 10 is 31500 x 31501 doubles (7.4 GiB) and
+// is left out by default.
 const bool registered = [] {
-  int max_contacts = 200;
+  int max_contacts = 500;
   if (const char* v = std::getenv("FRICHB_BENCH_MAX_CONTACTS")) max_contacts = std::atoi(v);
+  double max_jacobian_gib = 4.0;
+  if (const char* v = std::getenv("FRICHB_BENCH_MAX_JACOBIAN_GIB")) max_jacobian_gib = std::atof(v);
   for (const char* method : {"residual", "analytic", "local_fd", "global_fd"})
     for (int contacts : {1, 10, 50, 200, 500}) {
       if (contacts > max_contacts) continue;
       for (int harmonics : {1, 5, 10}) {
+        const double unknowns = 3.0 * contacts * (2 * harmonics + 1);
+        if (unknowns * (unknowns + 1) * 8.0 > max_jacobian_gib * 1073741824.0) continue;
         const std::string name = std::string("BM_Jacobian/") + method + "/" +
                                  std::to_string(contacts) + "/" + std::to_string(harmonics);
         auto* b = benchmark::RegisterBenchmark(
@@ -292,13 +308,17 @@ const bool registered = [] {
     }
   int curve_contacts = 100;
   if (const char* v = std::getenv("FRICHB_BENCH_CURVE_CONTACTS")) curve_contacts = std::atoi(v);
-  const std::string curve = "BM_ResponseCurve/" + std::to_string(curve_contacts) + "/5";
-  benchmark::RegisterBenchmark(
-      curve.c_str(),
-      [curve_contacts](benchmark::State& s) { BM_ResponseCurve(s, curve_contacts, 5); })
-      ->Unit(benchmark::kSecond)
-      ->UseRealTime()
-      ->Iterations(1);
+  for (const bool chord : {true, false}) {
+    const std::string curve =
+        "BM_ResponseCurve/" + std::to_string(curve_contacts) + "/5/" + (chord ? "chord" : "newton");
+    benchmark::RegisterBenchmark(curve.c_str(),
+                                 [curve_contacts, chord](benchmark::State& s) {
+                                   BM_ResponseCurve(s, curve_contacts, 5, chord);
+                                 })
+        ->Unit(benchmark::kSecond)
+        ->UseRealTime()
+        ->Iterations(1);
+  }
   // Newton iterations: bounded by FRICHB_BENCH_MAX_UNKNOWNS (default 7000), since a dense
   // factorisation costs n^3 (12 600 unknowns: minutes per iteration on two cores).
   long max_unknowns = 7000;

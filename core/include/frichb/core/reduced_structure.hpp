@@ -27,6 +27,10 @@ class ReducedStructure {
   // Writes R (kept x kept) at circular frequency W and, when requested, dR/dW.
   void receptance(int harmonic_index, double circular_frequency, Eigen::MatrixXcd& receptance,
                   Eigen::MatrixXcd* derivative = nullptr) const;
+  // The response R(W) f to the force amplitudes f (kept DOFs, N) without forming R:
+  // Phi (Z^-1 (Phi^H f)) + F f, modes x kept operations instead of kept^2 x modes.
+  Eigen::VectorXcd respond(int harmonic_index, double circular_frequency,
+                           const Eigen::VectorXcd& force) const;
 
  public:
   // The modal basis of a harmonic index at the kept DOFs (as the provider gave it).
