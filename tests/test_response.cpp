@@ -247,6 +247,17 @@ continuation:
   // The contacts couple: off-diagonal blocks between contacts are not zero (the receptance
   // joins them), and the contact blocks differ from stuck springs.
   EXPECT_GT(jac.block(0, 3 * 7, 3 * 7, 3 * 7).cwiseAbs().maxCoeff(), 1e-3);
+  // Tracing the four contacts on 2 and on 4 threads gives the same residual and Jacobian,
+  // to the bit: each contact is traced alone, whichever thread traces it.
+  for (int threads : {2, 4}) {
+    b.model->set_contact_threads(threads);
+    Eigen::VectorXd e_threads;
+    Eigen::MatrixXd jac_threads;
+    ASSERT_TRUE(b.model->evaluate(y, e_threads, &jac_threads, &message)) << message;
+    EXPECT_EQ(e_threads, e) << threads << " threads";
+    EXPECT_EQ(jac_threads, jac) << threads << " threads";
+  }
+  b.model->set_contact_threads(1);
 }
 
 TEST(ResponseCurve, AnalyticAndFiniteDifferenceJacobiansTraceTheSameCurve) {

@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <numbers>
 #include <stdexcept>
+#include <thread>
 
 namespace frichb::core {
 
@@ -181,29 +183,76 @@ Eigen::Index HarmonicBalanceModel::kept_index(std::size_t dof) const {
   return it == kept_dofs_.end() ? -1 : static_cast<Eigen::Index>(it - kept_dofs_.begin());
 }
 
+void HarmonicBalanceModel::set_contact_threads(int n) {
+  contact_threads_ =
+      n > 0 ? n : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
 void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces,
                                          bool with_jacobian, std::string* message, bool& ok) const {
   const int c = layout_.coefficient_count();
+  const std::size_t count = contacts_.size();
   forces.setZero(unknown_count_);
   ok = true;
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+  // Each contact is traced into its own traces_[i], with its own tracer and law instance;
+  // failures and statistics are gathered afterwards, in contact order, on this thread.
+  std::vector<char> traced(count, 0);
+  std::vector<std::string> errors(count);
+  const auto trace_range = [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto& contact = contacts_[i];
+      const Eigen::Index first = static_cast<Eigen::Index>(contact.offset) * c;
+      const Eigen::VectorXd u = y.segment(first, contact.tracer->unknown_count());
+      traced[i] = contact.tracer->trace(u, with_jacobian ? mode_ : JacobianMode::kNone, traces_[i],
+                                        &errors[i]);
+      if (!traced[i]) return;  // this range stops at its first failure
+    }
+  };
+  // Only traces with the Jacobian are worth threads (0.1 to 1 ms per contact, against tens of
+  // microseconds for the forces alone, less than starting a thread).
+  const std::size_t threads =
+      with_jacobian
+          ? std::min<std::size_t>(static_cast<std::size_t>(std::max(1, contact_threads_)), count)
+          : 1;
+  if (threads <= 1) {
+    trace_range(0, count);
+  } else {
+    std::vector<std::exception_ptr> failures(threads);
+    {
+      std::vector<std::jthread> pool;
+      const auto range = [&](std::size_t t) { return t * count / threads; };
+      for (std::size_t t = 1; t < threads; ++t)
+        pool.emplace_back([&, t] {
+          try {
+            trace_range(range(t), range(t + 1));
+          } catch (...) {
+            failures[t] = std::current_exception();
+          }
+        });
+      try {
+        trace_range(0, range(1));
+      } catch (...) {
+        failures[0] = std::current_exception();
+      }
+    }  // joined
+    for (const auto& failure : failures)
+      if (failure) std::rethrow_exception(failure);
+  }
+  for (std::size_t i = 0; i < count; ++i) {
     const auto& contact = contacts_[i];
-    const int p = contact.tracer->unknown_count();
-    const Eigen::Index first = static_cast<Eigen::Index>(contact.offset) * c;
-    ContactTrace& t = traces_[i];
-    std::string error;
-    if (!contact.tracer->trace(y.segment(first, p), with_jacobian ? mode_ : JacobianMode::kNone, t,
-                               &error)) {
-      if (message) *message = "contact '" + contact.name + "': " + error;
+    if (!traced[i]) {
+      if (message) *message = "contact '" + contact.name + "': " + errors[i];
       ok = false;
       return;
     }
+    const ContactTrace& t = traces_[i];
     if (t.used_finite_differences) ++stats_.contacts_with_fd_jacobian;
     if (!t.periodic) {
       ++stats_.non_periodic_traces;
       stats_.last_trace_diagnostic = "contact '" + contact.name + "': " + t.diagnostic;
     }
-    forces.segment(first, p) = t.force_coefficients;
+    forces.segment(static_cast<Eigen::Index>(contact.offset) * c, contact.tracer->unknown_count()) =
+        t.force_coefficients;
   }
 }
 

@@ -296,6 +296,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
       structure =
           std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
       model = std::make_unique<HarmonicBalanceModel>(scene, *structure);
+      model->set_contact_threads(run_options.contact_threads);
     } catch (const PluginError& e) {
       return fail(kExitInvalidInput, "invalid_input", scene.file.string() + ": " + e.what());
     } catch (const SceneError& e) {

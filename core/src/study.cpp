@@ -556,14 +556,16 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
     mine.push_back(i);
   constexpr int kMaxThreads = 256;  // a typo's 100000 threads would exhaust the process
   threads = std::clamp(std::min<int>(threads, static_cast<int>(mine.size())), 1, kMaxThreads);
+  // Each run factorises (OpenBLAS) and traces its contacts on the cores its process and
+  // threads leave, so that the study's threads and ranks do not oversubscribe the cores.
+  int cores_per_run = 1;
   {
-    // Each run factorises on the cores its process and threads leave (OpenBLAS), so that the
-    // study's threads and ranks do not oversubscribe the cores.
     int local_ranks = 1;
     if (const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE"))
       local_ranks = std::max(1, std::atoi(local));
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    set_dense_solver_threads(std::max(1, cores / (local_ranks * threads)));
+    cores_per_run = std::max(1, cores / (local_ranks * threads));
+    set_dense_solver_threads(cores_per_run);
   }
   if (leader)
     spdlog::info("study of {}: {} runs ({} on {} process(es) x {} thread(s)) -> {}",
@@ -581,6 +583,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
       RunOptions options;
       options.quiet = true;
       options.plots = 0;
+      options.contact_threads = cores_per_run;
       nlohmann::json params = nlohmann::json::object();
       for (std::size_t s = 0; s < study.sweeps.size(); ++s)
         params[study.sweeps[s].path] = run.values[s];

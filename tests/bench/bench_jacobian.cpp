@@ -90,6 +90,9 @@ std::unique_ptr<Ring> make_ring(int blades, int harmonics, bool analytic) {
   r->structure =
       std::make_unique<StructureInstance>(r->scene.structure.plugin, r->scene.structure.values);
   r->model = std::make_unique<HarmonicBalanceModel>(r->scene, *r->structure);
+  // FRICHB_BENCH_CONTACT_THREADS (default 1): threads tracing the contacts; 0 = one per core.
+  if (const char* v = std::getenv("FRICHB_BENCH_CONTACT_THREADS"))
+    r->model->set_contact_threads(std::atoi(v));
   const Eigen::Index n = r->model->equation_count();
   const double w = 2 * std::numbers::pi * 300.0;
   r->y.resize(n + 1);

@@ -7,7 +7,9 @@
 // the harmonic coefficients of each used local component (t1, t2, n) of the relative
 // displacement u = frame . (x_B - x_A); F the matching contact-force coefficients from AFT.
 // Unknowns are y = [U; w] (w in rad/s, last). The model is a CurveProblem for the
-// continuation module; evaluate() is not thread-safe (it reuses AFT work buffers).
+// continuation module; evaluate() is not thread-safe (it reuses AFT work buffers). Inside one
+// evaluation the contacts may be traced on several threads (set_contact_threads): each
+// contact has its own tracer, law instance and trace, so the result does not depend on it.
 #pragma once
 
 #include <Eigen/Dense>
@@ -73,6 +75,11 @@ class HarmonicBalanceModel final : public CurveProblem {
   // Complex amplitude of the external force of kept harmonic k at the kept DOFs.
   const Eigen::VectorXcd& excitation(std::size_t k) const { return excitation_[k]; }
   JacobianMode jacobian_mode() const { return mode_; }
+  // Threads that trace the contacts in an evaluation with the Jacobian (default 1; n <= 0:
+  // one per core). Contiguous ranges of contacts go to each; at most one thread per contact.
+  // Residual-only evaluations trace on the calling thread (too little work per contact).
+  void set_contact_threads(int n);
+  int contact_threads() const { return contact_threads_; }
 
  private:
   // Traces every contact at y: their force coefficients into `forces`; with_jacobian: each
@@ -112,6 +119,7 @@ class HarmonicBalanceModel final : public CurveProblem {
   std::vector<ContactReceptance> contact_receptance_;
   std::vector<Eigen::VectorXcd> excitation_;  // per kept harmonic, over kept DOFs
   int components_ = 0;
+  int contact_threads_ = 1;
   Eigen::Index unknown_count_ = 0;
   mutable EvaluationStats stats_;
   mutable std::vector<ContactTrace> traces_;

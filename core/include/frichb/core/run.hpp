@@ -37,6 +37,9 @@ struct RunOptions {
   int plots = -1;
   // Merged into summary.json under "study" when not null (the run's place in a study).
   nlohmann::json study_context;
+  // Threads tracing the contacts within one evaluation (0: one per core); a study running
+  // several scenes at once gives each the cores it leaves.
+  int contact_threads = 0;
 };
 
 // The peak amplitude of one response node. The highest point of the traced curve is refined
