@@ -307,18 +307,18 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
 // Keller corrector by chord iterations on the factorisation kept from the last point
 // (KellerFactor): each iteration costs one residual evaluation (no Jacobian) and two
 // triangular solves instead of an evaluation with the Jacobian and a factorisation. Gives up
-// - returning not converged, for the full Newton corrector to take over from `best` - when
+// - returning not converged with ys its best iterate, for the full Newton corrector to take
+// over from there - when
 // the residual does not at least halve per iteration (the Jacobian has changed too much:
 // a contact changed regime, or the step is long) or after `max_chord` iterations. Converged:
 // the Jacobian at the solution is evaluated once (the tangent needs it).
 CoreResult ChordKeller(const CurveProblem& problem, const Scaling& s, const KellerFactor& factor,
                        const NewtonOptions& opt, const VectorXd& tangent, const VectorXd& predictor,
-                       int max_chord, VectorXd* best) {
+                       int max_chord) {
   constexpr double kMaxContraction = 0.5;
   const Index n = s.residual.size();
   CoreResult out;
   out.ys = predictor;
-  *best = predictor;
   VectorXd es;
   VectorXd r(n + 1);
   if (!EvaluateScaled(problem, s, out.ys, &es, nullptr, &out.message)) return out;
@@ -339,7 +339,6 @@ CoreResult ChordKeller(const CurveProblem& problem, const Scaling& s, const Kell
     const double norm = r.lpNorm<Eigen::Infinity>();
     if (!(norm <= kMaxContraction * out.residual_norm)) return out;
     out.ys = trial;
-    *best = trial;
     out.residual_norm = norm;
     update_norm = dz.lpNorm<Eigen::Infinity>();
   }
@@ -609,16 +608,16 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     const VectorXd predictor = ys_last + step * last.tangent;
     CoreResult corr;
     if (chord && kept_index == summary.points.size() - 1) {
-      VectorXd from = predictor;
       corr = ChordKeller(problem, s, kept, newton, last.tangent, predictor,
-                         options.max_chord_iterations, &from);
+                         options.max_chord_iterations);
       summary.chord_iterations += corr.chord_iterations;
       if (corr.converged) {
         ++summary.chord_points;
       } else {
         ++summary.chord_fallbacks;
         const int chord_iterations = corr.chord_iterations;
-        corr = DampedNewton(problem, s, from, newton, &last.tangent, &predictor);
+        const VectorXd best = corr.ys;
+        corr = DampedNewton(problem, s, best, newton, &last.tangent, &predictor);
         corr.iterations += chord_iterations;
         corr.chord_iterations = chord_iterations;
       }

@@ -38,8 +38,7 @@ int checked_int(Eigen::Index n) {
 
 void DenseLu::compute(const Eigen::Ref<const Eigen::MatrixXd>& a) {
   if (a.rows() != a.cols()) throw std::invalid_argument("DenseLu: the matrix is not square");
-  factors_.resize(a.rows(), a.cols());
-  factors_ = a;
+  factors_ = a;  // no reallocation when the size is unchanged
   factorise_stored();
 }
 

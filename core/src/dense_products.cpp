@@ -107,42 +107,53 @@ int leading_dimension(const M& m) {
 bool worth_blas(Eigen::Index m, Eigen::Index n, Eigen::Index k) {
   return m > 0 && n > 0 && k > 0 && static_cast<double>(m) * n * k >= 32768.0;
 }
+
+// gemm of the scalar type: dgemm_ or zgemm_.
+void blas_gemm(const char* ta, const char* tb, const int* m, const int* n, const int* k,
+               const double* alpha, const double* a, const int* lda, const double* b,
+               const int* ldb, const double* beta, double* c, const int* ldc) {
+  dgemm_(ta, tb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc, 1, 1);
+}
+void blas_gemm(const char* ta, const char* tb, const int* m, const int* n, const int* k,
+               const std::complex<double>* alpha, const std::complex<double>* a, const int* lda,
+               const std::complex<double>* b, const int* ldb, const std::complex<double>* beta,
+               std::complex<double>* c, const int* ldc) {
+  zgemm_(ta, tb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc, 1, 1);
+}
 #endif
 
-}  // namespace
-
-void multiply(double alpha, const Eigen::Ref<const Eigen::MatrixXd>& a, MatrixOperation op_a,
-              const Eigen::Ref<const Eigen::MatrixXd>& b, MatrixOperation op_b, double beta,
-              Eigen::Ref<Eigen::MatrixXd> c) {
+// C = alpha op(A) op(B) + beta C for either scalar type: BLAS when built with it and the
+// product is large enough, Eigen otherwise.
+template <class Scalar, class Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>>
+void gemm_or_eigen(Scalar alpha, const Eigen::Ref<const Matrix>& a, MatrixOperation op_a,
+                   const Eigen::Ref<const Matrix>& b, MatrixOperation op_b, Scalar beta,
+                   Eigen::Ref<Matrix>& c) {
   check_sizes(a, op_a, b, op_b, c);
 #ifdef FRICHB_WITH_OPENBLAS
   const Eigen::Index k = op_cols(a, op_a);
   if (worth_blas(c.rows(), c.cols(), k)) {
     const int m = blas_int(c.rows()), n = blas_int(c.cols()), kk = blas_int(k);
     const int lda = leading_dimension(a), ldb = leading_dimension(b), ldc = leading_dimension(c);
-    dgemm_(blas_operation(op_a), blas_operation(op_b), &m, &n, &kk, &alpha, a.data(), &lda,
-           b.data(), &ldb, &beta, c.data(), &ldc, 1, 1);
+    blas_gemm(blas_operation(op_a), blas_operation(op_b), &m, &n, &kk, &alpha, a.data(), &lda,
+              b.data(), &ldb, &beta, c.data(), &ldc);
     return;
   }
 #endif
   eigen_multiply(alpha, a, op_a, b, op_b, beta, c);
 }
 
+}  // namespace
+
+void multiply(double alpha, const Eigen::Ref<const Eigen::MatrixXd>& a, MatrixOperation op_a,
+              const Eigen::Ref<const Eigen::MatrixXd>& b, MatrixOperation op_b, double beta,
+              Eigen::Ref<Eigen::MatrixXd> c) {
+  gemm_or_eigen(alpha, a, op_a, b, op_b, beta, c);
+}
+
 void multiply(std::complex<double> alpha, const Eigen::Ref<const Eigen::MatrixXcd>& a,
               MatrixOperation op_a, const Eigen::Ref<const Eigen::MatrixXcd>& b,
               MatrixOperation op_b, std::complex<double> beta, Eigen::Ref<Eigen::MatrixXcd> c) {
-  check_sizes(a, op_a, b, op_b, c);
-#ifdef FRICHB_WITH_OPENBLAS
-  const Eigen::Index k = op_cols(a, op_a);
-  if (worth_blas(c.rows(), c.cols(), k)) {
-    const int m = blas_int(c.rows()), n = blas_int(c.cols()), kk = blas_int(k);
-    const int lda = leading_dimension(a), ldb = leading_dimension(b), ldc = leading_dimension(c);
-    zgemm_(blas_operation(op_a), blas_operation(op_b), &m, &n, &kk, &alpha, a.data(), &lda,
-           b.data(), &ldb, &beta, c.data(), &ldc, 1, 1);
-    return;
-  }
-#endif
-  eigen_multiply(alpha, a, op_a, b, op_b, beta, c);
+  gemm_or_eigen(alpha, a, op_a, b, op_b, beta, c);
 }
 
 }  // namespace frichb::core

@@ -5,6 +5,25 @@
 #include <string>
 
 namespace frichb::core {
+namespace {
+
+constexpr std::complex<double> kImaginaryUnit(0.0, 1.0);
+
+// Modal impedance z_r = w_r^2 - W^2 + i W c_rr of mode r (diagonal modal damping).
+std::complex<double> modal_impedance(const ReducedStructure::Basis& b, Eigen::Index r, double w) {
+  const double wr = b.frequencies(r);
+  return wr * wr - w * w + kImaginaryUnit * w * b.damping(r, r);
+}
+
+// The full modal impedance Z = diag(w_r^2) - W^2 I + i W C (any modal damping).
+Eigen::MatrixXcd modal_impedance_matrix(const ReducedStructure::Basis& b, double w) {
+  const Eigen::Index m = b.frequencies.size();
+  Eigen::MatrixXcd z = -w * w * Eigen::MatrixXcd::Identity(m, m) + kImaginaryUnit * w * b.damping;
+  z.diagonal() += b.frequencies.array().square().matrix().cast<std::complex<double>>();
+  return z;
+}
+
+}  // namespace
 
 ReducedStructure::ReducedStructure(StructureInstance& provider, std::vector<std::size_t> kept_dofs,
                                    const std::vector<int>& harmonic_indices)
@@ -67,8 +86,7 @@ void ReducedStructure::receptance(int harmonic_index, double w, Eigen::MatrixXcd
     // Z is diagonal: R = sum_r phi_r phi_r^H / z_r, dR/dW = -sum_r phi_r phi_r^H z_r' / z_r^2.
     Eigen::VectorXcd inv_z(m), dinv_z(m);
     for (Eigen::Index k = 0; k < m; ++k) {
-      const double wr = b.frequencies(k);
-      const std::complex<double> z = wr * wr - w * w + i * w * b.damping(k, k);
+      const std::complex<double> z = modal_impedance(b, k, w);
       const std::complex<double> dz = -2.0 * w + i * b.damping(k, k);
       inv_z(k) = 1.0 / z;
       dinv_z(k) = -dz / (z * z);
@@ -76,9 +94,7 @@ void ReducedStructure::receptance(int harmonic_index, double w, Eigen::MatrixXcd
     r.noalias() = b.rows * inv_z.asDiagonal() * b.rows.adjoint();
     if (dr) dr->noalias() = b.rows * dinv_z.asDiagonal() * b.rows.adjoint();
   } else {
-    Eigen::MatrixXcd z = -w * w * Eigen::MatrixXcd::Identity(m, m) + i * w * b.damping;
-    z.diagonal() += b.frequencies.array().square().matrix().cast<std::complex<double>>();
-    Eigen::PartialPivLU<Eigen::MatrixXcd> lu(z);
+    Eigen::PartialPivLU<Eigen::MatrixXcd> lu(modal_impedance_matrix(b, w));
     const Eigen::MatrixXcd zinv_phiH = lu.solve(b.rows.adjoint());
     r.noalias() = b.rows * zinv_phiH;
     if (dr) {
@@ -95,18 +111,11 @@ Eigen::VectorXcd ReducedStructure::respond(int harmonic_index, double w,
   const Basis& b = basis(harmonic_index);
   if (force.size() != b.rows.rows())
     throw std::invalid_argument("ReducedStructure::respond: force of the wrong size");
-  const std::complex<double> i(0.0, 1.0);
-  const Eigen::Index m = b.frequencies.size();
   Eigen::VectorXcd modal = b.rows.adjoint() * force;
   if (b.diagonal_damping) {
-    for (Eigen::Index k = 0; k < m; ++k) {
-      const double wr = b.frequencies(k);
-      modal(k) /= wr * wr - w * w + i * w * b.damping(k, k);
-    }
+    for (Eigen::Index k = 0; k < modal.size(); ++k) modal(k) /= modal_impedance(b, k, w);
   } else {
-    Eigen::MatrixXcd z = -w * w * Eigen::MatrixXcd::Identity(m, m) + i * w * b.damping;
-    z.diagonal() += b.frequencies.array().square().matrix().cast<std::complex<double>>();
-    modal = z.partialPivLu().solve(modal).eval();
+    modal = modal_impedance_matrix(b, w).partialPivLu().solve(modal).eval();
   }
   Eigen::VectorXcd x = b.rows * modal;
   if (b.residual_flexibility.size()) x += b.residual_flexibility * force;

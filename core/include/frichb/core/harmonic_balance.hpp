@@ -79,7 +79,6 @@ class HarmonicBalanceModel final : public CurveProblem {
   // one per core). Contiguous ranges of contacts go to each; at most one thread per contact.
   // Residual-only evaluations trace on the calling thread (too little work per contact).
   void set_contact_threads(int n);
-  int contact_threads() const { return contact_threads_; }
 
  private:
   // Traces every contact at y: their force coefficients into `forces`; with_jacobian: each
