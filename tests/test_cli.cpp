@@ -454,6 +454,45 @@ TEST_F(Cli, RunTheQuickstartWritesResponseAndSummary) {
     EXPECT_EQ(entry.path(), out) << "unexpected entry " << entry.path();
 }
 
+// structure.dofs may name a YAML file holding the map (as a model pipeline writes it); its
+// names work as inline ones, and a bad index in it is reported at its own file and line.
+TEST_F(Cli, DofNamesFromAFile) {
+  fs::create_directories(dir_ / "model");
+  std::ofstream(dir_ / "model" / "names.yaml") << "# generated\nblade: 0\n";
+  const std::string text = replace_once(quickstart_, "dofs: {blade: 0}", "dofs: model/names.yaml");
+  const fs::path scene = write_scene("from_file.yaml", text);
+  const fs::path out = dir_ / "out";
+  const Result r = frichb("run " + quoted(scene) + " -o " + quoted(out));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(read_text(out / "response.csv"), HasSubstr("blade_amplitude_m"));
+  // The same curve as the inline map.
+  const fs::path inline_out = dir_ / "inline";
+  ASSERT_EQ(frichb("run " + quoted(kQuickstart) + " -o " + quoted(inline_out)).code, 0);
+  EXPECT_EQ(read_text(out / "response.csv"), read_text(inline_out / "response.csv"));
+
+  std::ofstream(dir_ / "model" / "names.yaml") << "# generated\nblade: 7\n";
+  const Result bad = frichb("run " + quoted(scene) + " -o " + quoted(dir_ / "bad"));
+  EXPECT_EQ(bad.code, 2) << bad.output;
+  EXPECT_THAT(bad.output, HasSubstr((dir_ / "model" / "names.yaml").string() +
+                                    ":2:8: structure.dofs.blade: DOF 7 does not exist"));
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
+
+  std::ofstream(dir_ / "model" / "names.yaml") << "blade: [0, x]\n";
+  const Result malformed = frichb("validate " + quoted(scene));
+  EXPECT_EQ(malformed.code, 2) << malformed.output;
+  EXPECT_THAT(malformed.output, HasSubstr((dir_ / "model" / "names.yaml").string() +
+                                          ":1:12: structure.dofs.blade: expected a DOF index"));
+}
+
+TEST_F(Cli, DofMapFileThatDoesNotExist) {
+  const std::string missing_text =
+      replace_once(quickstart_, "dofs: {blade: 0}", "dofs: model/missing.yaml");
+  const std::string missing = expect_refused("missing_names.yaml", missing_text);
+  EXPECT_THAT(missing,
+              HasSubstr((dir_ / "missing_names.yaml").string() + ":" +
+                        location_after(missing_text, "dofs: ") + ": structure.dofs: DOF map file"));
+}
+
 TEST_F(Cli, ARerunReplacesItsOwnOutputsAndKeepsOtherFiles) {
   const fs::path out = dir_ / "rerun";
   ASSERT_EQ(frichb("run " + quoted(kQuickstart) + " -o " + quoted(out)).code, 0);

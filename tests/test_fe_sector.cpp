@@ -512,6 +512,50 @@ TEST(FeSector, RefusesBadFilesAndMatrices) {
       HasSubstr("the mass matrix has 3 DOFs but the stiffness matrix " + std::to_string(s.n)));
 }
 
+// A cyclic_pairs file (as a model pipeline writes) is the same boundary as the inline lists:
+// the same full-disk frequencies for every harmonic index; bad lines name the file and line.
+TEST(FeSector, CyclicPairsFileIsTheSameBoundaryAsTheInlineLists) {
+  const Sector s(3, 4, 4, true, 5);
+  const Files f(s);
+  std::string pairs = "# left right\n";
+  for (std::size_t j = 0; j < s.left.size(); ++j)
+    pairs += std::to_string(s.left[j]) + " " + std::to_string(s.right[j]) + "  # pair\n\n";
+  const auto pairs_file = f.dir.write("pairs.txt", pairs);
+  const std::string files = "{mass: '" + f.mass + "', stiffness: '" + f.stiffness + "', ";
+  const int nb = 5;
+  auto inline_lists = make_provider(f.params(s, nb, 4));
+  auto from_file = make_provider(files + "sectors: " + std::to_string(nb) + ", cyclic_pairs: '" +
+                                 pairs_file.string() + "', modes: 4}");
+  for (int h = 0; h < nb; ++h) {
+    const frichb_modal_basis a = inline_lists.instance->modal_basis(h, s.all_dofs());
+    const std::vector<double> wa(a.natural_frequencies, a.natural_frequencies + a.n_modes);
+    const frichb_modal_basis b = from_file.instance->modal_basis(h, s.all_dofs());
+    const std::vector<double> wb(b.natural_frequencies, b.natural_frequencies + b.n_modes);
+    EXPECT_EQ(wa, wb) << "h = " << h;
+  }
+  // Without the pairs the sectors are uncoupled: another spectrum (the test can fail).
+  auto uncoupled = make_provider(files + "sectors: " + std::to_string(nb) + ", modes: 4}");
+  EXPECT_NE(uncoupled.instance->modal_basis(1, s.all_dofs()).natural_frequencies[0],
+            inline_lists.instance->modal_basis(1, s.all_dofs()).natural_frequencies[0]);
+
+  const auto bad = f.dir.write("bad.txt", "# header\n0 3\n4 seven\n");
+  EXPECT_THAT(message_of(files + "sectors: 4, cyclic_pairs: '" + bad.string() + "', modes: 2}"),
+              HasSubstr(bad.string() + ":3: expected two DOF indices"));
+  const auto three = f.dir.write("three.txt", "0 3 5\n");
+  EXPECT_THAT(message_of(files + "sectors: 4, cyclic_pairs: '" + three.string() + "', modes: 2}"),
+              HasSubstr(three.string() + ":1: expected two DOF indices"));
+  const auto negative = f.dir.write("negative.txt", "-1 3\n");
+  EXPECT_THAT(
+      message_of(files + "sectors: 4, cyclic_pairs: '" + negative.string() + "', modes: 2}"),
+      HasSubstr(negative.string() + ":1: expected two DOF indices (integers >= 0)"));
+  EXPECT_THAT(message_of(files + "sectors: 4, cyclic_pairs: '" + pairs_file.string() +
+                         "', left_dofs: [0], right_dofs: [3], modes: 2}"),
+              HasSubstr("either as cyclic_pairs or as left_dofs/right_dofs, not both"));
+  EXPECT_THAT(message_of(files + "sectors: 4, cyclic_pairs: '" +
+                         (f.dir.path() / "missing.txt").string() + "', modes: 2}"),
+              HasSubstr("cyclic_pairs: cannot open"));
+}
+
 TEST(FeSector, RefusesBadBoundaryListsAndCounts) {
   const Sector s(2, 3, 2, true, 9);  // 10 DOFs, left {0, 4}, right {3, 7}
   const Files f(s);

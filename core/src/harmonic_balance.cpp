@@ -46,10 +46,11 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   for (const auto& node : scene.structure.nodes)
     for (std::size_t d : node.dofs)
       if (d >= n_dofs)
-        ctx.fail(root["structure"]["dofs"][node.name], "structure.dofs." + node.name,
-                 "DOF " + std::to_string(d) + " does not exist: provider '" +
-                     scene.structure.provider + "' has " + std::to_string(n_dofs) + " DOFs (0.." +
-                     std::to_string(n_dofs - 1) + ")");
+        YamlContext{node.defined_in.empty() ? scene.file.string() : node.defined_in}.fail(
+            node.definition, "structure.dofs." + node.name,
+            "DOF " + std::to_string(d) + " does not exist: provider '" + scene.structure.provider +
+                "' has " + std::to_string(n_dofs) + " DOFs (0.." + std::to_string(n_dofs - 1) +
+                ")");
   // Harmonic index of each kept temporal harmonic; only the indices they excite are built.
   const int sectors = static_cast<int>(structure.sector_count());
   if (sectors != scene.cyclic.sectors) {

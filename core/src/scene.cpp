@@ -288,25 +288,43 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   scene.structure.provider = view(structure_schema(), sv).text("provider");
   scene.structure.params = s["params"];
   YAML::Node dofs = s["dofs"];
+  // `dofs` is the map itself or the path of a YAML file holding it (relative to the scene's
+  // folder), e.g. the DOF names a model pipeline writes next to its matrices.
+  YamlContext dofs_ctx = ctx;
+  if (dofs && dofs.IsScalar()) {
+    fs::path map_file(dofs.Scalar());
+    if (!map_file.is_absolute()) map_file = file.parent_path() / map_file;
+    std::error_code ec;
+    if (!fs::is_regular_file(map_file, ec))
+      ctx.fail(dofs, "structure.dofs",
+               "DOF map file '" + map_file.string() +
+                   "' not found (a relative path is taken from the scene file's folder)");
+    dofs = load_scene_yaml(map_file);
+    dofs_ctx = YamlContext{map_file.string()};
+  }
   if (!dofs || !dofs.IsMap() || dofs.size() == 0)
-    ctx.fail(dofs ? dofs : s, "structure.dofs",
-             "expected a map naming DOFs, e.g. {blade: 0, damper: [3, 4, 5]}");
+    dofs_ctx.fail(dofs ? dofs : s, "structure.dofs",
+                  "expected a map naming DOFs, e.g. {blade: 0, damper: [3, 4, 5]}, or the path "
+                  "of a YAML file holding one");
   for (const auto& kv : dofs) {
     NodeSpec node;
-    if (!kv.first.IsScalar()) ctx.fail(kv.first, "structure.dofs", "a DOF name must be plain text");
+    if (!kv.first.IsScalar())
+      dofs_ctx.fail(kv.first, "structure.dofs", "a DOF name must be plain text");
     node.name = kv.first.Scalar();
+    node.defined_in = dofs_ctx.file;
+    node.definition = kv.second;
     const std::string path = "structure.dofs." + node.name;
-    if (node.name == "ground") ctx.fail(kv.first, path, "'ground' is reserved");
+    if (node.name == "ground") dofs_ctx.fail(kv.first, path, "'ground' is reserved");
     auto read_index = [&](const YAML::Node& n) {
       double x = -1;
       if (!n.IsScalar() || !YAML::convert<double>::decode(n, x) || x < 0 || x != std::floor(x) ||
           x > std::numeric_limits<int>::max())
-        ctx.fail(n, path, "expected a DOF index (integer >= 0) or a list of them");
+        dofs_ctx.fail(n, path, "expected a DOF index (integer >= 0) or a list of them");
       node.dofs.push_back(static_cast<std::size_t>(x));
     };
     if (kv.second.IsSequence()) {
       if (kv.second.size() == 0 || kv.second.size() > 3)
-        ctx.fail(kv.second, path, "a node has 1 to 3 DOFs");
+        dofs_ctx.fail(kv.second, path, "a node has 1 to 3 DOFs");
       for (const auto& n : kv.second) read_index(n);
     } else {
       read_index(kv.second);
@@ -597,7 +615,8 @@ std::vector<CoreSection> core_schemas() {
        "(required), `output`, `cyclic`, `study`."},
       {"structure", structure_schema(),
        "`params`: the provider's parameters (see Structure providers below). `dofs`: a map "
-       "naming the DOFs the scene refers to, `name: index` for a scalar DOF or "
+       "naming the DOFs the scene refers to (or the path, relative to the scene's folder, of a "
+       "YAML file holding that map), `name: index` for a scalar DOF or "
        "`name: [i, j, k]` for a node of 2-3 DOFs (indices 0-based in the provider's numbering)."},
       {"excitation", excitation_schema(),
        "`excitation` is a top-level list; each entry is one harmonic force "

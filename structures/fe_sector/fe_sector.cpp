@@ -85,6 +85,11 @@ std::vector<frichb_param_spec> fe_sector_schema() {
                        "left_dofs")
           .at_least(0)
           .optional(),
+      Param::path("cyclic_pairs",
+                  "text file of the cyclic boundary, one pair 'left right' of 0-based DOF "
+                  "indices per line ('#' starts a comment), instead of left_dofs/right_dofs; "
+                  "relative to the scene file's folder")
+          .defaults_to_text(""),
       Param::integer("modes", "number of lowest modes kept per harmonic index").at_least(1),
       Param::real_list("modal_damping", "",
                        "modal damping ratio: one value for every mode, or one per kept mode (the "
@@ -468,7 +473,17 @@ class FeSector final : public frichb::sdk::StructureProvider {
                                   " DOFs but the stiffness matrix " +
                                   std::to_string(stiffness_.rows()) +
                                   ": both must cover the same sector DOFs");
-    read_boundary(p.reals("left_dofs"), p.reals("right_dofs"));
+    const std::string pairs_file = p.text("cyclic_pairs");
+    if (pairs_file.empty()) {
+      read_boundary(p.reals("left_dofs"), p.reals("right_dofs"));
+    } else {
+      if (!p.reals("left_dofs").empty() || !p.reals("right_dofs").empty())
+        throw std::invalid_argument(
+            "give the cyclic boundary either as cyclic_pairs or as left_dofs/right_dofs, not "
+            "both");
+      const auto [left, right] = read_pairs(pairs_file);
+      read_boundary(left, right);
+    }
     const Index n = mass_.rows(), m = independent_count();
     if (modes_ > m)
       throw std::invalid_argument("modes = " + std::to_string(modes_) + " exceeds the " +
@@ -555,6 +570,29 @@ class FeSector final : public frichb::sdk::StructureProvider {
       out.push_back(static_cast<Index>(v));
     }
     return out;
+  }
+
+  // The 'left right' pairs of a cyclic_pairs file, as the two lists left_dofs/right_dofs.
+  static std::pair<std::vector<double>, std::vector<double>> read_pairs(const std::string& file) {
+    std::ifstream in(file);
+    if (!in) throw std::invalid_argument("cyclic_pairs: cannot open '" + file + "'");
+    std::vector<double> left, right;
+    std::string line;
+    for (int number = 1; std::getline(in, line); ++number) {
+      if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+      if (blank(line)) continue;
+      std::istringstream fields(line);
+      double l = -1, r = -1;
+      std::string extra;
+      if (!(fields >> l >> r) || (fields >> extra) || l < 0 || r < 0 || l != std::floor(l) ||
+          r != std::floor(r))
+        throw std::invalid_argument(
+            file + ":" + std::to_string(number) +
+            ": expected two DOF indices (integers >= 0) 'left right', got '" + line + "'");
+      left.push_back(l);
+      right.push_back(r);
+    }
+    return {std::move(left), std::move(right)};
   }
 
   void read_boundary(const std::vector<double>& left, const std::vector<double>& right) {

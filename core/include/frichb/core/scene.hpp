@@ -28,6 +28,10 @@ enum class FrequencyUnit { kHz, kRadPerSecond };
 struct NodeSpec {
   std::string name;
   std::vector<std::size_t> dofs;
+  // Where the name was defined, for error messages: the file (the scene, or the DOF map file
+  // `structure.dofs` points to) and the YAML value of its indices there.
+  std::string defined_in;
+  YAML::Node definition;
 };
 
 struct ExcitationSpec {
