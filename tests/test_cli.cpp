@@ -19,6 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -491,6 +492,62 @@ TEST_F(Cli, DofMapFileThatDoesNotExist) {
   EXPECT_THAT(missing,
               HasSubstr((dir_ / "missing_names.yaml").string() + ":" +
                         location_after(missing_text, "dofs: ") + ": structure.dofs: DOF map file"));
+}
+
+// Numbers of a CSV file's rows after its header.
+std::vector<std::vector<double>> csv_numbers(const std::string& text) {
+  std::istringstream in(text);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    std::vector<double> row;
+    std::istringstream fields(line);
+    for (std::string field; std::getline(fields, field, ',');) row.push_back(std::stod(field));
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+// Each friction loop comes with the harmonics of its contact force (thesis Fig. 5.6): they
+// are the DFT of the loop's force column (computed here term by term), and for the Jenkins
+// element under a symmetric motion they hold odd harmonics only; stuck (330 Hz) the force is
+// a pure first harmonic, slipping (400 Hz) it carries a third harmonic.
+TEST_F(Cli, FrictionLoopsCarryTheHarmonicsOfTheContactForce) {
+  const fs::path out = dir_ / "harmonics";
+  ASSERT_EQ(frichb("run " + quoted(kQuickstart) + " -o " + quoted(out)).code, 0);
+  for (const char* at : {"330Hz", "400Hz"}) {
+    const std::string base = std::string("root_friction_") + at + "_1";
+    const auto loop = csv_numbers(read_text(out / "loops" / (base + ".csv")));
+    const auto table = csv_numbers(read_text(out / "loops" / (base + "_harmonics.csv")));
+    ASSERT_GT(loop.size(), 2u);
+    const std::size_t samples = loop.size() - 1;  // the first sample is repeated at the end
+    ASSERT_EQ(table.size(), 11u);                 // harmonics 0..10
+    std::vector<double> amplitude;
+    for (std::size_t n = 0; n < table.size(); ++n) {
+      double c = 0, s = 0;
+      for (std::size_t j = 0; j < samples; ++j) {
+        const double phase = 2.0 * std::numbers::pi * static_cast<double>(n * j) / samples;
+        c += loop[j][2] * std::cos(phase);
+        s += loop[j][2] * std::sin(phase);
+      }
+      const double scale = n == 0 ? 1.0 / samples : 2.0 / samples;
+      amplitude.push_back(std::hypot(c, s) * scale);
+      EXPECT_NEAR(table[n][0], static_cast<double>(n), 0.0);
+      EXPECT_NEAR(table[n][3], amplitude[n], 1e-9 * table[1][3]) << at << " harmonic " << n;
+    }
+    for (std::size_t n = 0; n < table.size(); n += 2)
+      EXPECT_LT(amplitude[n], 1e-9 * amplitude[1]) << at << ": even harmonic " << n;
+    if (std::string(at) == "330Hz")
+      EXPECT_LT(amplitude[3], 1e-9 * amplitude[1]) << "stuck: a pure first harmonic";
+    else
+      EXPECT_GT(amplitude[3], 0.05 * amplitude[1]) << "slipping: a third harmonic";
+  }
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  const auto& first = summary.at("friction_loops").at(0);
+  EXPECT_EQ(first.at("harmonics_file"), "loops/root_friction_330Hz_1_harmonics.csv");
+  EXPECT_EQ(first.at("force_harmonic_amplitudes_N").at("t1").size(), 11u);
 }
 
 TEST_F(Cli, ARerunReplacesItsOwnOutputsAndKeepsOtherFiles) {

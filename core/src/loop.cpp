@@ -94,6 +94,42 @@ std::vector<CoreSection> loop_schemas() {
           {"output", output_schema(), ""}};
 }
 
+ForceHarmonics force_harmonics(const Eigen::MatrixXd& force, std::span<const int> components,
+                               int max_harmonic) {
+  const int samples = static_cast<int>(force.rows());
+  if (max_harmonic < 1 || samples < 2 * max_harmonic + 1 ||
+      static_cast<std::size_t>(force.cols()) != components.size())
+    throw std::invalid_argument("force_harmonics: " + std::to_string(samples) +
+                                " samples cannot resolve harmonic " + std::to_string(max_harmonic) +
+                                " of " + std::to_string(force.cols()) + " columns");
+  std::vector<int> harmonics;
+  for (int h = 0; h <= max_harmonic; ++h) harmonics.push_back(h);
+  const HarmonicLayout layout(harmonics, samples);
+  Aft aft(layout);
+  ForceHarmonics out;
+  out.header = {"harmonic"};
+  for (int k : components)
+    for (const char* part : {"cos", "sin", "amplitude"})
+      out.header.push_back(std::string("f_") + kComponentNames[k] + "_" + part + "_N");
+  out.rows.resize(static_cast<std::size_t>(max_harmonic + 1));
+  Eigen::VectorXd coefficients(layout.coefficient_count()), column(samples);
+  for (Eigen::Index a = 0; a < force.cols(); ++a) {
+    column = force.col(a);
+    aft.to_coefficients(column.data(), coefficients.data());
+    std::vector<double> amplitude(static_cast<std::size_t>(max_harmonic + 1));
+    for (int h = 0; h <= max_harmonic; ++h) {
+      const auto k = static_cast<std::size_t>(h);
+      const double cc = coefficients(layout.cos_index(k));
+      const double ss = h ? coefficients(layout.sin_index(k)) : 0.0;
+      amplitude[k] = std::hypot(cc, ss);
+      if (out.rows[k].empty()) out.rows[k].push_back(h);
+      out.rows[k].insert(out.rows[k].end(), {cc, ss, amplitude[k]});
+    }
+    out.amplitude.push_back(std::move(amplitude));
+  }
+  return out;
+}
+
 int run_loop(const LoopRequest& request) {
   const std::string file = request.input_file.string();
   const YamlContext ctx{file};
@@ -212,23 +248,11 @@ int run_loop(const LoopRequest& request) {
                   (trace.displacement(jn, a) - trace.displacement(j, a));
     }
     // Force harmonics of the raw law force.
-    Aft aft(layout);
-    Eigen::VectorXd coefficients(c), column(samples);
-    std::vector<std::vector<double>> harmonic_rows(static_cast<std::size_t>(max_h + 1));
+    const ForceHarmonics harmonics_table = force_harmonics(trace.force, comps, max_h);
     nlohmann::json significant = nlohmann::json::object();
     const double threshold = sv.real("significance");
     for (int a = 0; a < d; ++a) {
-      column = trace.force.col(a);
-      aft.to_coefficients(column.data(), coefficients.data());
-      std::vector<double> amplitude(static_cast<std::size_t>(max_h + 1));
-      for (int h = 0; h <= max_h; ++h) {
-        const auto k = static_cast<std::size_t>(h);
-        const double cc = coefficients(layout.cos_index(k));
-        const double ss = h ? coefficients(layout.sin_index(k)) : 0.0;
-        amplitude[k] = std::hypot(cc, ss);
-        if (harmonic_rows[k].empty()) harmonic_rows[k].push_back(h);
-        harmonic_rows[k].insert(harmonic_rows[k].end(), {cc, ss, amplitude[k]});
-      }
+      const auto& amplitude = harmonics_table.amplitude[static_cast<std::size_t>(a)];
       const double largest = *std::max_element(amplitude.begin() + 1, amplitude.end());
       std::vector<int> list;
       for (int h = 1; h <= max_h; ++h)
@@ -253,11 +277,7 @@ int run_loop(const LoopRequest& request) {
       rows.push_back(std::move(r));
     }
     write_csv(out.path("loop.csv"), header, rows);
-    std::vector<std::string> hh = {"harmonic"};
-    for (int k : comps)
-      for (const char* part : {"cos", "sin", "amplitude"})
-        hh.push_back(std::string("f_") + kComponentNames[k] + "_" + part + "_N");
-    write_csv(out.path("harmonics.csv"), hh, harmonic_rows);
+    write_csv(out.path("harmonics.csv"), harmonics_table.header, harmonics_table.rows);
     int slipping = 0, open = 0;
     for (int s : status) {
       slipping += s == 1;

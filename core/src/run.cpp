@@ -12,6 +12,7 @@
 #include "frichb/core/continuation.hpp"
 #include "frichb/core/dense_lu.hpp"
 #include "frichb/core/harmonic_balance.hpp"
+#include "frichb/core/loop.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/core/response.hpp"
 #include "frichb/core/scene.hpp"
@@ -542,10 +543,21 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
               energy += 0.5 * (trace.force(j, a) + trace.force(jn, a)) *
                         (trace.displacement(jn, a) - trace.displacement(j, a));
           }
+          // Harmonics of the contact force (thesis Fig. 5.6): at least up to 10, and up to
+          // the highest kept harmonic, as far as the samples resolve them.
+          const int shown =
+              std::min((samples - 1) / 2, std::max(10, scene.harmonic_balance.harmonics.back()));
+          const ForceHarmonics force_table = force_harmonics(trace.force, comps, shown);
+          write_csv(out.path(base + "_harmonics.csv"), force_table.header, force_table.rows);
+          nlohmann::json force_amplitudes = nlohmann::json::object();
+          for (std::size_t a = 0; a < comps.size(); ++a)
+            force_amplitudes[names[comps[a]]] = force_table.amplitude[a];
           loops.push_back({{"contact", contact.name},
                            {"frequency", f_req},
                            {"crossing", crossing},
                            {"file", base + ".csv"},
+                           {"harmonics_file", base + "_harmonics.csv"},
+                           {"force_harmonic_amplitudes_N", force_amplitudes},
                            {"dissipated_energy_per_cycle_J", energy},
                            {"trace_passes", trace.passes}});
           if (plots) {
