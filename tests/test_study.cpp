@@ -147,6 +147,32 @@ TEST(StudySpec, GridZipAndRangesExpandToRuns) {
   Scene zs = load_scene(zipped);
   bind_plugins(zs, registry);
   EXPECT_EQ(prepare_study_runs(zs, load_study(zs), registry).size(), 3u);
+
+  // Load cases (a preload and a friction coefficient varying together) on a grid with the
+  // excitation level: 3 cases x 2 levels, the cases slowest, each case's pair kept together.
+  const auto cases = quickstart_with_study(
+      dir,
+      "study:\n  sweep:\n"
+      "    - {path: contacts.root_friction.params.normal_load, values: [1, 2, 3]}\n"
+      "    - {path: contacts.root_friction.params.mu, values: [0.1, 0.2, 0.3], "
+      "with_previous: true}\n"
+      "    - {path: excitation.0.amplitude, values: [5, 7]}\n",
+      "cases.yaml");
+  Scene cs = load_scene(cases);
+  bind_plugins(cs, registry);
+  const auto case_study = load_study(cs);
+  ASSERT_EQ(case_study.axes().size(), 2u);
+  EXPECT_EQ(case_study.axes()[0], (std::vector<std::size_t>{0, 1}));
+  const auto case_runs = prepare_study_runs(cs, case_study, registry);
+  ASSERT_EQ(case_runs.size(), 6u);
+  const std::vector<std::vector<double>> expected = {{1, 0.1, 5}, {1, 0.1, 7}, {2, 0.2, 5},
+                                                     {2, 0.2, 7}, {3, 0.3, 5}, {3, 0.3, 7}};
+  for (std::size_t r = 0; r < expected.size(); ++r) {
+    EXPECT_EQ(case_runs[r].values, expected[r]) << "run " << r;
+    EXPECT_EQ(case_runs[r].scene.contacts[0].values.to_json(
+                  case_runs[r].scene.contacts[0].plugin->schema())["mu"],
+              expected[r][1]);
+  }
 }
 
 // The error text of preparing every run of the quick-start scene with `study` appended
@@ -181,6 +207,13 @@ TEST(StudySpec, BadInputNamesFileLineAndRun) {
                        "    - {path: contacts.root_friction.params.mu, values: [0.1, 0.2]}\n"
                        "    - {path: excitation.0.amplitude, values: [1]}\n"),
               HasSubstr("equal lengths"));
+  EXPECT_THAT(error_of("study:\n  sweep:\n"
+                       "    - {path: contacts.root_friction.params.mu, values: [0.1, 0.2]}\n"
+                       "    - {path: excitation.0.amplitude, values: [1], with_previous: true}\n"),
+              HasSubstr("study.sweep[1]: with_previous needs sweeps of equal lengths (2 and 1"));
+  EXPECT_THAT(error_of("study:\n  sweep:\n"
+                       "    - {path: excitation.0.amplitude, values: [1], with_previous: true}\n"),
+              HasSubstr("study.sweep[0].with_previous: the first sweep has no previous sweep"));
   EXPECT_THAT(error_of("study:\n  sweep:\n    - {path: excitation.0.amplitude, from: 1}\n"),
               HasSubstr("needs from, to and count"));
   EXPECT_THAT(error_of("study:\n  parallel: many\n  sweep:\n"

@@ -59,10 +59,15 @@ const frichb_param_spec* sweep_fields() {
       Param::text("spacing", "spacing of a generated range")
           .defaults_to_text("linear")
           .choices("linear|log"),
+      Param::boolean("with_previous",
+                     "vary together with the previous sweep (same number of values: the i-th "
+                     "with the i-th), the pair being one axis of the grid; e.g. a gap and a "
+                     "preload that go from one load case to the next")
+          .defaults_to(0),
   };
   return f;
 }
-constexpr std::size_t kSweepFieldCount = 6;
+constexpr std::size_t kSweepFieldCount = 7;
 
 const std::vector<frichb_param_spec>& study_schema() {
   static const std::vector<frichb_param_spec> s = {
@@ -229,29 +234,23 @@ YAML::Node resolve(YAML::Node document,  // NOLINT(performance-unnecessary-value
   return node;
 }
 
+// Every run's values (one per sweep): the grid over the axes, the first axis slowest.
 std::vector<std::vector<double>> combinations(const StudySpec& study) {
   std::vector<std::vector<double>> runs;
   if (study.sweeps.empty()) return runs;
-  if (study.zip) {
-    for (std::size_t i = 0; i < study.sweeps.front().values.size(); ++i) {
-      std::vector<double> v;
-      for (const auto& s : study.sweeps) v.push_back(s.values[i]);
-      runs.push_back(std::move(v));
-    }
-    return runs;
-  }
-  std::vector<std::size_t> counter(study.sweeps.size(), 0);
+  const auto axes = study.axes();
+  std::vector<std::size_t> counter(axes.size(), 0);
   while (true) {
-    std::vector<double> v;
-    for (std::size_t k = 0; k < study.sweeps.size(); ++k)
-      v.push_back(study.sweeps[k].values[counter[k]]);
+    std::vector<double> v(study.sweeps.size());
+    for (std::size_t a = 0; a < axes.size(); ++a)
+      for (std::size_t k : axes[a]) v[k] = study.sweeps[k].values[counter[a]];
     runs.push_back(std::move(v));
-    std::size_t k = study.sweeps.size();
-    while (k > 0) {
-      --k;
-      if (++counter[k] < study.sweeps[k].values.size()) break;
-      counter[k] = 0;
-      if (k == 0) return runs;
+    std::size_t a = axes.size();
+    while (a > 0) {
+      --a;
+      if (++counter[a] < study.sweeps[axes[a].front()].values.size()) break;
+      counter[a] = 0;
+      if (a == 0) return runs;
     }
   }
 }
@@ -342,6 +341,15 @@ std::string quoted(const std::string& s) {
 
 }  // namespace
 
+std::vector<std::vector<std::size_t>> StudySpec::axes() const {
+  std::vector<std::vector<std::size_t>> out;
+  for (std::size_t k = 0; k < sweeps.size(); ++k) {
+    if (out.empty() || !(zip || sweeps[k].with_previous)) out.emplace_back();
+    out.back().push_back(k);
+  }
+  return out;
+}
+
 void set_scene_value(YAML::Node document,  // NOLINT(performance-unnecessary-value-param)
                      const std::string& path, double value) {
   YAML::Node node = resolve(document, path, true);
@@ -374,6 +382,10 @@ StudySpec load_study(const Scene& scene) {
     YAML::Node entry = sn["sweep"][i];
     SweepSpec sweep;
     sweep.path = r.text("path");
+    sweep.with_previous = r.boolean("with_previous");
+    if (sweep.with_previous && i == 0)
+      ctx.fail(entry["with_previous"], key + ".with_previous",
+               "the first sweep has no previous sweep to vary with");
     if (!seen.insert(sweep.path).second)
       ctx.fail(entry["path"], key + ".path", "'" + sweep.path + "' is swept twice");
     try {
@@ -406,21 +418,22 @@ StudySpec load_study(const Scene& scene) {
     }
     study.sweeps.push_back(std::move(sweep));
   }
-  std::size_t total = study.zip ? study.sweeps[0].values.size() : 1;  // saturates
-  for (const auto& sweep : study.sweeps)
-    if (!study.zip)
-      total = total > kMaxStudyRuns / sweep.values.size() ? kMaxStudyRuns + 1
-                                                          : total * sweep.values.size();
+  // Sweeps varying together have equal lengths; the grid's size is the product over axes.
+  std::size_t total = 1;  // saturates
+  for (const auto& axis : study.axes()) {
+    const auto& first = study.sweeps[axis.front()];
+    for (std::size_t k : axis)
+      if (study.sweeps[k].values.size() != first.values.size())
+        ctx.fail(sn["sweep"][k], "study.sweep[" + std::to_string(k) + "]",
+                 std::string(study.zip ? "combine: zip" : "with_previous") +
+                     " needs sweeps of equal lengths (" + std::to_string(first.values.size()) +
+                     " and " + std::to_string(study.sweeps[k].values.size()) + " values)");
+    total = total > kMaxStudyRuns / first.values.size() ? kMaxStudyRuns + 1
+                                                        : total * first.values.size();
+  }
   if (total > kMaxStudyRuns)
     ctx.fail(sn["sweep"], "study.sweep",
              "more than " + std::to_string(kMaxStudyRuns) + " runs (the most a study may have)");
-  if (study.zip)
-    for (std::size_t i = 1; i < study.sweeps.size(); ++i)
-      if (study.sweeps[i].values.size() != study.sweeps[0].values.size())
-        ctx.fail(sn["sweep"][i], "study.sweep[" + std::to_string(i) + "]",
-                 "combine: zip needs sweeps of equal lengths (" +
-                     std::to_string(study.sweeps[0].values.size()) + " and " +
-                     std::to_string(study.sweeps[i].values.size()) + " values)");
   return study;
 }
 
@@ -760,27 +773,30 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
                                            scene.output.response.end(), study.node) -
                                  scene.output.response.begin()) +
             1;
-        if (study.sweeps.size() == 1 || study.zip) {
+        // The first axis on x; one line per combination of the sweeps of the other axes.
+        const std::size_t first_axis = study.axes().front().size();
+        if (first_axis == study.sweeps.size()) {
           pk << "plot 'study.csv' using 2:" << peak_col << " with linespoints pt 7 lw 2 title "
              << quoted(study.node) << "\n";
         } else {
           // Grid: the first sweep on the axis, one line per combination of the others.
           std::vector<std::vector<double>> others;
           for (const auto& run : runs) {
-            std::vector<double> rest(run.values.begin() + 1, run.values.end());
+            std::vector<double> rest(run.values.begin() + static_cast<std::ptrdiff_t>(first_axis),
+                                     run.values.end());
             if (std::find(others.begin(), others.end(), rest) == others.end())
               others.push_back(rest);
           }
           pk << "plot ";
           for (std::size_t g = 0; g < others.size(); ++g) {
             std::string cond = "1", label;
-            for (std::size_t s = 1; s < study.sweeps.size(); ++s) {
-              cond += " && abs(column(" + std::to_string(s + 2) + ") - (" +
-                      format_value(others[g][s - 1]) + ")) <= 1e-9 * (1 + abs(" +
-                      format_value(others[g][s - 1]) + "))";
-              label += (s > 1 ? ", " : "") +
+            for (std::size_t s = first_axis; s < study.sweeps.size(); ++s) {
+              const double value = others[g][s - first_axis];
+              cond += " && abs(column(" + std::to_string(s + 2) + ") - (" + format_value(value) +
+                      ")) <= 1e-9 * (1 + abs(" + format_value(value) + "))";
+              label += (s > first_axis ? ", " : "") +
                        study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) +
-                       "=" + short_value(others[g][s - 1]);
+                       "=" + short_value(value);
             }
             pk << (g ? ", \\\n     " : "") << "'study.csv' using 2:((" << cond << ") ? column("
                << peak_col << ") : 1/0) with linespoints pt 7 lw 2 title " << quoted(label);

@@ -4,7 +4,11 @@
 //     sweep:
 //       - {path: contacts.shroud.params.normal_load, values: [0, 5, 10, 25]}
 //       - {path: excitation.0.amplitude, from: 1, to: 100, count: 5, spacing: log}
+//       - {path: contacts.shroud.params.gap, values: [1e-4, 0, 0]}
+//       - {path: contacts.shroud.params.normal_load, values: [0, 5, 10], with_previous: true}
 //     combine: grid        # every combination (first sweep slowest); zip: i-th with i-th
+//                          # (with_previous: that sweep is zipped with the one before it
+//                          # and the pair is one axis of the grid)
 //     parallel: auto       # threads per process: auto (every core), serial, or a count
 //
 // A path addresses a key of the scene as written: map keys separated by '.', list entries by
@@ -52,6 +56,7 @@ class StudyCommunicator {
 struct SweepSpec {
   std::string path;            // as written
   std::vector<double> values;  // the values, generated when given as from/to/count
+  bool with_previous = false;  // varies together with the previous sweep (same length)
 };
 
 struct StudySpec {
@@ -59,6 +64,10 @@ struct StudySpec {
   bool zip = false;  // false: grid (cartesian product, the first sweep varying slowest)
   int threads = 0;   // 0: one per core
   std::string node;  // node whose curves are overlaid and peaks plotted
+
+  // The axes of the grid: consecutive sweeps that vary together (all of them with zip; a
+  // sweep and the following ones marked with_previous otherwise), as indices into sweeps.
+  std::vector<std::vector<std::size_t>> axes() const;
 };
 
 // One run of a study: its values (one per sweep) and its scene, bound to plugins.
