@@ -15,6 +15,7 @@ packages=(
   openmpi-bin libopenmpi-dev openssh-client
   clang-format clang-tidy
   clang libclang-rt-dev llvm
+  gmsh calculix-ccx
 )
 
 missing=()

@@ -1,0 +1,124 @@
+# The FE model pipeline against an independent oracle: builds the shrouded blade test case
+# (Gmsh + CalculiX, configs/models/shrouded_blade/build_model.py), computes its nodal-diameter
+# map with `frichb modes` (fe_sector: FricHB's own cyclic reduction of the exported matrices in
+# the nodes' cylindrical frames) and with CalculiX's own cyclic-symmetry solver on the same mesh
+# (ccx_cyclic_frequencies.py: *TIE CYCLIC SYMMETRY, the bore clamped by *BOUNDARY), and requires
+# the first 6 families to agree for every nodal diameter. Then runs a short friction sweep on
+# the generated files. Everything is written under ${WORK}; the source tree stays clean.
+#
+# Tolerance: CalculiX prints eigenvalues with 7 significant digits, i.e. the oracle's
+# frequencies are exact to at most 2.5e-7 relative; both sides solve the same discretisation
+# (FricHB's matrices are CalculiX's, written with 14 digits), so they agree to that print
+# precision (measured worst: 1.8e-7). 1e-6 leaves a margin of 4 over the print precision.
+set(MODES 6)
+set(RTOL 1e-6)
+set(MODELS ${SOURCE}/configs/models/shrouded_blade)
+
+file(REMOVE_RECURSE ${WORK})
+file(MAKE_DIRECTORY ${WORK})
+
+function(run_step)
+  execute_process(COMMAND ${ARGN} WORKING_DIRECTORY ${WORK}
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    string(REPLACE ";" " " cmd "${ARGN}")
+    message(FATAL_ERROR "step failed (${rc}): ${cmd}\n${out}\n${err}")
+  endif()
+  set(step_output "${out}" PARENT_SCOPE)
+endfunction()
+
+# (a) the model, with the Gmsh mesh kept for CalculiX's cyclic solve
+run_step(python3 ${MODELS}/build_model.py --preset test_case --out ${WORK}/model --keep-work)
+file(READ ${WORK}/model/model.json model_json)
+string(JSON sectors GET "${model_json}" parameters sectors)
+math(EXPR nd_max "${sectors} / 2")
+
+# (b) a scene on the generated files (paths relative to the scene), EO1 around family 1
+# (115.3 Hz free; the shroud contact with a variable normal load opens near the peak)
+file(WRITE ${WORK}/scene.yaml "\
+name: fe_pipeline_check
+description: Gmsh/CalculiX test-case blade, ${sectors} sectors, EO1, 1D shroud friction.
+cyclic: {sectors: ${sectors}, engine_order: 1}
+structure:
+  provider: fe_sector
+  params:
+    mass: model/sector_mass.mtx
+    stiffness: model/sector_stiffness.mtx
+    cyclic_pairs: model/cyclic_pairs.txt
+    sectors: ${sectors}
+    modes: ${MODES}
+    modal_damping: [0.002]
+    solver: sparse
+  dofs: model/dofs.yaml
+excitation:
+  - {dof: excitation, amplitude: 2.0, direction: [0.0, 1.0, 0.0]}
+contacts:
+  - name: shroud
+    law: jenkins_1d
+    between: [{node: shroud_right, sector: 0}, {node: shroud_left, sector: 1}]
+    frame: {tangent1: [0.0, 0.0, 1.0], normal: [0.0, -1.0, 0.0]}
+    params: {kt: 2.0e5, kn: 1.0e5, mu: 0.5, normal_load: 5.0}
+harmonic_balance: {harmonics: [0, 1], samples_per_period: 256}
+continuation:
+  frequency: {from: 95, to: 135, unit: Hz}
+  step: {initial: 0.5, min: 1.0e-6, max: 1.0}
+  displacement_scale: 2.0e-5
+output:
+  response: [response]
+")
+# families.csv is written with the plots (output.plots, default true)
+run_step(${FRICHB} --log-level warn modes ${WORK}/scene.yaml -o ${WORK}/modes)
+if(NOT EXISTS ${WORK}/modes/families.csv)
+  message(FATAL_ERROR "frichb modes wrote no families.csv")
+endif()
+
+# (c) the oracle: CalculiX's cyclic-symmetry frequencies, nodal diameters 0..sectors/2
+run_step(python3 ${MODELS}/ccx_cyclic_frequencies.py ${WORK}/model --nmin 0 --nmax ${nd_max}
+         --modes ${MODES} --out ${WORK}/ccx_cyclic.json)
+
+# (d) compare (CMake has no floating-point arithmetic)
+set(compare [=[
+import csv, json, sys
+families, oracle, modes, rtol = sys.argv[1], sys.argv[2], int(sys.argv[3]), float(sys.argv[4])
+ccx = json.load(open(oracle))["nodal_diameters"]
+rows = list(csv.DictReader(open(families)))
+if sorted(int(r["nodal_diameter"]) for r in rows) != sorted(int(nd) for nd in ccx):
+    sys.exit("nodal diameters differ: frichb %s, CalculiX %s" % (
+        [r["nodal_diameter"] for r in rows], sorted(ccx)))
+worst, bad = [(0.0, None)] * modes, []
+for r in rows:
+    nd = str(int(r["nodal_diameter"]))
+    for k in range(modes):
+        key = "family%d_hz" % (k + 1)
+        if key not in r:
+            sys.exit("families.csv has no column " + key)
+        f, g = float(r[key]), ccx[nd][k]
+        d = abs(f - g) / g
+        if d > worst[k][0]:
+            worst[k] = (d, nd)
+        if d > rtol:
+            bad.append("ND %s family %d: frichb %.9g Hz, CalculiX %.9g Hz (rel. %.2e)" % (
+                nd, k + 1, f, g, d))
+for k, (d, nd) in enumerate(worst):
+    print("family %d: worst relative difference %.2e (ND %s)" % (k + 1, d, nd))
+print("overall worst %.2e, tolerance %.0e" % (max(w[0] for w in worst), rtol))
+if bad:
+    sys.exit("frichb modes and CalculiX's cyclic symmetry disagree:\n" + "\n".join(bad))
+]=])
+execute_process(COMMAND python3 -c "${compare}" ${WORK}/modes/families.csv
+                        ${WORK}/ccx_cyclic.json ${MODES} ${RTOL}
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+message(STATUS "frichb modes vs CalculiX cyclic symmetry (${sectors} sectors, "
+               "ND 0..${nd_max}):\n${out}")
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "frequency comparison failed (${rc}):\n${err}")
+endif()
+
+# (e) a short forced-response sweep with the shroud friction contact
+run_step(${FRICHB} --log-level warn run ${WORK}/scene.yaml -o ${WORK}/run)
+file(READ ${WORK}/run/summary.json summary)
+string(JSON reached ERROR_VARIABLE json_err GET "${summary}" termination reached_end)
+if(json_err OR NOT reached)
+  message(FATAL_ERROR "the response curve did not reach the end of the sweep (${json_err}): "
+                      "see ${WORK}/run/summary.json")
+endif()
