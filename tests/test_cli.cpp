@@ -550,6 +550,47 @@ TEST_F(Cli, FrictionLoopsCarryTheHarmonicsOfTheContactForce) {
   EXPECT_EQ(first.at("force_harmonic_amplitudes_N").at("t1").size(), 11u);
 }
 
+// --set PATH=VALUE overrides numeric keys without editing the scene: the run equals one on
+// a hand-edited copy, summary.json records the overrides; bad overrides are refused.
+TEST_F(Cli, SetOverridesAKeyLikeAnEditedScene) {
+  const fs::path out = dir_ / "set";
+  const Result r = frichb("run " + quoted(kQuickstart) +
+                          " --set contacts.root_friction.params.mu=0.3 --set "
+                          "harmonic_balance.max_harmonic=3 -o " +
+                          quoted(out));
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::string edited = replace_once(quickstart_, "mu: 0.5", "mu: 0.3");
+  edited = replace_once(edited, "max_harmonic: 7", "max_harmonic: 3");
+  const fs::path scene = write_scene("edited.yaml", edited);
+  const fs::path edited_out = dir_ / "edited";
+  ASSERT_EQ(frichb("run " + quoted(scene) + " -o " + quoted(edited_out)).code, 0);
+  EXPECT_EQ(read_text(out / "response.csv"), read_text(edited_out / "response.csv"));
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary.at("command_line_overrides").at("contacts.root_friction.params.mu"), 0.3);
+  EXPECT_EQ(summary.at("validated_scene").at("harmonic_balance").at("max_harmonic"), 3);
+  // And without the override the curve differs (the test can fail).
+  const fs::path plain = dir_ / "plain";
+  ASSERT_EQ(frichb("run " + quoted(kQuickstart) + " -o " + quoted(plain)).code, 0);
+  EXPECT_NE(read_text(out / "response.csv"), read_text(plain / "response.csv"));
+
+  const Result unknown = frichb("run " + quoted(kQuickstart) +
+                                " --set contacts.nope.params.mu=0 -o " + quoted(dir_ / "bad"));
+  EXPECT_EQ(unknown.code, 2) << unknown.output;
+  EXPECT_THAT(unknown.output,
+              HasSubstr(kQuickstart.string() + ": --set contacts.nope.params.mu: 'contacts' has no "
+                                               "entry named 'nope'"));
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
+  const Result out_of_range =
+      frichb("validate " + quoted(kQuickstart) + " --set contacts.root_friction.params.mu=-1");
+  EXPECT_EQ(out_of_range.code, 2) << out_of_range.output;
+  EXPECT_THAT(out_of_range.output, HasSubstr("contacts[0].params.mu: value -1 violates mu >= 0"));
+  for (const char* bad : {"mu", "=1", "contacts.root_friction.params.mu=", "x=abc", "x=1e999"}) {
+    const Result usage = frichb("validate " + quoted(kQuickstart) + " --set '" + bad + "'");
+    EXPECT_EQ(usage.code, 1) << bad << ": " << usage.output;
+    EXPECT_THAT(usage.output, HasSubstr("expected PATH=NUMBER")) << bad;
+  }
+}
+
 TEST_F(Cli, ARerunReplacesItsOwnOutputsAndKeepsOtherFiles) {
   const fs::path out = dir_ / "rerun";
   ASSERT_EQ(frichb("run " + quoted(kQuickstart) + " -o " + quoted(out)).code, 0);

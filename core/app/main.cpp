@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <boost/program_options.hpp>
+#include <cmath>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -61,6 +62,10 @@ Usage:
                                    schemas to DIR/scene-reference.md (default: stdout)
   frichb --version
 
+Every verb that reads a scene takes --set PATH=VALUE (repeatable) to override a numeric key
+without editing the file, e.g. `frichb run scene.yaml --set contacts.shroud.params.mu=0`;
+summary.json records the scene as run.
+
 Exit codes: 0 ok; 1 bad command line; 2 invalid input (scene, plugin, file);
             3 the curve ended before the end of the sweep (outputs written, see summary.json);
             4 internal error.
@@ -118,7 +123,10 @@ int main(int argc, char** argv) {
       "`convergence`: trace oversampling factors, comma-separated (default 1,4)")(
       "no-timesim", "`convergence`: skip the time-integration reference")(
       "threads", po::value<int>(),
-      "threads per process of `study` (default: the scene's study.parallel; 0 = one per core)");
+      "threads per process of `study` (default: the scene's study.parallel; 0 = one per core)")(
+      "set", po::value<std::vector<std::string>>()->composing(),
+      "override a numeric scene key, PATH=VALUE (repeatable; PATH as in study sweeps, e.g. "
+      "contacts.shroud.params.mu=0 or harmonic_balance.max_harmonic=3)");
   po::options_description hidden;
   hidden.add_options()("args", po::value<std::vector<std::string>>(), "verb and arguments");
   po::options_description all;
@@ -132,6 +140,32 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::cerr << "frichb: " << e.what() << "\nTry 'frichb --help'.\n";
     return kExitUsage;
+  }
+  if (vm.count("set")) {
+    std::vector<SceneOverride> overrides;
+    for (const auto& text : vm["set"].as<std::vector<std::string>>()) {
+      const auto eq = text.find('=');
+      SceneOverride o;
+      std::size_t used = 0;
+      bool number = false;
+      if (eq != std::string::npos && eq > 0 && eq + 1 < text.size()) {
+        o.path = text.substr(0, eq);
+        try {
+          o.value = std::stod(text.substr(eq + 1), &used);
+          number = used == text.size() - eq - 1 && std::isfinite(o.value);
+        } catch (const std::exception&) {
+          number = false;
+        }
+      }
+      if (!number) {
+        std::cerr << "frichb: --set '" << text
+                  << "': expected PATH=NUMBER, e.g. contacts.shroud.params.mu=0.3\n"
+                     "Try 'frichb --help'.\n";
+        return kExitUsage;
+      }
+      overrides.push_back(std::move(o));
+    }
+    set_scene_overrides(std::move(overrides));
   }
   auto logger = spdlog::stderr_color_mt("frichb");
   logger->set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");

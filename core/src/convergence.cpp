@@ -124,7 +124,7 @@ int run_convergence(const ConvergenceRequest& request) {
       const Setting& s = settings[i];
       Row row{s, {}, 0, NAN, NAN};
       try {
-        YAML::Node document = load_scene_yaml(base.file);
+        YAML::Node document = load_scene_document(base.file);
         YAML::Node hb = document["harmonic_balance"];
         hb.remove("max_harmonic");
         hb["harmonics"] = s.harmonics;

@@ -663,6 +663,11 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     if (!stats.last_trace_diagnostic.empty())
       doc["last_trace_diagnostic"] = stats.last_trace_diagnostic;
     if (!run_options.study_context.is_null()) doc["study"] = run_options.study_context;
+    if (!scene_overrides().empty()) {
+      nlohmann::json set = nlohmann::json::object();
+      for (const auto& o : scene_overrides()) set[o.path] = o.value;
+      doc["command_line_overrides"] = set;
+    }
     if (stats.contacts_with_fd_jacobian && model->jacobian_mode() == JacobianMode::kAnalytic)
       spdlog::warn("{} contact traces used finite differences (a law without tangents)",
                    stats.contacts_with_fd_jacobian);

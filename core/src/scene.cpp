@@ -1,4 +1,5 @@
 #include "frichb/core/scene.hpp"
+#include "frichb/core/study.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -245,8 +246,34 @@ YAML::Node load_scene_yaml(const fs::path& file) {
   }
 }
 
+namespace {
+std::vector<SceneOverride>& override_storage() {
+  static std::vector<SceneOverride> overrides;
+  return overrides;
+}
+}  // namespace
+
+void set_scene_overrides(std::vector<SceneOverride> overrides) {
+  override_storage() = std::move(overrides);
+}
+const std::vector<SceneOverride>& scene_overrides() {
+  return override_storage();
+}
+
+YAML::Node load_scene_document(const fs::path& file) {
+  YAML::Node document = load_scene_yaml(file);
+  for (const auto& o : scene_overrides()) {
+    try {
+      set_scene_value(document, o.path, o.value);
+    } catch (const std::invalid_argument& e) {
+      throw SceneError(file.string(), 0, 0, "--set " + o.path, e.what());
+    }
+  }
+  return document;
+}
+
 Scene load_scene(const fs::path& file) {
-  return load_scene(load_scene_yaml(file), file);
+  return load_scene(load_scene_document(file), file);
 }
 
 Scene load_scene(const YAML::Node& document, const fs::path& file) {

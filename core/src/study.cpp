@@ -456,7 +456,7 @@ std::vector<StudyRun> prepare_study_runs(const Scene& scene, const StudySpec& st
       label += (k ? ", " : "") + study.sweeps[k].path + " = " + short_value(combos[i][k]);
     std::size_t current = 0;  // the sweep whose value is being applied (for errors)
     try {
-      YAML::Node document = load_scene_yaml(scene.file);
+      YAML::Node document = load_scene_document(scene.file);
       for (current = 0; current < combos[i].size(); ++current)
         set_scene_value(document, study.sweeps[current].path, combos[i][current]);
       run.scene = load_scene(document, scene.file);

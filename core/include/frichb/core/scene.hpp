@@ -134,6 +134,21 @@ Scene load_scene(const YAML::Node& document, const std::filesystem::path& file);
 // Parses `file` as YAML. Throws SceneError (missing file, a folder, malformed YAML).
 YAML::Node load_scene_yaml(const std::filesystem::path& file);
 
+// Command-line overrides of scene keys (`frichb run SCENE --set PATH=VALUE`): numeric scalars
+// addressed as study paths (study.hpp: `contacts.shroud.params.mu`, `excitation.0.amplitude`).
+// Set once by the program before any scene is read (not thread-safe against concurrent
+// loads); every scene document read by load_scene_document() then has them applied, so
+// that a study's runs and a convergence study's settings carry them too.
+struct SceneOverride {
+  std::string path;
+  double value = 0.0;
+};
+void set_scene_overrides(std::vector<SceneOverride> overrides);
+const std::vector<SceneOverride>& scene_overrides();
+// load_scene_yaml with the overrides applied. Throws SceneError naming the file and the
+// override (`--set PATH`) whose path does not resolve.
+YAML::Node load_scene_document(const std::filesystem::path& file);
+
 // Loads the plugins the scene names (and only those) and validates their params.
 // Throws SceneError (bad params, with file:line:column) or PluginError (unknown plugin...).
 void bind_plugins(Scene& scene, const Registry& registry);
