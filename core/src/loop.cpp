@@ -111,7 +111,7 @@ ForceHarmonics force_harmonics(const Eigen::MatrixXd& force, std::span<const int
   for (int k : components)
     for (const char* part : {"cos", "sin", "amplitude"})
       out.header.push_back(std::string("f_") + kComponentNames[k] + "_" + part + "_N");
-  out.rows.resize(static_cast<std::size_t>(max_harmonic + 1));
+  out.rows.resize(static_cast<std::size_t>(max_harmonic) + 1);
   Eigen::VectorXd coefficients(layout.coefficient_count()), column(samples);
   for (Eigen::Index a = 0; a < force.cols(); ++a) {
     column = force.col(a);

@@ -585,10 +585,12 @@ class FeSector final : public frichb::sdk::StructureProvider {
       double l = -1, r = -1;
       std::string extra;
       if (!(fields >> l >> r) || (fields >> extra) || l < 0 || r < 0 || l != std::floor(l) ||
-          r != std::floor(r))
-        throw std::invalid_argument(
-            file + ":" + std::to_string(number) +
-            ": expected two DOF indices (integers >= 0) 'left right', got '" + line + "'");
+          r != std::floor(r)) {
+        std::ostringstream message;
+        message << file << ":" << number
+                << ": expected two DOF indices (integers >= 0) 'left right', got '" << line << "'";
+        throw std::invalid_argument(message.str());
+      }
       left.push_back(l);
       right.push_back(r);
     }
