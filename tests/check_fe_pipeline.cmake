@@ -4,7 +4,8 @@
 # the nodes' cylindrical frames) and with CalculiX's own cyclic-symmetry solver on the same mesh
 # (ccx_cyclic_frequencies.py: *TIE CYCLIC SYMMETRY, the bore clamped by *BOUNDARY), and requires
 # the first 6 families to agree for every nodal diameter. Then runs a short friction sweep on
-# the generated files. Everything is written under ${WORK}; the source tree stays clean.
+# the generated files, and the shipped test-case scenes of configs/case_studies. Everything is
+# written under ${WORK}; the source tree stays clean.
 #
 # Tolerance: CalculiX prints eigenvalues with 7 significant digits, i.e. the oracle's
 # frequencies are exact to at most 2.5e-7 relative; both sides solve the same discretisation
@@ -121,4 +122,22 @@ string(JSON reached ERROR_VARIABLE json_err GET "${summary}" termination reached
 if(json_err OR NOT reached)
   message(FATAL_ERROR "the response curve did not reach the end of the sweep (${json_err}): "
                       "see ${WORK}/run/summary.json")
+endif()
+
+# (f) the shipped case-study scenes of the test case (configs/case_studies), on this model:
+# copied beside a models/generated/test_case folder as they expect; case 2's study is
+# validated run by run, case 1 runs with one harmonic.
+file(MAKE_DIRECTORY ${WORK}/configs/case_studies ${WORK}/configs/models/generated)
+file(COPY ${WORK}/model/ DESTINATION ${WORK}/configs/models/generated/test_case)
+file(GLOB case_scenes ${SOURCE}/configs/case_studies/test_case_*.yaml)
+file(COPY ${case_scenes} DESTINATION ${WORK}/configs/case_studies)
+run_step(${FRICHB} --log-level warn validate
+         ${WORK}/configs/case_studies/test_case_2_eo1_gap_to_preload.yaml)
+run_step(${FRICHB} --log-level warn run ${WORK}/configs/case_studies/test_case_1_eo3.yaml
+         --set harmonic_balance.max_harmonic=1 -o ${WORK}/case1)
+file(READ ${WORK}/case1/summary.json summary)
+string(JSON reached ERROR_VARIABLE json_err GET "${summary}" termination reached_end)
+if(json_err OR NOT reached)
+  message(FATAL_ERROR "case study 1 did not reach the end of its sweep (${json_err}): "
+                      "see ${WORK}/case1/summary.json")
 endif()
