@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -30,18 +31,27 @@ int run_modes(const ModesRequest& request) {
       kept.insert(kept.end(), node.dofs.begin(), node.dofs.end());
     CyclicSpec cyclic = scene.cyclic;
     cyclic.sectors = sectors;
-    std::vector<std::vector<double>> rows;
+    // Harmonic indices h and sectors - h have complex-conjugate sector matrices, hence the
+    // same natural frequencies: only h = 0..sectors/2 (one per nodal diameter) are solved.
     std::vector<std::vector<double>> by_nd(static_cast<std::size_t>(sectors / 2 + 1));
-    for (int h = 0; h < sectors; ++h) {
+    const auto started = std::chrono::steady_clock::now();
+    for (int h = 0; 2 * h <= sectors; ++h) {
       const frichb_modal_basis b = structure.modal_basis(h, kept);
-      for (std::size_t r = 0; r < b.n_modes; ++r) {
-        const double f = b.natural_frequencies[r] / (2 * std::numbers::pi);
-        const char dir = cyclic.wave_direction(h);
+      for (std::size_t r = 0; r < b.n_modes; ++r)
+        by_nd[static_cast<std::size_t>(h)].push_back(b.natural_frequencies[r] /
+                                                     (2 * std::numbers::pi));
+      spdlog::info(
+          "  nodal diameter {} of {}: {} modes ({:.1f} s)", h, sectors / 2, b.n_modes,
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+    }
+    std::vector<std::vector<double>> rows;
+    for (int h = 0; h < sectors; ++h) {
+      const auto& frequencies = by_nd[static_cast<std::size_t>(cyclic.nodal_diameter(h))];
+      const char dir = cyclic.wave_direction(h);
+      for (std::size_t r = 0; r < frequencies.size(); ++r)
         rows.push_back({static_cast<double>(h), static_cast<double>(cyclic.nodal_diameter(h)),
                         dir == '-' ? -1.0 : (dir == '+' ? 1.0 : 0.0), static_cast<double>(r + 1),
-                        f});
-        if (2 * h <= sectors) by_nd[static_cast<std::size_t>(h)].push_back(f);
-      }
+                        frequencies[r]});
     }
     fs::path out_dir = request.output_directory;
     if (out_dir.empty())
@@ -68,20 +78,20 @@ int run_modes(const ModesRequest& request) {
       write_csv(out.path("excitation.csv"),
                 {"rpm", "n", "harmonic_index", "nodal_diameter", "frequency_hz"}, excitation);
     }
+    // One line per mode family over the nodal diameters 0..nb/2.
+    std::size_t families = 0;
+    for (const auto& f : by_nd) families = std::min(families ? families : f.size(), f.size());
+    std::vector<std::string> fh = {"nodal_diameter"};
+    for (std::size_t r = 0; r < families; ++r)
+      fh.push_back("family" + std::to_string(r + 1) + "_hz");
+    std::vector<std::vector<double>> frows;
+    for (std::size_t nd = 0; nd < by_nd.size(); ++nd) {
+      std::vector<double> row = {static_cast<double>(nd)};
+      row.insert(row.end(), by_nd[nd].begin(), by_nd[nd].begin() + static_cast<long>(families));
+      frows.push_back(std::move(row));
+    }
+    write_csv(out.path("families.csv"), fh, frows);
     if (scene.output.plots) {
-      // One line per mode family over the nodal diameters 0..nb/2 (families.csv).
-      std::size_t families = 0;
-      for (const auto& f : by_nd) families = std::min(families ? families : f.size(), f.size());
-      std::vector<std::string> fh = {"nodal_diameter"};
-      for (std::size_t r = 0; r < families; ++r)
-        fh.push_back("family" + std::to_string(r + 1) + "_hz");
-      std::vector<std::vector<double>> frows;
-      for (std::size_t nd = 0; nd < by_nd.size(); ++nd) {
-        std::vector<double> row = {static_cast<double>(nd)};
-        row.insert(row.end(), by_nd[nd].begin(), by_nd[nd].begin() + static_cast<long>(families));
-        frows.push_back(std::move(row));
-      }
-      write_csv(out.path("families.csv"), fh, frows);
       std::ostringstream gp;
       gp << "# gnuplot script written by frichb modes\n"
          << "set terminal pngcairo size 1000,700 noenhanced\nset output 'modes.png'\n"
