@@ -28,6 +28,16 @@ function(run_step)
   set(step_output "${out}" PARENT_SCOPE)
 endfunction()
 
+# Fails unless the run written to `dir` reached the end of its frequency sweep.
+function(require_reached_end dir)
+  file(READ ${dir}/summary.json summary)
+  string(JSON reached ERROR_VARIABLE json_err GET "${summary}" termination reached_end)
+  if(json_err OR NOT reached)
+    message(FATAL_ERROR "the response curve did not reach the end of the sweep (${json_err}): "
+                        "see ${dir}/summary.json")
+  endif()
+endfunction()
+
 # (a) the model, with the Gmsh mesh kept for CalculiX's cyclic solve
 run_step(python3 ${MODELS}/build_model.py --preset test_case --out ${WORK}/model --keep-work)
 file(READ ${WORK}/model/model.json model_json)
@@ -117,12 +127,7 @@ endif()
 
 # (e) a short forced-response sweep with the shroud friction contact
 run_step(${FRICHB} --log-level warn run ${WORK}/scene.yaml -o ${WORK}/run)
-file(READ ${WORK}/run/summary.json summary)
-string(JSON reached ERROR_VARIABLE json_err GET "${summary}" termination reached_end)
-if(json_err OR NOT reached)
-  message(FATAL_ERROR "the response curve did not reach the end of the sweep (${json_err}): "
-                      "see ${WORK}/run/summary.json")
-endif()
+require_reached_end(${WORK}/run)
 
 # (f) the shipped case-study scenes of the test case (configs/case_studies), on this model:
 # copied beside a models/generated/test_case folder as they expect; case 2's study is
@@ -135,9 +140,4 @@ run_step(${FRICHB} --log-level warn validate
          ${WORK}/configs/case_studies/test_case_2_eo1_gap_to_preload.yaml)
 run_step(${FRICHB} --log-level warn run ${WORK}/configs/case_studies/test_case_1_eo3.yaml
          --set harmonic_balance.max_harmonic=1 -o ${WORK}/case1)
-file(READ ${WORK}/case1/summary.json summary)
-string(JSON reached ERROR_VARIABLE json_err GET "${summary}" termination reached_end)
-if(json_err OR NOT reached)
-  message(FATAL_ERROR "case study 1 did not reach the end of its sweep (${json_err}): "
-                      "see ${WORK}/case1/summary.json")
-endif()
+require_reached_end(${WORK}/case1)
