@@ -61,14 +61,27 @@ def header(name, title, xlabel, ylabel, logy=True):
             + ("set logscale y\nset format y '%.0e'\n" if logy else ""))
 
 
-def curves_figure(figure_dir, name, title, curves, node):
-    """curves: [(label, response.csv path)] -> amplitude of `node` against frequency."""
+def short_label(path, value):
+    """A swept key's value for a legend: gap in um, N0, H, f, mu."""
+    key = path.split(".")[-1]
+    if key == "gap":
+        return f"gap {value * 1e6:g} um"
+    names = {"normal_load": "N0", "max_harmonic": "H", "amplitude": "f", "mu": "mu"}
+    units = {"normal_load": " N", "amplitude": " N"}
+    return f"{names.get(key, key)} = {value:g}{units.get(key, '')}"
+
+
+def curves_figure(figure_dir, name, title, curves, node, per_newton=None):
+    """curves: [(label, response.csv path)] -> amplitude of `node` against frequency;
+    per_newton: one force per curve (N) to plot the receptance amplitude / force instead."""
     plots = []
-    for label, path in curves:
+    for k, (label, path) in enumerate(curves):
         rel = os.path.relpath(path, figure_dir)
-        plots.append(f"'{rel}' using 'frequency_hz':'{node}_amplitude_m' with lines lw 2 "
-                     f"title '{label}'")
-    gnuplot(header(name, title, "frequency [Hz]", f"{node} amplitude [m]")
+        y = (f"(column('{node}_amplitude_m') / {per_newton[k]!r})" if per_newton
+             else f"'{node}_amplitude_m'")
+        plots.append(f"'{rel}' using 'frequency_hz':{y} with lines lw 2 title '{label}'")
+    ylabel = f"{node} amplitude / force [m/N]" if per_newton else f"{node} amplitude [m]"
+    gnuplot(header(name, title, "frequency [Hz]", ylabel)
             + "plot " + ", \\\n     ".join(plots) + "\n", figure_dir, name)
 
 
@@ -183,9 +196,13 @@ def main():
                           "wall_s": float(r["wall_s"])} for r in runs]
         curves = []
         for r in runs:
-            label = ", ".join(f"{k.split('.')[-1]}={float(r[k]):g}" for k in swept)
+            shown = [k for k in swept if not k.startswith("excitation.") or k.startswith(
+                "excitation.0.")]
+            label = ", ".join(short_label(k, float(r[k])) for k in shown)
             curves.append((label, os.path.join(study, "runs", r["run"], "response.csv")))
-        curves_figure(figures, name, name.replace("_", " "), curves, "response")
+        forces = ([float(r["excitation.0.amplitude"]) for r in runs]
+                  if "excitation.0.amplitude" in swept else None)
+        curves_figure(figures, name, name.replace("_", " "), curves, "response", forces)
 
     with open(os.path.join(figures, "case_studies.json"), "w") as f:
         json.dump(numbers, f, indent=2, sort_keys=True)
