@@ -4,8 +4,9 @@ of configs/case_studies/run_case_studies.sh.
 
 Usage: case_studies_report.py OUT_DIR FIGURE_DIR
 
-OUT_DIR holds the runs (test_case_modes/, test_case_1/ (a study), test_case_1_free/,
-test_case_1_H5/, test_case_2/ (a study), test_case_2_free/ and, when the large case was run,
+OUT_DIR holds the runs (test_case_modes/, test_case_1/ (a study; the friction loops are its
+five-harmonic run's), test_case_1_free/, test_case_2/ (a study), test_case_2_free/ and, when
+the large case was run,
 large_case_3*/). Writes into FIGURE_DIR: PNG figures drawn by gnuplot (response curves on a
 log scale, force harmonics, peak against preload) and case_studies.json with the numbers the
 document quotes. Prints what it wrote. Standard library only; needs gnuplot for the figures.
@@ -95,7 +96,7 @@ def main():
     # Nodal-diameter map of the test case.
     modes = os.path.join(out, "test_case_modes")
     if os.path.isdir(modes):
-        header_row, rows = read_csv(os.path.join(modes, "families.csv"))
+        _, rows = read_csv(os.path.join(modes, "families.csv"))
         numbers["test_case_families_hz"] = {r[0]: [round(float(x), 2) for x in r[1:6]]
                                             for r in rows}
         if os.path.exists(os.path.join(modes, "modes.png")):
@@ -128,13 +129,18 @@ def main():
             numbers["case1_reduction"] = p_free["amplitude_m"] / h5["peak_amplitude_m"]
         curves_figure(figures, "case1_response_harmonics",
                       "Case 1: test case, EO3, N0 = 5 N, f = 2 N", curves, "response")
-    loops = os.path.join(out, "test_case_1_H5", "loops")
-    if os.path.isdir(loops):
-        with open(os.path.join(out, "test_case_1_H5", "summary.json")) as f:
+        # The friction loops of the five-harmonic run (every run of the study writes them).
+        h5_run = next((r["run"] for r in runs
+                       if int(float(r["harmonic_balance.max_harmonic"])) == 5), None)
+        loops_run = os.path.join(case1, "runs", h5_run) if h5_run else None
+    else:
+        loops_run = None
+    if loops_run and os.path.isdir(os.path.join(loops_run, "loops")):
+        with open(os.path.join(loops_run, "summary.json")) as f:
             entries = json.load(f)["friction_loops"]
         plots, harmonics = [], {}
         for e in entries:
-            rel = os.path.relpath(os.path.join(out, "test_case_1_H5", e["harmonics_file"]), figures)
+            rel = os.path.relpath(os.path.join(loops_run, e["harmonics_file"]), figures)
             label = f"{e['frequency']:g} Hz, crossing {e['crossing']}"
             harmonics[label] = {"force_harmonic_amplitudes_N": e["force_harmonic_amplitudes_N"],
                                 "dissipated_energy_per_cycle_J":

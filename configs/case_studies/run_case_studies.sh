@@ -37,7 +37,6 @@ fh modes "$scenes/test_case_1_eo3.yaml" --rpm 2300 -o "$out/test_case_modes"
 
 step "case 1: EO3, 1, 3, 5 and 10 harmonics"
 fh study "$scenes/test_case_1_eo3.yaml" -o "$out/test_case_1"
-fh run "$scenes/test_case_1_eo3.yaml" -o "$out/test_case_1_H5"
 # The same blade without the contact (mu = 0, constant normal load: no contact force).
 fh run "$scenes/test_case_1_eo3.yaml" --set contacts.shroud.params.mu=0 \
   --set contacts.shroud.params.kn=0 --set harmonic_balance.max_harmonic=1 \
