@@ -420,6 +420,35 @@ TEST(Continuation, CornerJustAheadIsRecognisedFromTheTangentLines) {
   EXPECT_FALSE(jumped.reached_end());
 }
 
+TEST(Continuation, PassesFoldsAtCornersSharperThan90Degrees) {
+  // lambda = f(x), piecewise linear: x up to x = 0, then -3 x up to x = 1, then -3 + 5 (x - 1).
+  // Both kinks are folds: the tangent turns by 116.6 degrees at x = 0 and by 142.1 degrees at
+  // x = 1, so no Keller hyperplane ahead of a point before a kink meets the branch and the
+  // corrector fails at every step; the branch goes on along the next piece's tangent, taken
+  // from the Jacobian past the kink. The curve reaches lambda = 1 at x = 1.8.
+  const auto f = [](double x) { return x < 0.0 ? x : (x < 1.0 ? -3.0 * x : 5.0 * x - 8.0); };
+  const auto slope = [](double x) { return x < 0.0 ? 1.0 : (x < 1.0 ? -3.0 : 5.0); };
+  const ScalarCurve zigzag([&](double x, double l) { return f(x) - l; },
+                           [&](double x, double) { return Eigen::Vector2d(slope(x), -1.0); });
+  const auto summary = trace_curve(zigzag, Eigen::Vector2d(-1.0, -1.0), Sweep(-1.0, 1.0));
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  EXPECT_EQ(summary.sharp_corners, 2);
+  EXPECT_EQ(summary.turning_points, 2);
+  EXPECT_EQ(TangentSignChanges(summary), 2);
+  EXPECT_NEAR(summary.points.back().y(0), 1.8, 1e-12);
+  EXPECT_DOUBLE_EQ(summary.points.back().y(1), 1.0);
+  double lowest = 0.0;
+  for (const auto& p : summary.points) {
+    EXPECT_NEAR(p.y(1), f(p.y(0)), 1e-12);
+    lowest = std::min(lowest, p.y(1));
+  }
+  // The branch was followed down the middle piece to its lower fold at (1, -3), not cut short.
+  EXPECT_LT(lowest, -2.9);
+  // Curves without a sharp corner never take that step.
+  EXPECT_EQ(trace_curve(SCurve(), Eigen::Vector2d(-2.0, -6.0), Sweep(-6.0, 6.0)).sharp_corners, 0);
+  EXPECT_EQ(trace_curve(Circle(), Eigen::Vector2d(0.0, -1.0), Sweep(-1.0, 1.0)).sharp_corners, 0);
+}
+
 TEST(Continuation, EachPointCarriesTheConditionOfItsNewtonMatrix) {
   // e = a x - lambda: the bordered Newton matrix [a, -1; v^T] at every point, with the unit
   // tangent v = (1, a) / |(1, a)|, has 1-norm condition number |A|_1 |A^-1|_1 computed

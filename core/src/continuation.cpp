@@ -414,6 +414,38 @@ bool CornerBetween(const CurveProblem& problem, const Scaling& scaling, const Ne
   return onto.converged && (onto.ys - kink).norm() <= kRelativeTolerance * path;
 }
 
+// A corner whose turn exceeds 90 degrees (e.g. a fold that falls on a contact sample changing
+// regime: the lambda component of the tangent flips across the kink) leaves no solution on
+// the Keller hyperplane ahead of the last point, at any step: the corrector fails down to
+// min_step. Across such a kink the branch goes on along the tangent of the next piece, which
+// the Jacobian just past the kink gives: evaluated at the failed predictor q = y + ds v, its
+// null vector v2 (oriented with v2 . v > 0) is that piece's direction up to sign, and the
+// branch leaves the kink along -v2 (along +v2 the hyperplane would have met it). The step is
+// corrected on the hyperplane normal to -v2 and taken when it converges without jumping and
+// does not land back on the piece just traced (along -v). `landed_tangent` is oriented along
+// -v2, the direction of travel.
+bool SharpCornerStep(const CurveProblem& problem, const Scaling& s, const NewtonOptions& newton,
+                     const VectorXd& ys_last, const VectorXd& v, double step, CoreResult* out,
+                     VectorXd* direction) {
+  constexpr double kMaxRetraceSine = 0.25;  // within ~14 degrees of -v: the old piece
+  const VectorXd q = ys_last + step * v;
+  VectorXd es;
+  MatrixXd js;
+  std::string message;
+  if (!EvaluateScaled(problem, s, q, &es, &js, &message)) return false;
+  VectorXd v2;
+  if (!NextTangent(js, v, &v2)) return false;
+  *direction = -v2;
+  const VectorXd predictor = ys_last + step * *direction;
+  CoreResult corr = DampedNewton(problem, s, predictor, newton, direction, &predictor);
+  if (!corr.converged || (corr.ys - predictor).norm() > step) return false;
+  const VectorXd d = corr.ys - ys_last;
+  const double along = d.dot(v);
+  if (along < 0.0 && (d - along * v).norm() < kMaxRetraceSine * d.norm()) return false;
+  *out = std::move(corr);
+  return true;
+}
+
 }  // namespace
 
 const char* to_string(TerminationType t) {
@@ -517,12 +549,14 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     summary.turning_points = 0;
     summary.residual_floor_points = 0;
     summary.corners = 0;
+    summary.sharp_corners = 0;
     summary.max_condition = 0.0;
     summary.max_condition_point = 0;
     for (std::size_t i = 0; i < summary.points.size(); ++i) {
       const auto& point = summary.points[i];
       summary.residual_floor_points += point.at_residual_floor;
       summary.corners += point.passed_corner;
+      summary.sharp_corners += point.passed_sharp_corner;
       if (point.condition > summary.max_condition) {
         summary.max_condition = point.condition;
         summary.max_condition_point = i;
@@ -577,9 +611,13 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   double corner_ratio = kInf;
   int corner_repeats = 0;
   constexpr double kMaxCornerRatio = 1e3;  // a turn of at most 89.94 degrees
-  int steep_left = 0;                      // points still under the steep-branch cap
-  bool refining = false;                   // retracing towards a fold with the fine step
-  int refine_left = 0;                     // bound on that retrace in case the fold vanishes
+  // Failed corrections from one point after which a corner sharper than 90 degrees is tried.
+  constexpr int kSharpCornerAfterFailures = 4;
+  int failures_here = 0;             // failed corrections since the last accepted point
+  bool probed_sharp_corner = false;  // the sharp-corner step was tried from the last point
+  int steep_left = 0;                // points still under the steep-branch cap
+  bool refining = false;             // retracing towards a fold with the fine step
+  int refine_left = 0;               // bound on that retrace in case the fold vanishes
   double refine_cap = kInf;
   std::size_t fold_floor = 0;  // restarts never undo an accepted fold (no ping-pong)
   const long max_attempts = 64L * options.max_points + 1000L;
@@ -649,8 +687,28 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         corr.message = "corrector jumped away from the predictor";
       }
     }
-    if (ok && !NextTangent(corr.js, last.tangent, &p.tangent, &p.condition,
-                           chord ? &candidate : nullptr)) {
+    // The tangent at the new point is oriented along the direction of travel into it.
+    VectorXd travel = last.tangent;
+    // After a few failed corrections from the last point, a corner sharper than 90 degrees
+    // is tried once (SharpCornerStep); its point is taken like any other.
+    bool sharp_corner = false;
+    if (!ok && !probed_sharp_corner &&
+        (failures_here + 1 >= kSharpCornerAfterFailures || step <= options.min_step)) {
+      probed_sharp_corner = true;
+      CoreResult across;
+      VectorXd across_direction;
+      if (SharpCornerStep(problem, s, newton, ys_last, last.tangent, step, &across,
+                          &across_direction)) {
+        summary.total_newton_iterations += across.iterations;
+        corr = std::move(across);
+        travel = across_direction;
+        ok = true;
+        corner = true;
+        sharp_corner = true;
+      }
+    }
+    if (ok &&
+        !NextTangent(corr.js, travel, &p.tangent, &p.condition, chord ? &candidate : nullptr)) {
       ok = false;
       corr.message = "singular bordered Jacobian, no tangent";
     }
@@ -662,9 +720,11 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       p.residual_norm = corr.residual_norm;
       p.at_residual_floor = corr.at_residual_floor;
       p.passed_corner = corner;
+      p.passed_sharp_corner = sharp_corner;
 
       sign_change = last.tangent(n) * p.tangent(n) < 0.0;
-      if (sign_change && options.turning_point_control && !refining) {
+      // A fold at a sharp corner is accepted at once: no finer step gets around a kink.
+      if (sign_change && options.turning_point_control && !refining && !sharp_corner) {
         // Points kept: at least up to the last accepted fold; the new point is always undone.
         const std::size_t total = summary.points.size() + 1;
         const std::size_t backtrack = static_cast<std::size_t>(options.turning_point_backtrack);
@@ -673,6 +733,8 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         summary.rejected_steps += static_cast<int>(total - keep);
         summary.points.resize(keep);
         ++summary.fine_control_restarts;
+        failures_here = 0;
+        probed_sharp_corner = false;
         corner_repeats = 0;  // the corner test starts afresh from the restart point
         corner_ratio = kInf;
         refining = true;
@@ -715,6 +777,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
 
     if (!ok) {
       ++summary.rejected_steps;
+      ++failures_here;
       if (step <= options.min_step) {
         std::ostringstream msg;
         msg << "step below min_step " << options.min_step << ": " << corr.message;
@@ -725,6 +788,8 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     }
 
     // The point is accepted from here on.
+    failures_here = 0;
+    probed_sharp_corner = false;
     corner_repeats = 0;
     corner_ratio = kInf;
     if (sign_change) {
