@@ -1,5 +1,4 @@
 #include "frichb/core/scene.hpp"
-#include "frichb/core/study.hpp"
 
 #include <spdlog/spdlog.h>
 

@@ -90,148 +90,10 @@ const std::vector<frichb_param_spec>& study_schema() {
   return s;
 }
 
-std::string format_value(double x) {
-  if (x == std::floor(x) && std::abs(x) < 1e15) {
-    std::ostringstream os;
-    os << static_cast<long long>(x);
-    return os.str();
-  }
-  std::ostringstream os;
-  os << std::setprecision(17) << x;
-  return os.str();
-}
-
 std::string short_value(double x) {
   std::ostringstream os;
   os << std::setprecision(6) << x;
   return os.str();
-}
-
-// A list index of a path (digits only); one beyond unsigned long is an invalid path, not a
-// std::out_of_range escaping the input checks.
-std::size_t list_index(const std::string& digits, const std::string& path) {
-  try {
-    return std::stoul(digits);
-  } catch (const std::out_of_range&) {
-    throw std::invalid_argument(cat("'", path, "': ", digits, " is not a list index"));
-  }
-}
-
-// One part of a path: a map key (or a contact's name) followed by list indices.
-struct PathPart {
-  std::string key;
-  std::vector<std::size_t> indices;
-};
-
-std::vector<PathPart> parse_path(const std::string& path) {
-  std::vector<PathPart> parts;
-  std::size_t i = 0;
-  while (i <= path.size()) {
-    PathPart part;
-    while (i < path.size() && path[i] != '.' && path[i] != '[') part.key += path[i++];
-    while (i < path.size() && path[i] == '[') {
-      const std::size_t close = path.find(']', i);
-      if (close == std::string::npos)
-        throw std::invalid_argument(cat("'", path, "': unclosed '['"));
-      const std::string digits = path.substr(i + 1, close - i - 1);
-      if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
-        throw std::invalid_argument(cat("'", path, "': [", digits, "] is not a list index"));
-      part.indices.push_back(list_index(digits, path));
-      i = close + 1;
-    }
-    if (part.key.empty() && (parts.empty() || part.indices.empty()))
-      throw std::invalid_argument(cat("'", path, "': empty key"));
-    parts.push_back(std::move(part));
-    if (i == path.size()) break;
-    if (path[i] != '.') throw std::invalid_argument(cat("'", path, "': expected '.' or '['"));
-    ++i;
-    if (i == path.size()) throw std::invalid_argument(cat("'", path, "': ends with '.'"));
-  }
-  return parts;
-}
-
-std::vector<std::string> map_keys(const YAML::Node& map) {
-  std::vector<std::string> keys;
-  for (const auto& kv : map)
-    if (kv.first.IsScalar()) keys.push_back(kv.first.Scalar());
-  return keys;
-}
-
-// Finds the node at `path`, creating the last key of a map when absent. `create` false:
-// only checks (and never inserts).
-// `document` is a handle (yaml-cpp nodes share their data): edits go through it.
-YAML::Node resolve(YAML::Node document,  // NOLINT(performance-unnecessary-value-param)
-                   const std::string& path, bool create) {
-  const auto parts = parse_path(path);
-  YAML::Node node = document;
-  std::string walked;
-  for (std::size_t p = 0; p < parts.size(); ++p) {
-    const auto& part = parts[p];
-    const bool last_part = p + 1 == parts.size();
-    if (!part.key.empty()) {
-      const std::string here = walked.empty() ? part.key : walked + "." + part.key;
-      const bool numeric = part.key.find_first_not_of("0123456789") == std::string::npos;
-      if (node.IsSequence() && numeric) {
-        // A number addresses a list entry by index (excitation.0.amplitude).
-        const std::size_t index = list_index(part.key, path);
-        if (index >= node.size())
-          throw std::invalid_argument(cat("'", walked, "' has ", std::to_string(node.size()),
-                                          " entries, so '", here, "' does not exist"));
-        node.reset(node[index]);
-      } else if (node.IsSequence()) {
-        // A list of named entries (contacts): the entry whose name is the key.
-        YAML::Node found;
-        bool matched = false;
-        std::vector<std::string> names;
-        for (std::size_t i = 0; i < node.size(); ++i) {
-          YAML::Node entry = node[i];
-          if (entry.IsMap() && entry["name"] && entry["name"].IsScalar()) {
-            names.push_back(entry["name"].Scalar());
-            if (names.back() == part.key) {
-              found.reset(entry);
-              matched = true;
-            }
-          }
-        }
-        if (!matched) {
-          const std::string near = closest_match(part.key, names);
-          throw std::invalid_argument("'" + walked + "' has no entry named '" + part.key + "'" +
-                                      (near.empty() ? "" : " (did you mean '" + near + "'?)"));
-        }
-        node.reset(found);
-      } else if (node.IsMap()) {
-        YAML::Node child = node[part.key];
-        if (!child) {
-          if (!(last_part && part.indices.empty())) {
-            const std::string near = closest_match(part.key, map_keys(node));
-            throw std::invalid_argument("'" + here + "' is not in the scene" +
-                                        (near.empty() ? "" : " (did you mean '" + near + "'?)"));
-          }
-          if (!create) return {};
-        }
-        node.reset(child);
-      } else {
-        throw std::invalid_argument(
-            cat("'", walked, "' is not a map, so '", here, "' cannot be addressed"));
-      }
-      walked = here;
-    }
-    for (std::size_t index : part.indices) {
-      const std::string here = walked + "[" + std::to_string(index) + "]";
-      if (!node.IsSequence())
-        throw std::invalid_argument(
-            cat("'", walked, "' is not a list, so '", here, "' cannot be addressed"));
-      if (index >= node.size())
-        throw std::invalid_argument(cat("'", walked, "' has ", std::to_string(node.size()),
-                                        " entries, so '", here, "' does not exist"));
-      node.reset(node[index]);
-      walked = here;
-    }
-  }
-  if (node && !node.IsScalar())
-    throw std::invalid_argument("'" + path + "' is a " + (node.IsMap() ? "map" : "list") +
-                                ", not a number");
-  return node;
 }
 
 // Every run's values (one per sweep): the grid over the axes, the first axis slowest.
@@ -350,12 +212,6 @@ std::vector<std::vector<std::size_t>> StudySpec::axes() const {
   return out;
 }
 
-void set_scene_value(YAML::Node document,  // NOLINT(performance-unnecessary-value-param)
-                     const std::string& path, double value) {
-  YAML::Node node = resolve(document, path, true);
-  node = format_value(value);
-}
-
 StudySpec load_study(const Scene& scene) {
   YamlContext ctx{scene.file.string()};
   YAML::Node root = scene.root;
@@ -389,8 +245,7 @@ StudySpec load_study(const Scene& scene) {
     if (!seen.insert(sweep.path).second)
       ctx.fail(entry["path"], key + ".path", "'" + sweep.path + "' is swept twice");
     try {
-      YAML::Node probe = YAML::Clone(root);  // resolving must not insert into the scene
-      resolve(probe, sweep.path, false);
+      check_scene_path(root, sweep.path);
     } catch (const std::invalid_argument& e) {
       ctx.fail(entry["path"], key + ".path", e.what());
     }
@@ -792,8 +647,9 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
             std::string cond = "1", label;
             for (std::size_t s = first_axis; s < study.sweeps.size(); ++s) {
               const double value = others[g][s - first_axis];
-              cond += " && abs(column(" + std::to_string(s + 2) + ") - (" + format_value(value) +
-                      ")) <= 1e-9 * (1 + abs(" + format_value(value) + "))";
+              cond += " && abs(column(" + std::to_string(s + 2) + ") - (" +
+                      format_scene_value(value) + ")) <= 1e-9 * (1 + abs(" +
+                      format_scene_value(value) + "))";
               label += (s > first_axis ? ", " : "") +
                        study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) +
                        "=" + short_value(value);

@@ -134,8 +134,23 @@ Scene load_scene(const YAML::Node& document, const std::filesystem::path& file);
 // Parses `file` as YAML. Throws SceneError (missing file, a folder, malformed YAML).
 YAML::Node load_scene_yaml(const std::filesystem::path& file);
 
+// Scene-key paths, as study sweeps and `--set` address numeric scalars: map keys joined by
+// '.', a contact (any list entry with a `name:`) by its name, a list entry by its index as a
+// key or in brackets: `contacts.shroud.params.mu`, `excitation.0.amplitude`,
+// `harmonic_balance.max_harmonic`, `a.b[2]`. The last key of a map may be absent (a default
+// the scene did not write). Implemented in scene_path.cpp.
+//
+// Sets the scalar at `path` in `document` to `value` (an integral value is written as an
+// integer, any other with 17 significant digits). Throws std::invalid_argument naming the
+// part of the path that does not resolve, or saying that it addresses a map or a list.
+void set_scene_value(YAML::Node document, const std::string& path, double value);
+// The same checks without writing (`document` is left untouched).
+void check_scene_path(const YAML::Node& document, const std::string& path);
+// A value as set_scene_value writes it.
+std::string format_scene_value(double x);
+
 // Command-line overrides of scene keys (`frichb run SCENE --set PATH=VALUE`): numeric scalars
-// addressed as study paths (study.hpp: `contacts.shroud.params.mu`, `excitation.0.amplitude`).
+// addressed as scene-key paths (above).
 // Set once by the program before any scene is read (not thread-safe against concurrent
 // loads); every scene document read by load_scene_document() then has them applied, so
 // that a study's runs and a convergence study's settings carry them too.

@@ -78,10 +78,6 @@ struct StudyRun {
   Scene scene;
 };
 
-// Sets the scalar at `path` in `document` to `value` (an integral value is written as an
-// integer). Throws std::invalid_argument naming the part of the path that does not resolve.
-void set_scene_value(YAML::Node document, const std::string& path, double value);
-
 // Parses and checks scene.root["study"] (throws SceneError naming file:line:col and key).
 StudySpec load_study(const Scene& scene);
 
