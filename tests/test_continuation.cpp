@@ -432,7 +432,7 @@ TEST(Continuation, PassesFoldsAtCornersSharperThan90Degrees) {
                            [&](double x, double) { return Eigen::Vector2d(slope(x), -1.0); });
   const auto summary = trace_curve(zigzag, Eigen::Vector2d(-1.0, -1.0), Sweep(-1.0, 1.0));
   ASSERT_TRUE(summary.reached_end()) << summary.message;
-  EXPECT_EQ(summary.sharp_corners, 2);
+  EXPECT_EQ(summary.kink_steps, 2);
   EXPECT_EQ(summary.turning_points, 2);
   EXPECT_EQ(TangentSignChanges(summary), 2);
   EXPECT_NEAR(summary.points.back().y(0), 1.8, 1e-12);
@@ -444,9 +444,9 @@ TEST(Continuation, PassesFoldsAtCornersSharperThan90Degrees) {
   }
   // The branch was followed down the middle piece to its lower fold at (1, -3), not cut short.
   EXPECT_LT(lowest, -2.9);
-  // Curves without a sharp corner never take that step.
-  EXPECT_EQ(trace_curve(SCurve(), Eigen::Vector2d(-2.0, -6.0), Sweep(-6.0, 6.0)).sharp_corners, 0);
-  EXPECT_EQ(trace_curve(Circle(), Eigen::Vector2d(0.0, -1.0), Sweep(-1.0, 1.0)).sharp_corners, 0);
+  // Smooth curves never take that step.
+  EXPECT_EQ(trace_curve(SCurve(), Eigen::Vector2d(-2.0, -6.0), Sweep(-6.0, 6.0)).kink_steps, 0);
+  EXPECT_EQ(trace_curve(Circle(), Eigen::Vector2d(0.0, -1.0), Sweep(-1.0, 1.0)).kink_steps, 0);
 }
 
 TEST(Continuation, EachPointCarriesTheConditionOfItsNewtonMatrix) {

@@ -143,6 +143,7 @@ class Lu {
     return std::isfinite(lu_.rcond()) && lu_.rcond() > std::numeric_limits<double>::epsilon();
   }
   double condition() const { return lu_.rcond() > 0.0 ? 1.0 / lu_.rcond() : kInf; }
+  int determinant_sign() const { return lu_.determinant_sign(); }
 
  private:
   static void Account(std::chrono::steady_clock::time_point start, bool factorisation) {
@@ -414,35 +415,54 @@ bool CornerBetween(const CurveProblem& problem, const Scaling& scaling, const Ne
   return onto.converged && (onto.ys - kink).norm() <= kRelativeTolerance * path;
 }
 
-// A corner whose turn exceeds 90 degrees (e.g. a fold that falls on a contact sample changing
-// regime: the lambda component of the tangent flips across the kink) leaves no solution on
-// the Keller hyperplane ahead of the last point, at any step: the corrector fails down to
-// min_step. Across such a kink the branch goes on along the tangent of the next piece, which
-// the Jacobian just past the kink gives: evaluated at the failed predictor q = y + ds v, its
-// null vector v2 (oriented with v2 . v > 0) is that piece's direction up to sign, and the
-// branch leaves the kink along -v2 (along +v2 the hyperplane would have met it). The step is
-// corrected on the hyperplane normal to -v2 and taken when it converges without jumping and
-// does not land back on the piece just traced (along -v). `landed_tangent` is oriented along
-// -v2, the direction of travel.
-bool SharpCornerStep(const CurveProblem& problem, const Scaling& s, const NewtonOptions& newton,
-                     const VectorXd& ys_last, const VectorXd& v, double step, CoreResult* out,
-                     VectorXd* direction) {
-  constexpr double kMaxRetraceSine = 0.25;  // within ~14 degrees of -v: the old piece
+// A step past a kink of the branch along the next piece's own tangent, for where the Keller
+// corrector along the last tangent v fails at every step: a corner turning by more than 90
+// degrees (e.g. a fold that falls on a contact sample changing regime, the lambda component
+// of the tangent flipping across the kink) leaves no solution on the hyperplane ahead; a
+// cluster of kinks (the micro-folds of a non-smooth force on a time grid) can make Newton
+// cycle between pieces on it. At the failed predictor q = y + ds v, past the kink, the
+// Jacobian J2 is the next piece's: its null vector v2 is that piece's direction up to sign.
+// The sign is the one that keeps the curve's orientation, sign det [J2; w^T] =
+// sign det [J1; v^T] (the orientation of a piecewise-smooth solution curve is the same on all
+// its pieces; v . v_prev > 0, which orients the tangents between ordinary points, fails past
+// a turn of more than 90 degrees, and the other sign walks the branch backwards). The residual
+// stays flat along v up to the kink (J1 v = 0) and grows as J2 v past it, so the kink lies at
+// y + t v with ds - t = (J2 v) . (e(q) - e(y)) / |J2 v|^2 (clamped to [0, ds]). The step from
+// there along w is corrected on the hyperplane normal to w and taken when it converges
+// without jumping and does not land on the line of the piece just traced. `travel` receives w.
+bool StepPastKink(const CurveProblem& problem, const Scaling& s, const NewtonOptions& newton,
+                  const VectorXd& ys_last, const VectorXd& v, double step, CoreResult* out,
+                  VectorXd* travel) {
+  constexpr double kMinSineToOldPiece = 0.25;  // within ~14 degrees of +-v: the old piece
   const VectorXd q = ys_last + step * v;
-  VectorXd es;
-  MatrixXd js;
+  VectorXd e_last, e_q;
+  MatrixXd j_last, j_q;
   std::string message;
-  if (!EvaluateScaled(problem, s, q, &es, &js, &message)) return false;
-  VectorXd v2;
-  if (!NextTangent(js, v, &v2)) return false;
-  *direction = -v2;
-  const VectorXd predictor = ys_last + step * *direction;
-  CoreResult corr = DampedNewton(problem, s, predictor, newton, direction, &predictor);
+  if (!EvaluateScaled(problem, s, ys_last, &e_last, &j_last, &message) ||
+      !EvaluateScaled(problem, s, q, &e_q, &j_q, &message))
+    return false;
+  Lu oriented;
+  oriented.factorise_bordered(j_last, v);
+  const int orientation = oriented.determinant_sign();  // of [J1; v^T]
+  Lu past;
+  past.factorise_bordered(j_q, v);
+  if (orientation == 0 || !past.invertible()) return false;
+  // [J2; v^T] t = e_n: J2 t = 0, and det [J2; t^T] has the sign of det [J2; v^T] (t . t > 0).
+  const VectorXd t = past.solve(VectorXd::Unit(v.size(), v.size() - 1));
+  if (!t.allFinite() || t.norm() == 0.0) return false;
+  const VectorXd direction = (past.determinant_sign() == orientation ? 1.0 : -1.0) * t / t.norm();
+  const VectorXd growth = j_q * v;  // J2 v
+  const double growth_squared = growth.squaredNorm();
+  double beyond = growth_squared > 0.0 ? growth.dot(e_q - e_last) / growth_squared : 0.0;
+  if (!std::isfinite(beyond)) beyond = 0.0;
+  const VectorXd kink = ys_last + (step - std::clamp(beyond, 0.0, step)) * v;
+  const VectorXd predictor = kink + step * direction;
+  CoreResult corr = DampedNewton(problem, s, predictor, newton, &direction, &predictor);
   if (!corr.converged || (corr.ys - predictor).norm() > step) return false;
   const VectorXd d = corr.ys - ys_last;
-  const double along = d.dot(v);
-  if (along < 0.0 && (d - along * v).norm() < kMaxRetraceSine * d.norm()) return false;
+  if ((d - d.dot(v) * v).norm() < kMinSineToOldPiece * d.norm()) return false;
   *out = std::move(corr);
+  *travel = direction;
   return true;
 }
 
@@ -549,14 +569,14 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     summary.turning_points = 0;
     summary.residual_floor_points = 0;
     summary.corners = 0;
-    summary.sharp_corners = 0;
+    summary.kink_steps = 0;
     summary.max_condition = 0.0;
     summary.max_condition_point = 0;
     for (std::size_t i = 0; i < summary.points.size(); ++i) {
       const auto& point = summary.points[i];
       summary.residual_floor_points += point.at_residual_floor;
       summary.corners += point.passed_corner;
-      summary.sharp_corners += point.passed_sharp_corner;
+      summary.kink_steps += point.passed_kink;
       if (point.condition > summary.max_condition) {
         summary.max_condition = point.condition;
         summary.max_condition_point = i;
@@ -611,13 +631,12 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   double corner_ratio = kInf;
   int corner_repeats = 0;
   constexpr double kMaxCornerRatio = 1e3;  // a turn of at most 89.94 degrees
-  // Failed corrections from one point after which a corner sharper than 90 degrees is tried.
-  constexpr int kSharpCornerAfterFailures = 4;
-  int failures_here = 0;             // failed corrections since the last accepted point
-  bool probed_sharp_corner = false;  // the sharp-corner step was tried from the last point
-  int steep_left = 0;                // points still under the steep-branch cap
-  bool refining = false;             // retracing towards a fold with the fine step
-  int refine_left = 0;               // bound on that retrace in case the fold vanishes
+  // Failed corrections from one point after which a step past a kink is tried.
+  constexpr int kKinkStepAfterFailures = 4;
+  int failures_here = 0;  // failed corrections since the last accepted point
+  int steep_left = 0;     // points still under the steep-branch cap
+  bool refining = false;  // retracing towards a fold with the fine step
+  int refine_left = 0;    // bound on that retrace in case the fold vanishes
   double refine_cap = kInf;
   std::size_t fold_floor = 0;  // restarts never undo an accepted fold (no ping-pong)
   const long max_attempts = 64L * options.max_points + 1000L;
@@ -689,22 +708,21 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     }
     // The tangent at the new point is oriented along the direction of travel into it.
     VectorXd travel = last.tangent;
-    // After a few failed corrections from the last point, a corner sharper than 90 degrees
-    // is tried once (SharpCornerStep); its point is taken like any other.
-    bool sharp_corner = false;
-    if (!ok && !probed_sharp_corner &&
-        (failures_here + 1 >= kSharpCornerAfterFailures || step <= options.min_step)) {
-      probed_sharp_corner = true;
+    // After a few failed corrections from the last point, each further step is also tried
+    // past the kink along the next piece's tangent (StepPastKink); its point is taken like
+    // any other.
+    bool kink_step = false;
+    if (!ok && (failures_here + 1 >= kKinkStepAfterFailures || step <= options.min_step)) {
       CoreResult across;
       VectorXd across_direction;
-      if (SharpCornerStep(problem, s, newton, ys_last, last.tangent, step, &across,
-                          &across_direction)) {
+      if (StepPastKink(problem, s, newton, ys_last, last.tangent, step, &across,
+                       &across_direction)) {
         summary.total_newton_iterations += across.iterations;
         corr = std::move(across);
         travel = across_direction;
         ok = true;
         corner = true;
-        sharp_corner = true;
+        kink_step = true;
       }
     }
     if (ok &&
@@ -720,11 +738,11 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       p.residual_norm = corr.residual_norm;
       p.at_residual_floor = corr.at_residual_floor;
       p.passed_corner = corner;
-      p.passed_sharp_corner = sharp_corner;
+      p.passed_kink = kink_step;
 
       sign_change = last.tangent(n) * p.tangent(n) < 0.0;
-      // A fold at a sharp corner is accepted at once: no finer step gets around a kink.
-      if (sign_change && options.turning_point_control && !refining && !sharp_corner) {
+      // A fold at a kink is accepted at once: no finer step gets around it.
+      if (sign_change && options.turning_point_control && !refining && !kink_step) {
         // Points kept: at least up to the last accepted fold; the new point is always undone.
         const std::size_t total = summary.points.size() + 1;
         const std::size_t backtrack = static_cast<std::size_t>(options.turning_point_backtrack);
@@ -734,7 +752,6 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         summary.points.resize(keep);
         ++summary.fine_control_restarts;
         failures_here = 0;
-        probed_sharp_corner = false;
         corner_repeats = 0;  // the corner test starts afresh from the restart point
         corner_ratio = kInf;
         refining = true;
@@ -789,7 +806,6 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
 
     // The point is accepted from here on.
     failures_here = 0;
-    probed_sharp_corner = false;
     corner_repeats = 0;
     corner_ratio = kInf;
     if (sign_change) {

@@ -80,6 +80,22 @@ void DenseLu::factorise_stored() {
 #endif
 }
 
+int DenseLu::determinant_sign() const {
+  if (rcond_ == 0.0 || size_ == 0) return 0;
+  int sign = 1;
+#ifdef FRICHB_WITH_OPENBLAS
+  for (Eigen::Index i = 0; i < size_; ++i) {
+    if (pivots_[static_cast<std::size_t>(i)] != i + 1) sign = -sign;
+    if (factors_(i, i) < 0.0) sign = -sign;
+  }
+#else
+  sign = static_cast<int>(eigen_lu_.permutationP().determinant());
+  for (Eigen::Index i = 0; i < size_; ++i)
+    if (eigen_lu_.matrixLU()(i, i) < 0.0) sign = -sign;
+#endif
+  return sign;
+}
+
 Eigen::VectorXd DenseLu::solve(const Eigen::VectorXd& b) const {
   if (b.size() != size_)
     throw std::invalid_argument("DenseLu::solve: right-hand side of the wrong size");

@@ -121,11 +121,11 @@ struct ContinuationPoint {
   Eigen::VectorXd y;        // unscaled unknowns, lambda last
   Eigen::VectorXd tangent;  // unit tangent in scaled variables, oriented along the sweep
   int newton_iterations = 0;
-  double step = 0.0;                 // arclength step that reached this point (scaled)
-  double residual_norm = 0.0;        // scaled infinity norm at convergence
-  bool at_residual_floor = false;    // converged on the residual alone (NewtonOptions)
-  bool passed_corner = false;        // reached across a corner of the branch (trace_curve)
-  bool passed_sharp_corner = false;  // of those, across a turn of more than 90 degrees
+  double step = 0.0;               // arclength step that reached this point (scaled)
+  double residual_norm = 0.0;      // scaled infinity norm at convergence
+  bool at_residual_floor = false;  // converged on the residual alone (NewtonOptions)
+  bool passed_corner = false;      // reached across a corner of the branch (trace_curve)
+  bool passed_kink = false;        // of those, along the next piece's tangent (kink_steps)
   // Estimate of the 1-norm condition number of the Newton matrix at the point, in scaled
   // variables: the bordered Keller matrix [e_x e_lambda; tangent^T] (e_x alone at the start
   // point), from the factorisation that gives the tangent. About log10(condition) of the
@@ -155,11 +155,13 @@ struct ContinuationSummary {
   int fine_control_restarts = 0;  // times the turning-point control stepped back
   int steep_branch_caps = 0;      // times the steep-branch cap was applied
   int residual_floor_points = 0;  // points accepted at a residual floor (NewtonOptions)
-  int corners = 0;        // points reached across a corner of the branch: a correction longer
-                          // than the step whose ratio to the step repeated over three halvings
-  int sharp_corners = 0;  // of them, corners turning by more than 90 degrees (no solution on
-                          // the Keller hyperplane ahead), crossed along the next piece's
-                          // tangent after four failed corrections (SharpCornerStep)
+  int corners = 0;     // points reached across a corner of the branch: a correction longer
+                       // than the step whose ratio to the step repeated over three halvings
+  int kink_steps = 0;  // of them, points reached along the tangent of the piece past a kink
+                       // (its Jacobian evaluated beyond the kink) after four failed
+                       // corrections from the last point: a corner turning by more than 90
+                       // degrees (no solution on the Keller hyperplane ahead), or a cluster
+                       // of kinks where Newton cycles between pieces
   int total_newton_iterations = 0;      // chord iterations included
   int chord_points = 0;                 // points corrected by chord iterations alone
   int chord_iterations = 0;             // chord iterations, those of the fallbacks included

@@ -33,6 +33,9 @@ class DenseLu {
                         const Eigen::Ref<const Eigen::VectorXd>& last_row);
   // Reciprocal condition number estimate in the 1-norm, in [0, 1]; 0 when singular.
   double rcond() const { return rcond_; }
+  // Sign of det(A): +1 or -1, from the factors (the row interchanges and the signs of U's
+  // diagonal); 0 when A is singular or not factorised.
+  int determinant_sign() const;
   // Solves A x = b.
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
   Eigen::Index size() const { return size_; }
