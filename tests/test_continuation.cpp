@@ -449,6 +449,30 @@ TEST(Continuation, PassesFoldsAtCornersSharperThan90Degrees) {
   EXPECT_EQ(trace_curve(Circle(), Eigen::Vector2d(0.0, -1.0), Sweep(-1.0, 1.0)).kink_steps, 0);
 }
 
+TEST(Continuation, EndsWhereTheCurveLeavesTheLambdaBounds) {
+  // The unit circle from (-0.6, -0.8) towards lambda = 2, never reached: over the top fold
+  // and back down, the curve leaves lambda >= -0.9 on its way to the bottom fold.
+  ContinuationOptions o = Sweep(-0.8, 2.0);
+  o.lambda_min = -0.9;
+  const auto summary = trace_curve(Circle(), Eigen::Vector2d(-0.6, -0.8), o);
+  EXPECT_EQ(summary.termination, TerminationType::kLeftBounds) << summary.message;
+  EXPECT_STREQ(to_string(summary.termination), "left_bounds");
+  ASSERT_FALSE(summary.points.empty());
+  for (const auto& p : summary.points) EXPECT_GE(p.y(1), -0.9);
+  EXPECT_GT(summary.points.back().y(0), 0.0);  // on the far side of the circle
+  // A sweep down to lambda_end = lambda_min lands on it instead.
+  ContinuationOptions down = Sweep(0.5, 0.0);
+  down.lambda_min = 0.0;
+  const auto line = trace_curve(Line(), Eigen::Vector2d(1.0, 0.5), down);
+  ASSERT_TRUE(line.reached_end()) << line.message;
+  EXPECT_DOUBLE_EQ(line.points.back().y(1), 0.0);
+  // A start outside the bounds is refused.
+  ContinuationOptions outside = Sweep(-0.95, 2.0);
+  outside.lambda_min = -0.9;
+  EXPECT_EQ(trace_curve(Circle(), Eigen::Vector2d(-0.3, -0.95), outside).termination,
+            TerminationType::kInvalidOptions);
+}
+
 TEST(Continuation, EachPointCarriesTheConditionOfItsNewtonMatrix) {
   // e = a x - lambda: the bordered Newton matrix [a, -1; v^T] at every point, with the unit
   // tangent v = (1, a) / |(1, a)|, has 1-norm condition number |A|_1 |A^-1|_1 computed

@@ -429,11 +429,28 @@ bool CornerBetween(const CurveProblem& problem, const Scaling& scaling, const Ne
 // stays flat along v up to the kink (J1 v = 0) and grows as J2 v past it, so the kink lies at
 // y + t v with ds - t = (J2 v) . (e(q) - e(y)) / |J2 v|^2 (clamped to [0, ds]). The step from
 // there along w is corrected on the hyperplane normal to w and taken when it converges
-// without jumping and does not land on the line of the piece just traced. `travel` receives w.
+// without jumping, does not land on the line of the piece just traced and does not land on
+// the curve traced before (`traced`: its last points, scaled) - a walk backwards along the
+// branch. `travel` receives w.
+// Whether the scaled point y lies on the curve already traced: within `tolerance` of one of
+// the chords between its last points (scaled, oldest first).
+bool OnTracedCurve(const VectorXd& y, const std::vector<VectorXd>& traced, double tolerance) {
+  for (std::size_t i = 1; i < traced.size(); ++i) {
+    const VectorXd chord = traced[i] - traced[i - 1];
+    const double length_squared = chord.squaredNorm();
+    const double along = length_squared > 0.0
+                             ? std::clamp((y - traced[i - 1]).dot(chord) / length_squared, 0.0, 1.0)
+                             : 0.0;
+    if ((y - traced[i - 1] - along * chord).norm() <= tolerance) return true;
+  }
+  return false;
+}
+
 bool StepPastKink(const CurveProblem& problem, const Scaling& s, const NewtonOptions& newton,
-                  const VectorXd& ys_last, const VectorXd& v, double step, CoreResult* out,
-                  VectorXd* travel) {
+                  const VectorXd& ys_last, const VectorXd& v, double step,
+                  const std::vector<VectorXd>& traced, CoreResult* out, VectorXd* travel) {
   constexpr double kMinSineToOldPiece = 0.25;  // within ~14 degrees of +-v: the old piece
+  constexpr double kOnTracedCurve = 0.05;      // of the step taken: on a chord traced before
   const VectorXd q = ys_last + step * v;
   VectorXd e_last, e_q;
   MatrixXd j_last, j_q;
@@ -461,6 +478,8 @@ bool StepPastKink(const CurveProblem& problem, const Scaling& s, const NewtonOpt
   if (!corr.converged || (corr.ys - predictor).norm() > step) return false;
   const VectorXd d = corr.ys - ys_last;
   if ((d - d.dot(v) * v).norm() < kMinSineToOldPiece * d.norm()) return false;
+  // Nor back onto the pieces traced before it (a walk backwards along the branch).
+  if (OnTracedCurve(corr.ys, traced, kOnTracedCurve * d.norm())) return false;
   *out = std::move(corr);
   *travel = direction;
   return true;
@@ -482,6 +501,8 @@ const char* to_string(TerminationType t) {
       return "evaluation_failed";
     case TerminationType::kTimeLimit:
       return "time_limit";
+    case TerminationType::kLeftBounds:
+      return "left_bounds";
     case TerminationType::kCancelled:
       return "cancelled";
     case TerminationType::kInvalidOptions:
@@ -497,6 +518,10 @@ bool ContinuationOptions::IsValid(std::string* why) const {
   if (!PositiveFinite(min_step) || !PositiveFinite(max_step) || !PositiveFinite(initial_step))
     return Fail(why, "initial_step, min_step and max_step must be positive");
   if (min_step > max_step) return Fail(why, "min_step must not exceed max_step");
+  if (std::isnan(lambda_min) || std::isnan(lambda_max) || !(lambda_min < lambda_max))
+    return Fail(why, "lambda_min must be below lambda_max");
+  if (lambda_start < lambda_min || lambda_start > lambda_max)
+    return Fail(why, "lambda_start must lie in [lambda_min, lambda_max]");
   if (initial_step < min_step || initial_step > max_step)
     return Fail(why, "initial_step must lie in [min_step, max_step]");
   if (target_newton_iterations < 1) return Fail(why, "target_newton_iterations must be >= 1");
@@ -715,7 +740,13 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     if (!ok && (failures_here + 1 >= kKinkStepAfterFailures || step <= options.min_step)) {
       CoreResult across;
       VectorXd across_direction;
-      if (StepPastKink(problem, s, newton, ys_last, last.tangent, step, &across,
+      constexpr std::size_t kTracedPoints = 64;  // the curve a kink step must not land on
+      std::vector<VectorXd> traced;
+      for (std::size_t i =
+               summary.points.size() > kTracedPoints ? summary.points.size() - kTracedPoints : 0;
+           i < summary.points.size(); ++i)
+        traced.push_back(summary.points[i].y.cwiseQuotient(s.unknown));
+      if (StepPastKink(problem, s, newton, ys_last, last.tangent, step, traced, &across,
                        &across_direction)) {
         summary.total_newton_iterations += across.iterations;
         corr = std::move(across);
@@ -733,6 +764,13 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
 
     if (ok) {
       p.y = unscale(corr.ys);
+      const bool past_end = (p.y(n) - options.lambda_end) * direction >= 0.0;
+      if (!past_end && (p.y(n) < options.lambda_min || p.y(n) > options.lambda_max)) {
+        std::ostringstream msg;
+        msg << "the curve left [" << options.lambda_min << ", " << options.lambda_max << "] at "
+            << FormatLambda(p.y(n));
+        return finish(TerminationType::kLeftBounds, msg.str());
+      }
       p.newton_iterations = corr.iterations;
       p.step = step;
       p.residual_norm = corr.residual_norm;

@@ -237,6 +237,11 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
              (C.turning_point_control ? "" : ", or turning_point_control: true") + many_folds;
     case TerminationType::kTimeLimit:
       return "raise continuation.max_wall_seconds, or reduce harmonics or samples_per_period";
+    case TerminationType::kLeftBounds:
+      return "the curve walked its branch backwards down to zero frequency (after a kink or "
+             "fold it could not pass forwards): look at the points before it; try more "
+             "samples_per_period" +
+             many_folds;
     case TerminationType::kStartFailed:
       return "no solution was found at the start frequency: start the sweep further from "
              "resonance, or lower the excitation";
@@ -339,6 +344,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     ContinuationOptions options;
     options.lambda_start = w_from;
     options.lambda_end = w_to;
+    options.lambda_min = 0.0;  // a response at zero or negative frequency is no answer
     options.initial_step = C.initial_step;
     options.min_step = C.min_step;
     options.max_step = C.max_step;

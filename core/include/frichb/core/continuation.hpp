@@ -25,6 +25,7 @@
 
 #include <Eigen/Dense>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -97,6 +98,12 @@ struct ContinuationOptions {
   Eigen::Index reuse_factorisation_from = 1000;
   int max_chord_iterations = 16;
 
+  // The curve ends (kLeftBounds) at a corrected point with lambda outside
+  // [lambda_min, lambda_max]; that point is not kept. E.g. lambda_min = 0 for a frequency: a
+  // curve that walks its branch backwards down to zero frequency stops there with a reason.
+  double lambda_min = -std::numeric_limits<double>::infinity();
+  double lambda_max = std::numeric_limits<double>::infinity();
+
   // When the curve passes lambda_end, the last point is corrected onto lambda = lambda_end
   // exactly (a fixed-parameter Newton solve) before stopping.
   bool land_on_end = true;
@@ -140,6 +147,7 @@ enum class TerminationType {
   kStartFailed,       // Newton at lambda_start did not converge
   kEvaluationFailed,  // evaluate() reported failure at the start point
   kTimeLimit,         // max_wall_seconds elapsed
+  kLeftBounds,        // a point fell outside [lambda_min, lambda_max] (not kept)
   kCancelled,         // the point callback asked to stop
   kInvalidOptions,
 };
