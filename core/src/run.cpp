@@ -238,9 +238,10 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
     case TerminationType::kTimeLimit:
       return "raise continuation.max_wall_seconds, or reduce harmonics or samples_per_period";
     case TerminationType::kLeftBounds:
-      return "the curve walked its branch backwards down to zero frequency (after a kink or "
-             "fold it could not pass forwards): look at the points before it; try more "
-             "samples_per_period" +
+      return "the curve came back past the start of the sweep: it walked its branch "
+             "backwards after a kink or fold it could not pass forwards (the points after the "
+             "last fold retrace the branch), or the branch overhangs the window (widen "
+             "continuation.frequency); try more samples_per_period" +
              many_folds;
     case TerminationType::kStartFailed:
       return "no solution was found at the start frequency: start the sweep further from "
@@ -344,7 +345,10 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     ContinuationOptions options;
     options.lambda_start = w_from;
     options.lambda_end = w_to;
-    options.lambda_min = 0.0;  // a response at zero or negative frequency is no answer
+    // The curve stays in the sweep's window: one that comes back past its start has walked
+    // its branch backwards (or the branch overhangs the window) and ends there with a reason.
+    options.lambda_min = std::min(w_from, w_to);
+    options.lambda_max = std::max(w_from, w_to);
     options.initial_step = C.initial_step;
     options.min_step = C.min_step;
     options.max_step = C.max_step;
