@@ -415,6 +415,20 @@ bool CornerBetween(const CurveProblem& problem, const Scaling& scaling, const Ne
   return onto.converged && (onto.ys - kink).norm() <= kRelativeTolerance * path;
 }
 
+// Whether the scaled point y lies on the curve already traced: within `tolerance` of one of
+// the chords between its last points (scaled, oldest first).
+bool OnTracedCurve(const VectorXd& y, const std::vector<VectorXd>& traced, double tolerance) {
+  for (std::size_t i = 1; i < traced.size(); ++i) {
+    const VectorXd chord = traced[i] - traced[i - 1];
+    const double length_squared = chord.squaredNorm();
+    const double along = length_squared > 0.0
+                             ? std::clamp((y - traced[i - 1]).dot(chord) / length_squared, 0.0, 1.0)
+                             : 0.0;
+    if ((y - traced[i - 1] - along * chord).norm() <= tolerance) return true;
+  }
+  return false;
+}
+
 // A step past a kink of the branch along the next piece's own tangent, for where the Keller
 // corrector along the last tangent v fails at every step: a corner turning by more than 90
 // degrees (e.g. a fold that falls on a contact sample changing regime, the lambda component
@@ -432,20 +446,6 @@ bool CornerBetween(const CurveProblem& problem, const Scaling& scaling, const Ne
 // without jumping, does not land on the line of the piece just traced and does not land on
 // the curve traced before (`traced`: its last points, scaled) - a walk backwards along the
 // branch. `travel` receives w.
-// Whether the scaled point y lies on the curve already traced: within `tolerance` of one of
-// the chords between its last points (scaled, oldest first).
-bool OnTracedCurve(const VectorXd& y, const std::vector<VectorXd>& traced, double tolerance) {
-  for (std::size_t i = 1; i < traced.size(); ++i) {
-    const VectorXd chord = traced[i] - traced[i - 1];
-    const double length_squared = chord.squaredNorm();
-    const double along = length_squared > 0.0
-                             ? std::clamp((y - traced[i - 1]).dot(chord) / length_squared, 0.0, 1.0)
-                             : 0.0;
-    if ((y - traced[i - 1] - along * chord).norm() <= tolerance) return true;
-  }
-  return false;
-}
-
 bool StepPastKink(const CurveProblem& problem, const Scaling& s, const NewtonOptions& newton,
                   const VectorXd& ys_last, const VectorXd& v, double step,
                   const std::vector<VectorXd>& traced, CoreResult* out, VectorXd* travel) {

@@ -15,6 +15,12 @@
 //     approached with the refined step is accepted (each fold is refined once)
 //   - steep-branch cap: when |v_x,i| > alpha |v_x,i-1| the step is capped at
 //     steep_branch_step_factor * max_step for the following points   (eq. 4.14)
+//   - corners (beyond the thesis): a correction longer than the step is taken across a
+//     corner of a piecewise-smooth branch when the tangent lines meet on the branch or the
+//     correction shrinks with the step; after four failed corrections from a point, each
+//     further try also steps past the kink along the next piece's tangent, oriented by the
+//     sign of det [e_y; v^T] (ContinuationSummary::kink_steps)
+//   - bounds: the curve ends (kLeftBounds) where it leaves [lambda_min, lambda_max]
 // All of it works on scaled unknowns y_s = y / scale so that the arclength is well
 // conditioned whether displacements are 1e-9 m or 1 m.
 //
