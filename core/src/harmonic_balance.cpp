@@ -220,8 +220,9 @@ void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::Vector
   } else {
     std::vector<std::exception_ptr> failures(threads);
     {
-      std::vector<std::jthread> pool;
+      // Declared before the pool, so that it outlives the threads the pool joins on leaving.
       const auto range = [&](std::size_t t) { return t * count / threads; };
+      std::vector<std::jthread> pool;
       for (std::size_t t = 1; t < threads; ++t)
         pool.emplace_back([&, t] {
           try {
