@@ -95,6 +95,21 @@ ContinuationOptions Sweep(double from, double to) {
   return o;
 }
 
+// The unit circle traced once around from (-1, 0) through both folds, stopped by the callback
+// when it has closed: a smooth curve with no corner.
+ContinuationSummary FullCircle() {
+  ContinuationOptions o = Sweep(0.0, 2.0);  // 2 is never reached
+  o.max_points = 5000;
+  const Eigen::Vector2d start(-1.0, 0.0);
+  bool far = false;
+  return trace_curve(Circle(), Eigen::Vector2d(-0.9, 0.0), o,
+                     [&](const ContinuationPoint& p, std::size_t) {
+                       const double d = (p.y - start).norm();
+                       if (d > 1.9) far = true;
+                       return !(far && d < 0.1);
+                     });
+}
+
 TEST(Continuation, ClosesACircleThroughBothFolds) {
   const ScalarCurve circle = Circle();
   ContinuationOptions o = Sweep(0.0, 2.0);  // 2 is never reached
@@ -385,7 +400,10 @@ TEST(Continuation, PassesACornerOfTheBranch) {
   for (const auto& p : summary.points) EXPECT_NEAR(p.y(0), g(p.y(1)), 1e-9);
   EXPECT_NEAR(summary.points.back().y(0), 20.0, 1e-9);
   // The circle has no corner: none is reported.
-  EXPECT_EQ(trace_curve(Circle(), Eigen::Vector2d(0.0, -1.0), Sweep(-1.0, 1.0)).corners, 0);
+  const auto circle = FullCircle();
+  ASSERT_EQ(circle.termination, TerminationType::kCancelled) << circle.message;
+  EXPECT_GT(circle.points.size(), 10u);
+  EXPECT_EQ(circle.corners, 0);
 }
 
 TEST(Continuation, CornerJustAheadIsRecognisedFromTheTangentLines) {
@@ -445,8 +463,14 @@ TEST(Continuation, PassesFoldsAtCornersSharperThan90Degrees) {
   // The branch was followed down the middle piece to its lower fold at (1, -3), not cut short.
   EXPECT_LT(lowest, -2.9);
   // Smooth curves never take that step.
-  EXPECT_EQ(trace_curve(SCurve(), Eigen::Vector2d(-2.0, -6.0), Sweep(-6.0, 6.0)).kink_steps, 0);
-  EXPECT_EQ(trace_curve(Circle(), Eigen::Vector2d(0.0, -1.0), Sweep(-1.0, 1.0)).kink_steps, 0);
+  const auto s_curve = trace_curve(SCurve(), Eigen::Vector2d(-2.0, -6.0), Sweep(-6.0, 6.0));
+  ASSERT_TRUE(s_curve.reached_end()) << s_curve.message;
+  EXPECT_EQ(s_curve.turning_points, 2);
+  EXPECT_EQ(s_curve.kink_steps, 0);
+  const auto circle = FullCircle();
+  ASSERT_EQ(circle.termination, TerminationType::kCancelled) << circle.message;
+  EXPECT_EQ(circle.turning_points, 2);
+  EXPECT_EQ(circle.kink_steps, 0);
 }
 
 TEST(Continuation, EndsWhereTheCurveLeavesTheLambdaBounds) {

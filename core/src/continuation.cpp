@@ -520,8 +520,9 @@ bool ContinuationOptions::IsValid(std::string* why) const {
   if (min_step > max_step) return Fail(why, "min_step must not exceed max_step");
   if (std::isnan(lambda_min) || std::isnan(lambda_max) || !(lambda_min < lambda_max))
     return Fail(why, "lambda_min must be below lambda_max");
-  if (lambda_start < lambda_min || lambda_start > lambda_max)
-    return Fail(why, "lambda_start must lie in [lambda_min, lambda_max]");
+  if (lambda_start < lambda_min || lambda_start > lambda_max || lambda_end < lambda_min ||
+      lambda_end > lambda_max)
+    return Fail(why, "lambda_start and lambda_end must lie in [lambda_min, lambda_max]");
   if (initial_step < min_step || initial_step > max_step)
     return Fail(why, "initial_step must lie in [min_step, max_step]");
   if (target_newton_iterations < 1) return Fail(why, "target_newton_iterations must be >= 1");
@@ -814,7 +815,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         summary.total_newton_iterations += land.iterations;
         ContinuationPoint end;
         if (land.converged && (land.ys - guess_s).norm() <= step &&
-            NextTangent(land.js, last.tangent, &end.tangent, &end.condition)) {
+            NextTangent(land.js, travel, &end.tangent, &end.condition)) {
           end.y = unscale(land.ys);
           end.y(n) = options.lambda_end;
           end.newton_iterations = land.iterations;

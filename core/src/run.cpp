@@ -238,10 +238,10 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
     case TerminationType::kTimeLimit:
       return "raise continuation.max_wall_seconds, or reduce harmonics or samples_per_period";
     case TerminationType::kLeftBounds:
-      return "the curve came back past the start of the sweep: it walked its branch "
-             "backwards after a kink or fold it could not pass forwards (the points after the "
-             "last fold retrace the branch), or the branch overhangs the window (widen "
-             "continuation.frequency); try more samples_per_period" +
+      return "the curve came back a quarter of the window past the start of the sweep: it "
+             "walked its branch backwards after a kink or fold it could not pass forwards (the "
+             "points after that fold retrace the branch), or the branch overhangs the window "
+             "(widen continuation.frequency); try more samples_per_period" +
              many_folds;
     case TerminationType::kStartFailed:
       return "no solution was found at the start frequency: start the sweep further from "
@@ -345,10 +345,13 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     ContinuationOptions options;
     options.lambda_start = w_from;
     options.lambda_end = w_to;
-    // The curve stays in the sweep's window: one that comes back past its start has walked
-    // its branch backwards (or the branch overhangs the window) and ends there with a reason.
-    options.lambda_min = std::min(w_from, w_to);
-    options.lambda_max = std::max(w_from, w_to);
+    // The curve stays within a quarter of the window's span around it (and at positive
+    // frequency): one that comes back that far past its start has walked its branch
+    // backwards (or the branch overhangs the window by that much) and ends with a reason.
+    constexpr double kBoundsMargin = 0.25;
+    const double margin = kBoundsMargin * std::abs(w_to - w_from);
+    options.lambda_min = std::max(0.0, std::min(w_from, w_to) - margin);
+    options.lambda_max = std::max(w_from, w_to) + margin;
     options.initial_step = C.initial_step;
     options.min_step = C.min_step;
     options.max_step = C.max_step;
