@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -446,31 +447,59 @@ bool OnTracedCurve(const VectorXd& y, const std::vector<VectorXd>& traced, doubl
 // without jumping, does not land on the line of the piece just traced and does not land on
 // the curve traced before (`traced`: its last points, scaled) - a walk backwards along the
 // branch. `travel` receives w.
+// What StepPastKink needs of the last point, the same for every step tried from it (so
+// evaluated once per point): its residual, the curve's orientation there, sign det [J1; v^T],
+// and the curve traced up to it (its last points, scaled). `usable` false: the evaluation
+// failed or the bordered matrix is singular, and no kink step is tried from this point.
+struct KinkReference {
+  bool usable = false;
+  VectorXd residual;
+  int orientation = 0;
+  std::vector<VectorXd> traced;
+};
+
+KinkReference MakeKinkReference(const CurveProblem& problem, const Scaling& s,
+                                const std::vector<ContinuationPoint>& points) {
+  constexpr std::size_t kTracedPoints = 64;  // the curve a kink step must not land on
+  KinkReference ref;
+  const ContinuationPoint& last = points.back();
+  const VectorXd ys_last = last.y.cwiseQuotient(s.unknown);
+  MatrixXd j_last;
+  std::string message;
+  if (!EvaluateScaled(problem, s, ys_last, &ref.residual, &j_last, &message)) return ref;
+  Lu oriented;
+  oriented.factorise_bordered(j_last, last.tangent);
+  ref.orientation = oriented.determinant_sign();
+  for (std::size_t i = points.size() > kTracedPoints ? points.size() - kTracedPoints : 0;
+       i < points.size(); ++i)
+    ref.traced.push_back(points[i].y.cwiseQuotient(s.unknown));
+  ref.usable = ref.orientation != 0;
+  return ref;
+}
+
 bool StepPastKink(const CurveProblem& problem, const Scaling& s, const NewtonOptions& newton,
                   const VectorXd& ys_last, const VectorXd& v, double step,
-                  const std::vector<VectorXd>& traced, CoreResult* out, VectorXd* travel) {
+                  const KinkReference& reference, CoreResult* out, VectorXd* travel) {
   constexpr double kMinSineToOldPiece = 0.25;  // within ~14 degrees of +-v: the old piece
   constexpr double kOnTracedCurve = 0.05;      // of the step taken: on a chord traced before
+  if (!reference.usable) return false;
   const VectorXd q = ys_last + step * v;
-  VectorXd e_last, e_q;
-  MatrixXd j_last, j_q;
+  VectorXd e_q;
+  MatrixXd j_q;
   std::string message;
-  if (!EvaluateScaled(problem, s, ys_last, &e_last, &j_last, &message) ||
-      !EvaluateScaled(problem, s, q, &e_q, &j_q, &message))
-    return false;
-  Lu oriented;
-  oriented.factorise_bordered(j_last, v);
-  const int orientation = oriented.determinant_sign();  // of [J1; v^T]
+  if (!EvaluateScaled(problem, s, q, &e_q, &j_q, &message)) return false;
   Lu past;
   past.factorise_bordered(j_q, v);
-  if (orientation == 0 || !past.invertible()) return false;
+  if (!past.invertible()) return false;
   // [J2; v^T] t = e_n: J2 t = 0, and det [J2; t^T] has the sign of det [J2; v^T] (t . t > 0).
   const VectorXd t = past.solve(VectorXd::Unit(v.size(), v.size() - 1));
   if (!t.allFinite() || t.norm() == 0.0) return false;
-  const VectorXd direction = (past.determinant_sign() == orientation ? 1.0 : -1.0) * t / t.norm();
+  const VectorXd direction =
+      (past.determinant_sign() == reference.orientation ? 1.0 : -1.0) * t / t.norm();
   const VectorXd growth = j_q * v;  // J2 v
   const double growth_squared = growth.squaredNorm();
-  double beyond = growth_squared > 0.0 ? growth.dot(e_q - e_last) / growth_squared : 0.0;
+  double beyond =
+      growth_squared > 0.0 ? growth.dot(e_q - reference.residual) / growth_squared : 0.0;
   if (!std::isfinite(beyond)) beyond = 0.0;
   const VectorXd kink = ys_last + (step - std::clamp(beyond, 0.0, step)) * v;
   const VectorXd predictor = kink + step * direction;
@@ -479,7 +508,7 @@ bool StepPastKink(const CurveProblem& problem, const Scaling& s, const NewtonOpt
   const VectorXd d = corr.ys - ys_last;
   if ((d - d.dot(v) * v).norm() < kMinSineToOldPiece * d.norm()) return false;
   // Nor back onto the pieces traced before it (a walk backwards along the branch).
-  if (OnTracedCurve(corr.ys, traced, kOnTracedCurve * d.norm())) return false;
+  if (OnTracedCurve(corr.ys, reference.traced, kOnTracedCurve * d.norm())) return false;
   *out = std::move(corr);
   *travel = direction;
   return true;
@@ -659,10 +688,11 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   constexpr double kMaxCornerRatio = 1e3;  // a turn of at most 89.94 degrees
   // Failed corrections from one point after which a step past a kink is tried.
   constexpr int kKinkStepAfterFailures = 4;
-  int failures_here = 0;  // failed corrections since the last accepted point
-  int steep_left = 0;     // points still under the steep-branch cap
-  bool refining = false;  // retracing towards a fold with the fine step
-  int refine_left = 0;    // bound on that retrace in case the fold vanishes
+  int failures_here = 0;                        // failed corrections since the last accepted point
+  std::optional<KinkReference> kink_reference;  // of the last point, once a kink step is tried
+  int steep_left = 0;                           // points still under the steep-branch cap
+  bool refining = false;                        // retracing towards a fold with the fine step
+  int refine_left = 0;                          // bound on that retrace in case the fold vanishes
   double refine_cap = kInf;
   std::size_t fold_floor = 0;  // restarts never undo an accepted fold (no ping-pong)
   const long max_attempts = 64L * options.max_points + 1000L;
@@ -741,13 +771,8 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     if (!ok && (failures_here + 1 >= kKinkStepAfterFailures || step <= options.min_step)) {
       CoreResult across;
       VectorXd across_direction;
-      constexpr std::size_t kTracedPoints = 64;  // the curve a kink step must not land on
-      std::vector<VectorXd> traced;
-      for (std::size_t i =
-               summary.points.size() > kTracedPoints ? summary.points.size() - kTracedPoints : 0;
-           i < summary.points.size(); ++i)
-        traced.push_back(summary.points[i].y.cwiseQuotient(s.unknown));
-      if (StepPastKink(problem, s, newton, ys_last, last.tangent, step, traced, &across,
+      if (!kink_reference) kink_reference = MakeKinkReference(problem, s, summary.points);
+      if (StepPastKink(problem, s, newton, ys_last, last.tangent, step, *kink_reference, &across,
                        &across_direction)) {
         summary.total_newton_iterations += across.iterations;
         corr = std::move(across);
@@ -791,6 +816,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         summary.points.resize(keep);
         ++summary.fine_control_restarts;
         failures_here = 0;
+        kink_reference.reset();
         corner_repeats = 0;  // the corner test starts afresh from the restart point
         corner_ratio = kInf;
         refining = true;
@@ -845,6 +871,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
 
     // The point is accepted from here on.
     failures_here = 0;
+    kink_reference.reset();
     corner_repeats = 0;
     corner_ratio = kInf;
     if (sign_change) {
