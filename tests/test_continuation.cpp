@@ -473,6 +473,85 @@ TEST(Continuation, PassesFoldsAtCornersSharperThan90Degrees) {
   EXPECT_EQ(circle.kink_steps, 0);
 }
 
+TEST(Continuation, KeepsTheOrientationWhereAStepLandsPastAFold) {
+  // lambda = f(x), piecewise linear with slopes 1, -3, 5, -3, 5 (kinks at x = 0, 0.1, 0.3,
+  // 0.6), traced from x = -0.001 with a first step of 0.5. Its predictor lies over the fourth
+  // piece, and its Keller hyperplane crosses that piece at x = 0.4475: Newton lands there in
+  // one iteration, three folds beyond the start. The curve runs on towards larger x, but the
+  // tangent oriented along the travel (v . v_prev > 0) points the other way (a turn of
+  // 116.6 degrees), and the curve would be walked backwards down to lambda_min. The
+  // orientation sign det [e_y; v^T] tells them apart: the tangent is reversed, the fold
+  // control retraces the folds with fine steps, and the curve reaches lambda = 1 at x = 0.84.
+  const auto f = [](double x) {
+    if (x < 0.0) return x;
+    if (x < 0.1) return -3.0 * x;
+    if (x < 0.3) return -0.3 + 5.0 * (x - 0.1);
+    if (x < 0.6) return 0.7 - 3.0 * (x - 0.3);
+    return -0.2 + 5.0 * (x - 0.6);
+  };
+  const auto slope = [](double x) {
+    if (x < 0.0) return 1.0;
+    if (x < 0.1) return -3.0;
+    if (x < 0.3) return 5.0;
+    if (x < 0.6) return -3.0;
+    return 5.0;
+  };
+  const ScalarCurve stairs([&](double x, double l) { return f(x) - l; },
+                           [&](double x, double) { return Eigen::Vector2d(slope(x), -1.0); });
+  ContinuationOptions o = Sweep(-0.001, 1.0);
+  o.initial_step = 0.5;
+  o.max_step = 0.5;
+  o.lambda_min = -2.0;
+  const auto summary = trace_curve(stairs, Eigen::Vector2d(-0.001, -0.001), o);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  EXPECT_GE(summary.reversed_tangents, 1);
+  EXPECT_EQ(summary.turning_points, 4);
+  EXPECT_NEAR(summary.points.back().y(0), 0.84, 1e-12);
+  for (std::size_t i = 0; i < summary.points.size(); ++i) {
+    const auto& p = summary.points[i];
+    EXPECT_NEAR(p.y(1), f(p.y(0)), 1e-12);
+    EXPECT_EQ(p.orientation, summary.points.front().orientation) << "point " << i;
+    // Along the curve x only grows: it is never walked backwards.
+    if (i > 0) {
+      EXPECT_GT(p.y(0), summary.points[i - 1].y(0)) << "point " << i;
+    }
+  }
+  // Ordinary curves never need the reversal.
+  const auto circle = FullCircle();
+  ASSERT_EQ(circle.termination, TerminationType::kCancelled) << circle.message;
+  EXPECT_EQ(circle.reversed_tangents, 0);
+  const auto s_curve = trace_curve(SCurve(), Eigen::Vector2d(-2.0, -6.0), Sweep(-6.0, 6.0));
+  ASSERT_TRUE(s_curve.reached_end()) << s_curve.message;
+  EXPECT_EQ(s_curve.reversed_tangents, 0);
+}
+
+TEST(Continuation, RefusesAResidualFloorPastAFold) {
+  // The zigzag of PassesFoldsAtCornersSharperThan90Degrees with its residual scaled by 1e-4
+  // (as a scaled friction residual can be), from 1e-5 before its first fold with steps of
+  // 1e-6: the Keller hyperplanes just past the fold miss the curve by less than the 1e-9
+  // tolerance times the slope, so Newton finds a residual floor below the tolerance there.
+  // Taken as a point, it is off the curve, and the curve is walked into the region past the
+  // fold until the floor exceeds the tolerance (step_too_small). Refused, the step is
+  // shortened and the fold passed along the next piece.
+  const auto f = [](double x) { return x < 0.0 ? x : (x < 1.0 ? -3.0 * x : 5.0 * x - 8.0); };
+  const auto slope = [](double x) { return x < 0.0 ? 1.0 : (x < 1.0 ? -3.0 : 5.0); };
+  const double scale = 1e-4;
+  const ScalarCurve zigzag(
+      [&](double x, double l) { return scale * (f(x) - l); },
+      [&](double x, double) { return Eigen::Vector2d(scale * slope(x), -scale); });
+  ContinuationOptions o = Sweep(-1e-5, 1.0);
+  o.initial_step = 1e-6;
+  o.min_step = 1e-7;
+  const auto summary = trace_curve(zigzag, Eigen::Vector2d(-1e-5, -1e-5), o);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  EXPECT_EQ(summary.residual_floor_points, 0);
+  EXPECT_EQ(summary.kink_steps, 2);
+  EXPECT_NEAR(summary.points.back().y(0), 1.8, 1e-12);
+  for (const auto& p : summary.points) EXPECT_NEAR(p.y(1), f(p.y(0)), 1e-12);
+  // The fixed-lambda solve still accepts a floor within the tolerance
+  // (NewtonAcceptsTheFloorOfANonSmoothResidual).
+}
+
 TEST(Continuation, EndsWhereTheCurveLeavesTheLambdaBounds) {
   // The unit circle from (-0.6, -0.8) towards lambda = 2, never reached: over the top fold
   // and back down, the curve leaves lambda >= -0.9 on its way to the bottom fold.

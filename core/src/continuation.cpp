@@ -219,8 +219,9 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
   }
   // Iterations since the best residual last halved, once it meets the tolerance:
   // a non-smooth residual (a contact sample switching between stick and slip) has a floor
-  // where Newton cycles between pieces with updates that never shrink. A point whose
-  // residual meets the tolerance there is a solution to that tolerance.
+  // where Newton cycles between pieces with updates that never shrink. At fixed lambda a
+  // point whose residual meets the tolerance there is a solution to that tolerance; on the
+  // Keller hyperplane the corrector fails there (below).
   // The cycle may visit iterates above the tolerance: the best iterate is kept, and
   // returned once the best residual has not halved for that many iterations (its Jacobian
   // is then evaluated again rather than kept from every improvement).
@@ -288,6 +289,17 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
     // Counted only once the best residual meets the tolerance.
     since_best = (floor_residual > opt.residual_tolerance || halved) ? 0 : since_best + 1;
     if (floor_residual <= opt.residual_tolerance && since_best >= opt.residual_floor_iterations) {
+      // On the Keller hyperplane a floor is also where the hyperplane passes just beyond a
+      // fold of the curve: the floor point then lies off the curve, and accepting it walks
+      // the curve into the region past the fold where no solution is. The step is refused
+      // (the caller shortens it, or steps past the kink) instead.
+      if (keller) {
+        std::ostringstream msg;
+        msg << "Newton stalled on a residual floor of " << floor_residual << " at "
+            << FormatLambda(floor_ys(n) * s.unknown(n));
+        out.message = msg.str();
+        return out;
+      }
       if (floor_ys != out.ys) {
         VectorXd floor_r;
         if (!system(floor_ys, &floor_r, &out.js, &out.message)) return out;
@@ -352,7 +364,8 @@ CoreResult ChordKeller(const CurveProblem& problem, const Scaling& s, const Kell
 
 // Eq. 4.9: w = e_x^-1 e_lambda, v = dir * (-w, 1) / |(1, w)|. `condition`: estimate of
 // the 1-norm condition number of e_x.
-bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v, double* condition) {
+bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v, double* condition,
+                  int* orientation) {
   const Index n = js.rows();
   const Lu lu(js.leftCols(n));
   *condition = lu.condition();
@@ -362,6 +375,9 @@ bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v, double* con
   t.head(n) = -w;
   t(n) = 1.0;
   *v = direction * t / t.norm();
+  // det [e_x e_lambda; v^T] = det e_x (1 + w . w) direction / |(1, w)|.
+  if (orientation != nullptr)
+    *orientation = direction > 0 ? lu.determinant_sign() : -lu.determinant_sign();
   return v->allFinite();
 }
 
@@ -370,7 +386,8 @@ bool FirstTangent(const MatrixXd& js, double direction, VectorXd* v, double* con
 // the Keller corrector's Newton matrix at the point. `keep` (optional): receives the
 // factorisation for the next step's chord iterations.
 bool NextTangent(const MatrixXd& js, const VectorXd& previous, VectorXd* v,
-                 double* condition = nullptr, KellerFactor* keep = nullptr) {
+                 double* condition = nullptr, KellerFactor* keep = nullptr,
+                 int* orientation = nullptr) {
   const Index n = js.rows();
   KellerFactor local;
   KellerFactor& f = keep != nullptr ? *keep : local;
@@ -380,9 +397,21 @@ bool NextTangent(const MatrixXd& js, const VectorXd& previous, VectorXd* v,
   f.t = f.lu.solve(VectorXd::Unit(n + 1, n));
   *v = f.t / f.t.norm();
   if (!v->allFinite()) return false;
+  // [J; v^T] = [J; p^T] + e_n (v - p)^T has determinant det [J; p^T] |t| (v . t = |t|).
+  if (orientation != nullptr) *orientation = f.lu.determinant_sign();
   f.d = *v - previous;
   f.denominator = 1.0 + f.d.dot(f.t);
   return std::isfinite(f.denominator) && std::abs(f.denominator) > 0.0;
+}
+
+// Reverses a tangent from NextTangent (and the Sherman-Morrison terms kept with it).
+void ReverseTangent(VectorXd* v, KellerFactor* keep) {
+  if (keep != nullptr) {
+    const VectorXd bordering = *v - keep->d;  // the row p the factorised matrix was bordered by
+    keep->d = -*v - bordering;
+    keep->denominator = 1.0 + keep->d.dot(keep->t);
+  }
+  *v = -*v;
 }
 
 // A corrector that lands farther from the predictor than the step either jumped to another
@@ -450,7 +479,7 @@ bool OnTracedCurve(const VectorXd& y, const std::vector<VectorXd>& traced, doubl
 // What StepPastKink needs of the last point, the same for every step tried from it (so
 // evaluated once per point): its residual, the curve's orientation there, sign det [J1; v^T],
 // and the curve traced up to it (its last points, scaled). `usable` false: the evaluation
-// failed or the bordered matrix is singular, and no kink step is tried from this point.
+// failed or the orientation is unknown, and no kink step is tried from this point.
 struct KinkReference {
   bool usable = false;
   VectorXd residual;
@@ -464,12 +493,9 @@ KinkReference MakeKinkReference(const CurveProblem& problem, const Scaling& s,
   KinkReference ref;
   const ContinuationPoint& last = points.back();
   const VectorXd ys_last = last.y.cwiseQuotient(s.unknown);
-  MatrixXd j_last;
   std::string message;
-  if (!EvaluateScaled(problem, s, ys_last, &ref.residual, &j_last, &message)) return ref;
-  Lu oriented;
-  oriented.factorise_bordered(j_last, last.tangent);
-  ref.orientation = oriented.determinant_sign();
+  if (!EvaluateScaled(problem, s, ys_last, &ref.residual, nullptr, &message)) return ref;
+  ref.orientation = last.orientation;  // sign det [J; v^T], kept with the point
   for (std::size_t i = points.size() > kTracedPoints ? points.size() - kTracedPoints : 0;
        i < points.size(); ++i)
     ref.traced.push_back(points[i].y.cwiseQuotient(s.unknown));
@@ -672,7 +698,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   ContinuationPoint first;
   first.y = unscale(start.ys);
   first.y(n) = options.lambda_start;
-  if (!FirstTangent(start.js, direction, &first.tangent, &first.condition))
+  if (!FirstTangent(start.js, direction, &first.tangent, &first.condition, &first.orientation))
     return finish(TerminationType::kStartFailed,
                   "start point: singular e_x, no tangent at " + FormatLambda(first.y(n)));
   first.newton_iterations = start.iterations;
@@ -688,6 +714,9 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   constexpr double kMaxCornerRatio = 1e3;  // a turn of at most 89.94 degrees
   // Failed corrections from one point after which a step past a kink is tried.
   constexpr int kKinkStepAfterFailures = 4;
+  // Turn (cosine between the travel and the new tangent) beyond which the orientation sign
+  // decides the tangent's direction (about 26 degrees).
+  constexpr double kKeepOrientationCosine = 0.9;
   int failures_here = 0;                        // failed corrections since the last accepted point
   std::optional<KinkReference> kink_reference;  // of the last point, once a kink step is tried
   int steep_left = 0;                           // points still under the steep-branch cap
@@ -782,10 +811,24 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         kink_step = true;
       }
     }
-    if (ok &&
-        !NextTangent(corr.js, travel, &p.tangent, &p.condition, chord ? &candidate : nullptr)) {
+    if (ok && !NextTangent(corr.js, travel, &p.tangent, &p.condition, chord ? &candidate : nullptr,
+                           &p.orientation)) {
       ok = false;
       corr.message = "singular bordered Jacobian, no tangent";
+    }
+    // The tangent oriented along the travel (v . v_prev > 0) is the curve's own direction
+    // unless the point lies past a corner that turns the curve by more than 90 degrees: the
+    // tangent there is the next piece's, and that orientation walks it backwards onto the
+    // piece just traced. The orientation sign det [J; v^T] is the same on all pieces of the
+    // curve; where it disagrees across a turn of more than kKeepOrientationTurn, the tangent
+    // is reversed (below that turn - an ordinary step - the travel decides: the sign also
+    // changes at a branch point, and is unreliable near a singular bordered matrix).
+    if (ok && last.orientation != 0 && p.orientation != 0 && p.orientation != last.orientation &&
+        p.tangent.dot(travel) < kKeepOrientationCosine) {
+      ReverseTangent(&p.tangent, chord ? &candidate : nullptr);
+      p.orientation = last.orientation;
+      p.reversed_tangent = true;
+      ++summary.reversed_tangents;
     }
 
     if (ok) {
@@ -841,7 +884,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         summary.total_newton_iterations += land.iterations;
         ContinuationPoint end;
         if (land.converged && (land.ys - guess_s).norm() <= step &&
-            NextTangent(land.js, travel, &end.tangent, &end.condition)) {
+            NextTangent(land.js, travel, &end.tangent, &end.condition, nullptr, &end.orientation)) {
           end.y = unscale(land.ys);
           end.y(n) = options.lambda_end;
           end.newton_iterations = land.iterations;

@@ -20,6 +20,10 @@
 //     correction shrinks with the step; after four failed corrections from a point, each
 //     further try also steps past the kink along the next piece's tangent, oriented by the
 //     sign of det [e_y; v^T] (ContinuationSummary::kink_steps)
+//   - orientation: every point carries sign det [e_y; v^T], the same on all pieces of a
+//     curve; a new point whose tangent, oriented along the travel (v . v_prev > 0), turned by
+//     more than about 26 degrees and has the other sign lies past a fold the step jumped:
+//     its tangent is reversed (ContinuationSummary::reversed_tangents)
 //   - bounds: the curve ends (kLeftBounds) where it leaves [lambda_min, lambda_max]
 // All of it works on scaled unknowns y_s = y / scale so that the arclength is well
 // conditioned whether displacements are 1e-9 m or 1 m.
@@ -62,7 +66,10 @@ struct NewtonOptions {
   int max_line_search_halvings = 6;
   // Also converged when the residual has met residual_tolerance for this many iterations in
   // a row without halving: the floor of a non-smooth residual, where Newton cycles between
-  // pieces and its update never shrinks (counted in ContinuationSummary).
+  // pieces and its update never shrinks (counted in ContinuationSummary). At fixed lambda
+  // only (the start point, the landing on lambda_end): on the Keller hyperplane a floor is
+  // also the closest the hyperplane comes to a curve that folds back before it, a point off
+  // the curve, so the corrector fails there and the step is shortened instead.
   int residual_floor_iterations = 3;
 };
 
@@ -139,6 +146,12 @@ struct ContinuationPoint {
   bool at_residual_floor = false;  // converged on the residual alone (NewtonOptions)
   bool passed_corner = false;      // reached across a corner of the branch (trace_curve)
   bool passed_kink = false;        // of those, along the next piece's tangent (kink_steps)
+  // Sign of det [e_x e_lambda; tangent^T] (scaled): the curve's orientation, the same on all
+  // its pieces between branch points; 0 if unknown.
+  int orientation = 0;
+  // The tangent was reversed against the direction of travel to keep the orientation: the
+  // point lies past a corner that turns the curve by more than 90 degrees.
+  bool reversed_tangent = false;
   // Estimate of the 1-norm condition number of the Newton matrix at the point, in scaled
   // variables: the bordered Keller matrix [e_x e_lambda; tangent^T] (e_x alone at the start
   // point), from the factorisation that gives the tangent. About log10(condition) of the
@@ -169,13 +182,15 @@ struct ContinuationSummary {
   int fine_control_restarts = 0;  // times the turning-point control stepped back
   int steep_branch_caps = 0;      // times the steep-branch cap was applied
   int residual_floor_points = 0;  // points accepted at a residual floor (NewtonOptions)
-  int corners = 0;     // points reached across a corner of the branch: a correction longer
-                       // than the step whose ratio to the step repeated over three halvings
-  int kink_steps = 0;  // of them, points reached along the tangent of the piece past a kink
-                       // (its Jacobian evaluated beyond the kink) after four failed
-                       // corrections from the last point: a corner turning by more than 90
-                       // degrees (no solution on the Keller hyperplane ahead), or a cluster
-                       // of kinks where Newton cycles between pieces
+  int corners = 0;            // points reached across a corner of the branch: a correction longer
+                              // than the step whose ratio to the step repeated over three halvings
+  int kink_steps = 0;         // of them, points reached along the tangent of the piece past a kink
+                              // (its Jacobian evaluated beyond the kink) after four failed
+                              // corrections from the last point: a corner turning by more than 90
+                              // degrees (no solution on the Keller hyperplane ahead), or a cluster
+                              // of kinks where Newton cycles between pieces
+  int reversed_tangents = 0;  // tangents reversed to keep the orientation (points undone by
+                              // the turning-point control included)
   int total_newton_iterations = 0;      // chord iterations included
   int chord_points = 0;                 // points corrected by chord iterations alone
   int chord_iterations = 0;             // chord iterations, those of the fallbacks included
