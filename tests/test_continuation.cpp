@@ -378,6 +378,12 @@ TEST(Continuation, NewtonAcceptsTheFloorOfANonSmoothResidual) {
       [&](double x, double l) { return 1e-3 * (x - l) + (x > l ? 10 * delta : -10 * delta); },
       [](double, double) { return Eigen::Vector2d(1e-3, -1e-3); });
   EXPECT_FALSE(solve_fixed_parameter(high_floor, Eigen::Vector2d(1.0, 0.5), {}).converged);
+  // Traced, the jump crosses every Keller hyperplane: the residual reverses between the
+  // iterates on either side, so the floor brackets the curve and is taken there too.
+  const auto traced = trace_curve(kink, Eigen::Vector2d(0.5, 0.5), Sweep(0.5, 1.0));
+  ASSERT_TRUE(traced.reached_end()) << traced.message;
+  EXPECT_GT(traced.residual_floor_points, 0);
+  for (const auto& p : traced.points) EXPECT_NEAR(p.y(0), p.y(1), 1e-6);
   // A smooth problem never needs the floor.
   const ScalarCurve line([](double x, double l) { return x - l; },
                          [](double, double) { return Eigen::Vector2d(1.0, -1.0); });
@@ -502,20 +508,32 @@ TEST(Continuation, KeepsTheOrientationWhereAStepLandsPastAFold) {
   o.initial_step = 0.5;
   o.max_step = 0.5;
   o.lambda_min = -2.0;
-  const auto summary = trace_curve(stairs, Eigen::Vector2d(-0.001, -0.001), o);
-  ASSERT_TRUE(summary.reached_end()) << summary.message;
-  EXPECT_GE(summary.reversed_tangents, 1);
-  EXPECT_EQ(summary.turning_points, 4);
-  EXPECT_NEAR(summary.points.back().y(0), 0.84, 1e-12);
-  for (std::size_t i = 0; i < summary.points.size(); ++i) {
-    const auto& p = summary.points[i];
-    EXPECT_NEAR(p.y(1), f(p.y(0)), 1e-12);
-    EXPECT_EQ(p.orientation, summary.points.front().orientation) << "point " << i;
-    // Along the curve x only grows: it is never walked backwards.
-    if (i > 0) {
-      EXPECT_GT(p.y(0), summary.points[i - 1].y(0)) << "point " << i;
+  // The curve climbed to its end: every point on it, with the start's orientation, and x
+  // growing along the points (never walked backwards).
+  const auto expect_climbed = [&](const ContinuationSummary& summary) {
+    ASSERT_TRUE(summary.reached_end()) << summary.message;
+    EXPECT_GE(summary.reversed_tangents, 1);
+    EXPECT_NEAR(summary.points.back().y(0), 0.84, 1e-12);
+    for (std::size_t i = 0; i < summary.points.size(); ++i) {
+      const auto& p = summary.points[i];
+      EXPECT_NEAR(p.y(1), f(p.y(0)), 1e-12);
+      EXPECT_EQ(p.orientation, summary.points.front().orientation) << "point " << i;
+      if (i > 0) {
+        EXPECT_GT(p.y(0), summary.points[i - 1].y(0)) << "point " << i;
+      }
     }
-  }
+  };
+  const auto summary = trace_curve(stairs, Eigen::Vector2d(-0.001, -0.001), o);
+  expect_climbed(summary);
+  EXPECT_EQ(summary.turning_points, 4);
+  // The same without the fold control (the reversed point is kept, not retraced) and with
+  // the chord corrector, whose kept factorisation follows the reversed tangent; the end
+  // point keeps the orientation too.
+  o.turning_point_control = false;
+  o.reuse_factorisation_from = 1;
+  const auto plain = trace_curve(stairs, Eigen::Vector2d(-0.001, -0.001), o);
+  expect_climbed(plain);
+  EXPECT_GT(plain.chord_points, 0);
   // Ordinary curves never need the reversal.
   const auto circle = FullCircle();
   ASSERT_EQ(circle.termination, TerminationType::kCancelled) << circle.message;

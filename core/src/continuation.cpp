@@ -226,6 +226,7 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
   // returned once the best residual has not halved for that many iterations (its Jacobian
   // is then evaluated again rather than kept from every improvement).
   int since_best = 0;
+  bool floor_brackets_root = false;
   double floor_residual = out.residual_norm;
   VectorXd floor_ys = out.ys;
   Lu lu;
@@ -271,6 +272,10 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
       out.message = trial_message;
       return out;
     }
+    // The residual reversing between iterates near the tolerance brackets a root: the
+    // floor is a jump of the residual across the curve, not a miss of it.
+    if (floor_residual <= opt.residual_tolerance && best_r.head(n).dot(r.head(n)) < 0.0)
+      floor_brackets_root = true;
     out.ys += best_factor * dy;
     r = std::move(best_r);
     out.js.swap(best_js);
@@ -291,9 +296,11 @@ CoreResult DampedNewton(const CurveProblem& problem, const Scaling& s, const Vec
     if (floor_residual <= opt.residual_tolerance && since_best >= opt.residual_floor_iterations) {
       // On the Keller hyperplane a floor is also where the hyperplane passes just beyond a
       // fold of the curve: the floor point then lies off the curve, and accepting it walks
-      // the curve into the region past the fold where no solution is. The step is refused
-      // (the caller shortens it, or steps past the kink) instead.
-      if (keller) {
+      // the curve into the region past the fold where no solution is. There the residual
+      // keeps its direction from iterate to iterate (a minimum of |e| on the hyperplane);
+      // across a jump it reverses. A floor on the hyperplane that brackets no root is
+      // refused: the caller shortens the step, or steps past the kink.
+      if (keller && !floor_brackets_root) {
         std::ostringstream msg;
         msg << "Newton stalled on a residual floor of " << floor_residual << " at "
             << FormatLambda(floor_ys(n) * s.unknown(n));
@@ -412,6 +419,26 @@ void ReverseTangent(VectorXd* v, KellerFactor* keep) {
     keep->denominator = 1.0 + keep->d.dot(keep->t);
   }
   *v = -*v;
+}
+
+// The tangent oriented along the travel (v . v_prev > 0) is the curve's own direction unless
+// the point lies past a fold the step jumped (the corrector landed on a piece that runs back
+// towards the last point): that orientation walks the curve backwards. The orientation sign
+// det [J; v^T] is the same on all pieces of the curve; where the new point's sign differs
+// from `reference` (the last point's) across a turn of more than about 26 degrees from
+// `along`, the tangent is reversed and true returned. Below that turn - an ordinary step -
+// the travel decides: the sign also changes at a branch point and where the curve runs
+// inside a kink surface. `keep`: the factorisation kept with the tangent (chord corrector).
+bool KeepOrientation(int reference, const VectorXd& along, ContinuationPoint* point,
+                     KellerFactor* keep) {
+  constexpr double kKeepOrientationCosine = 0.9;
+  if (reference == 0 || point->orientation == 0 || point->orientation == reference ||
+      point->tangent.dot(along) >= kKeepOrientationCosine)
+    return false;
+  ReverseTangent(&point->tangent, keep);
+  point->orientation = reference;
+  point->reversed_tangent = true;
+  return true;
 }
 
 // A corrector that lands farther from the predictor than the step either jumped to another
@@ -714,9 +741,6 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   constexpr double kMaxCornerRatio = 1e3;  // a turn of at most 89.94 degrees
   // Failed corrections from one point after which a step past a kink is tried.
   constexpr int kKinkStepAfterFailures = 4;
-  // Turn (cosine between the travel and the new tangent) beyond which the orientation sign
-  // decides the tangent's direction (about 26 degrees).
-  constexpr double kKeepOrientationCosine = 0.9;
   int failures_here = 0;                        // failed corrections since the last accepted point
   std::optional<KinkReference> kink_reference;  // of the last point, once a kink step is tried
   int steep_left = 0;                           // points still under the steep-branch cap
@@ -816,20 +840,8 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       ok = false;
       corr.message = "singular bordered Jacobian, no tangent";
     }
-    // The tangent oriented along the travel (v . v_prev > 0) is the curve's own direction
-    // unless the point lies past a corner that turns the curve by more than 90 degrees: the
-    // tangent there is the next piece's, and that orientation walks it backwards onto the
-    // piece just traced. The orientation sign det [J; v^T] is the same on all pieces of the
-    // curve; where it disagrees across a turn of more than kKeepOrientationTurn, the tangent
-    // is reversed (below that turn - an ordinary step - the travel decides: the sign also
-    // changes at a branch point, and is unreliable near a singular bordered matrix).
-    if (ok && last.orientation != 0 && p.orientation != 0 && p.orientation != last.orientation &&
-        p.tangent.dot(travel) < kKeepOrientationCosine) {
-      ReverseTangent(&p.tangent, chord ? &candidate : nullptr);
-      p.orientation = last.orientation;
-      p.reversed_tangent = true;
+    if (ok && KeepOrientation(last.orientation, travel, &p, chord ? &candidate : nullptr))
       ++summary.reversed_tangents;
-    }
 
     if (ok) {
       p.y = unscale(corr.ys);
@@ -884,7 +896,10 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         summary.total_newton_iterations += land.iterations;
         ContinuationPoint end;
         if (land.converged && (land.ys - guess_s).norm() <= step &&
-            NextTangent(land.js, travel, &end.tangent, &end.condition, nullptr, &end.orientation)) {
+            NextTangent(land.js, p.tangent, &end.tangent, &end.condition, nullptr,
+                        &end.orientation)) {
+          if (KeepOrientation(last.orientation, p.tangent, &end, nullptr))
+            ++summary.reversed_tangents;
           end.y = unscale(land.ys);
           end.y(n) = options.lambda_end;
           end.newton_iterations = land.iterations;

@@ -66,10 +66,12 @@ struct NewtonOptions {
   int max_line_search_halvings = 6;
   // Also converged when the residual has met residual_tolerance for this many iterations in
   // a row without halving: the floor of a non-smooth residual, where Newton cycles between
-  // pieces and its update never shrinks (counted in ContinuationSummary). At fixed lambda
-  // only (the start point, the landing on lambda_end): on the Keller hyperplane a floor is
-  // also the closest the hyperplane comes to a curve that folds back before it, a point off
-  // the curve, so the corrector fails there and the step is shortened instead.
+  // pieces and its update never shrinks (counted in ContinuationSummary). On the Keller
+  // hyperplane only where the residual reversed between iterates (a jump across the curve):
+  // a floor where it keeps its direction is the closest the hyperplane comes to a curve that
+  // folds back before it, a point off the curve, and the corrector fails there (the step is
+  // shortened, or taken past the kink). At fixed lambda (the start point, the landing on
+  // lambda_end) any floor within the tolerance is accepted.
   int residual_floor_iterations = 3;
 };
 
