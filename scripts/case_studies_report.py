@@ -7,7 +7,7 @@ Usage: case_studies_report.py OUT_DIR FIGURE_DIR
 OUT_DIR holds the runs (test_case_modes/, test_case_1/ (a study; the friction loops are its
 five-harmonic run's), test_case_1_free/, test_case_2/ (a study), test_case_2_free/ and, when
 the large case was run,
-large_case_3*/). Writes into FIGURE_DIR: PNG figures drawn by gnuplot (response curves on a
+large_case_modes/ and large_case_3*/). Writes into FIGURE_DIR: PNG figures drawn by gnuplot (response curves on a
 log scale, force harmonics, peak against preload) and case_studies.json with the numbers the
 document quotes. Prints what it wrote. Standard library only; needs gnuplot for the figures.
 """
@@ -93,15 +93,17 @@ def main():
     os.makedirs(figures, exist_ok=True)
     numbers = {}
 
-    # Nodal-diameter map of the test case.
-    modes = os.path.join(out, "test_case_modes")
-    if os.path.isdir(modes):
+    # Nodal-diameter maps of the test case and, when run, of the large case.
+    for model in ("test_case", "large_case"):
+        modes = os.path.join(out, f"{model}_modes")
+        if not os.path.isdir(modes):
+            continue
         _, rows = read_csv(os.path.join(modes, "families.csv"))
-        numbers["test_case_families_hz"] = {r[0]: [round(float(x), 2) for x in r[1:6]]
-                                            for r in rows}
+        numbers[f"{model}_families_hz"] = {r[0]: [round(float(x), 2) for x in r[1:6]]
+                                           for r in rows}
         if os.path.exists(os.path.join(modes, "modes.png")):
             shutil.copy(os.path.join(modes, "modes.png"),
-                        os.path.join(figures, "test_case_nodal_diameter_map.png"))
+                        os.path.join(figures, f"{model}_nodal_diameter_map.png"))
 
     # Case 1: harmonics needed, amplitude reduction, force harmonics.
     case1 = os.path.join(out, "test_case_1")

@@ -18,6 +18,19 @@ namespace frichb::core {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// Spacing of the labelled nodal diameters on the map's axis: every one up to 20, then
+// every 2, 5 or 10 so that the labels (up to two or three digits) do not overlap.
+int NodalDiameterTicStep(std::size_t nodal_diameters) {
+  if (nodal_diameters <= 20) return 1;
+  if (nodal_diameters <= 40) return 2;
+  if (nodal_diameters <= 100) return 5;
+  return 10;
+}
+
+}  // namespace
+
 int run_modes(const ModesRequest& request) {
   const std::string file = request.scene_file.string();
   Scene scene;
@@ -99,7 +112,7 @@ int run_modes(const ModesRequest& request) {
          << "set title 'nodal-diameter map (" << sectors << " sectors, engine order "
          << scene.cyclic.engine_order << ")'\n"
          << "set xlabel 'nodal diameter'\nset ylabel 'natural frequency [Hz]'\n"
-         << "set xtics 1\nplot ";
+         << "set xtics " << NodalDiameterTicStep(by_nd.size()) << "\nplot ";
       gp << "for [i=2:" << families + 1
          << "] 'families.csv' using 1:i with linespoints pt 7 title sprintf('family %d', i - 1)";
       for (std::size_t k = 0; k < speeds.size() && !excitation.empty(); ++k)
