@@ -437,7 +437,6 @@ bool KeepOrientation(int reference, const VectorXd& along, ContinuationPoint* po
     return false;
   ReverseTangent(&point->tangent, keep);
   point->orientation = reference;
-  point->reversed_tangent = true;
   return true;
 }
 

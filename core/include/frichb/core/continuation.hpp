@@ -151,9 +151,6 @@ struct ContinuationPoint {
   // Sign of det [e_x e_lambda; tangent^T] (scaled): the curve's orientation, the same on all
   // its pieces between branch points; 0 if unknown.
   int orientation = 0;
-  // The tangent was reversed against the direction of travel to keep the orientation: the
-  // point lies past a corner that turns the curve by more than 90 degrees.
-  bool reversed_tangent = false;
   // Estimate of the 1-norm condition number of the Newton matrix at the point, in scaled
   // variables: the bordered Keller matrix [e_x e_lambda; tangent^T] (e_x alone at the start
   // point), from the factorisation that gives the tangent. About log10(condition) of the
