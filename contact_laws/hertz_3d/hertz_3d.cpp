@@ -1,5 +1,5 @@
 // hertz_3d: coupled 3D friction contact (2D tangential slider inside the friction circle,
-// normal motion with separation) with penetration-dependent Hertz stiffnesses, seed thesis
+// normal motion with separation) with penetration-dependent Hertz stiffnesses, thesis
 // eq. 3.2 (Kt = sqrt(Z), Kn = 3 sqrt(Z) / 2 for unit coefficients).
 //
 //   p  = p0 + u_n - g                       penetration; open for p <= 0

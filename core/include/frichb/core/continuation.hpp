@@ -2,7 +2,7 @@
 //
 // The module knows nothing of friction or harmonics: it traces the solution curve of any
 // n equations in n + 1 unknowns y = [x; lambda] for which a callable returns the residual
-// and its dense Jacobian. It implements the seed thesis' chapter 4:
+// and its dense Jacobian. It implements the thesis' chapter 4:
 //   - tangent predictor  y1 = y_i + ds * v_i                       (eq. 4.8)
 //   - first tangent from w = e_x^-1 e_lambda, v = +-(-w, 1)/|(1, w)| (eq. 4.9), sign from
 //     the sweep direction; later tangents from [A; v_{i-1}^T] v = [0; 1], normalised (4.10)

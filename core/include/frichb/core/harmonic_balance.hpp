@@ -1,5 +1,5 @@
 // The harmonic-balance equations in receptance form, reduced to the contacts' relative
-// displacements (seed eq. 4.2 premultiplied by the contact gather matrix G):
+// displacements (thesis eq. 4.2 premultiplied by the contact gather matrix G):
 //
 //   e(U, w) = U - U0(w) + Rc(w) F(U) = 0,   U0 = G R Fext,   Rc = G R G^T,
 //

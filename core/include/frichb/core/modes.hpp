@@ -1,5 +1,5 @@
 // `frichb modes`: natural frequencies of a scene's structure for every harmonic index, the
-// nodal-diameter map (ZZENF diagram, seed Fig. 5.3) with the engine-order excitation of the
+// nodal-diameter map (ZZENF diagram, thesis Fig. 5.3) with the engine-order excitation of the
 // kept temporal harmonics at a rotation speed.
 #pragma once
 

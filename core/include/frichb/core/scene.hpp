@@ -96,7 +96,7 @@ struct CyclicSpec {
   // Harmonic index h = mod(n m, nb) of temporal harmonic n (0 without cyclic symmetry).
   int harmonic_index(int n) const { return enabled() ? (n * engine_order) % sectors : 0; }
   // Nodal diameter excited by harmonic index h: h for h <= nb/2 (backward travelling wave),
-  // nb - h above (forward travelling wave); h = 0 and h = nb/2 are standing (seed §2.2).
+  // nb - h above (forward travelling wave); h = 0 and h = nb/2 are standing (thesis §2.2).
   int nodal_diameter(int h) const { return 2 * h <= sectors ? h : sectors - h; }
   // '-' backward, '+' forward, ' ' standing (the thesis's Table 5.1 notation).
   char wave_direction(int h) const {
