@@ -9,8 +9,10 @@
 #include <sstream>
 
 #include "frichb/core/convergence.hpp"
+#include "frichb/core/interrupt.hpp"
 #include "frichb/core/loop.hpp"
 #include "frichb/core/modes.hpp"
+#include "frichb/core/output.hpp"
 #include "frichb/core/registry.hpp"
 #include "frichb/core/run.hpp"
 #include "frichb/core/scene.hpp"
@@ -66,9 +68,11 @@ Every verb that reads a scene takes --set PATH=VALUE (repeatable) to override a 
 without editing the file, e.g. `frichb run scene.yaml --set contacts.shroud.params.mu=0`;
 summary.json records the scene as run.
 
-Exit codes: 0 ok; 1 bad command line; 2 invalid input (scene, plugin, file);
+Exit codes: 0 ok; 1 bad command line; 2 invalid input (scene, plugin, file, output folder);
             3 the curve ended before the end of the sweep (outputs written, see summary.json);
-            4 internal error.
+            4 internal error; 5 the outputs could not be written (disk full, I/O error: the
+            output folder keeps its earlier results); 130/143 interrupted by SIGINT/SIGTERM
+            (no output written).
 Plugins are searched in <frichb dir>/../lib/frichb/plugins, the install prefix,
 $FRICHB_PLUGIN_PATH (':'-separated) and the scene's plugin_paths.
 Documentation: docs/getting-started.md and docs/scene-reference.md.
@@ -176,6 +180,7 @@ int main(int argc, char** argv) {
     return kExitUsage;
   }
   spdlog::set_level(level);
+  install_interrupt_handlers();
 
   if (vm.count("help")) {
     std::cout << kUsage << opts << "\n";
@@ -368,13 +373,16 @@ int main(int argc, char** argv) {
         std::cout << md;
       } else {
         fs::create_directories(output);
-        std::ofstream(fs::path(output) / "scene-reference.md") << md;
+        write_file(fs::path(output) / "scene-reference.md", md);
       }
       return kExitOk;
     }
   } catch (const PluginError& e) {
     spdlog::error("{}", e.what());
     return kExitInvalidInput;
+  } catch (const OutputError& e) {
+    spdlog::error("{}", e.what());
+    return e.user_error() ? kExitInvalidInput : kExitOutput;
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return kExitInternal;

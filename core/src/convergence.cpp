@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "frichb/core/interrupt.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/core/run.hpp"
 #include "frichb/core/scene.hpp"
@@ -121,6 +122,11 @@ int run_convergence(const ConvergenceRequest& request) {
     std::vector<Row> rows;
     int incomplete = 0;
     for (std::size_t i = 0; i < settings.size(); ++i) {
+      if (interrupted()) {
+        spdlog::error("{}: interrupted by signal {} after {} of {} settings; no output written",
+                      base.file.string(), interrupt_signal(), i, settings.size());
+        return interrupted_exit_code();
+      }
       const Setting& s = settings[i];
       Row row{s, {}, 0, NAN, NAN};
       try {
@@ -252,9 +258,10 @@ int run_convergence(const ConvergenceRequest& request) {
       gp << "# gnuplot script written by frichb convergence; `gnuplot convergence.gp`\n"
          << "set terminal pngcairo size 1200,520 noenhanced\nset output 'convergence.png'\n"
          << "set datafile separator ','\nset logscale xy\nset grid\nset key bottom left\n"
-         << "set xlabel 'wall time of the run [s]'\nset multiplot layout 1,2 title '"
-         << (base.name.empty() ? base.file.stem().string() : base.name)
-         << ": error against run time (reference " << reference.setting.id << ")'\n";
+         << "set xlabel 'wall time of the run [s]'\nset multiplot layout 1,2 title "
+         << gnuplot_string((base.name.empty() ? base.file.stem().string() : base.name) +
+                           ": error against run time (reference " + reference.setting.id + ")")
+         << "\n";
       const char* columns[] = {"amplitude_error", "frequency_error"};
       const char* titles[] = {"peak amplitude error (relative)", "peak frequency error (relative)"};
       for (int k = 0; k < 2; ++k) {
@@ -283,6 +290,9 @@ int run_convergence(const ConvergenceRequest& request) {
   } catch (const SceneError& e) {
     spdlog::error("{}", e.what());
     return kExitInvalidInput;
+  } catch (const OutputError& e) {
+    spdlog::error("{}: writing the outputs: {}", request.scene_file.string(), e.what());
+    return e.user_error() ? kExitInvalidInput : kExitOutput;
   } catch (const std::exception& e) {
     spdlog::error("{}: {}", request.scene_file.string(), e.what());
     return kExitInternal;

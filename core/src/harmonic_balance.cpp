@@ -118,9 +118,9 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     contacts_.push_back(std::move(c));
   }
   // Sector s + o moves like the reference sector delayed by o Delta t: harmonic n of its
-  // displacement is the reference's times e^{-i n m phi o} (seed eqs. 2.7, 2.16-2.17). The
+  // displacement is the reference's times e^{-i n m phi o} (thesis eqs. 2.7, 2.16-2.17). The
   // force on a neighbour's node reaches the reference sector through the conjugate factor,
-  // hence G^H for forces (Newton's third law with cyclic symmetry, seed eq. 2.13).
+  // hence G^H for forces (Newton's third law with cyclic symmetry, thesis eq. 2.13).
   const double phi = scene.cyclic.enabled() ? 2.0 * std::numbers::pi / scene.cyclic.sectors : 0.0;
   for (int n : layout_.harmonics()) {
     Eigen::MatrixXcd g = Eigen::MatrixXcd::Zero(components_, kept);
@@ -166,7 +166,8 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
       cr.projected = gather_[k] * b.rows;
       // Without cyclic phase factors and with real modes P is real: Rc_n is then formed by
       // one real product of twice the rows instead of a complex one (half the flops).
-      if (cr.projected.imag().cwiseAbs().maxCoeff() == 0.0) cr.projected_real = cr.projected.real();
+      if (cr.projected.size() == 0 || cr.projected.imag().cwiseAbs().maxCoeff() == 0.0)
+        cr.projected_real = cr.projected.real();
       cr.modal_force = b.rows.adjoint() * excitation_[k];
       if (b.residual_flexibility.size()) {
         cr.flexibility = gather_[k] * b.residual_flexibility * gather_[k].adjoint();

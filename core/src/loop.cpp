@@ -307,9 +307,10 @@ int run_loop(const LoopRequest& request) {
          << "set output 'loop.png'\nset datafile separator ','\nset grid\nset key below\n";
       const bool two_d = comps.size() >= 2 && comps[1] == 1;
       if (d > 1)
-        gp << "set multiplot layout 1,2 title '" << name << " (" << plugin->name() << ")'\n";
+        gp << "set multiplot layout 1,2 title "
+           << gnuplot_string(name + " (" + plugin->name() + ")") << "\n";
       else
-        gp << "set title '" << name << " (" << plugin->name() << ")'\n";
+        gp << "set title " << gnuplot_string(name + " (" + plugin->name() + ")") << "\n";
       gp << "set xlabel 'u_t1 [m]'\nset ylabel 'T1 [N]'\n"
          << "plot 'loop.csv' using 2:" << 2 + d << " with lines lw 2 title 'T1 vs u_t1'\n";
       if (two_d) {
@@ -338,6 +339,9 @@ int run_loop(const LoopRequest& request) {
   } catch (const PluginError& e) {
     spdlog::error("{}: {}", file, e.what());
     return kExitInvalidInput;
+  } catch (const OutputError& e) {
+    spdlog::error("{}: writing the outputs: {}", file, e.what());
+    return e.user_error() ? kExitInvalidInput : kExitOutput;
   } catch (const std::exception& e) {
     spdlog::error("{}: {}", file, e.what());
     return kExitInternal;

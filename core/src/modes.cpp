@@ -132,6 +132,9 @@ int run_modes(const ModesRequest& request) {
   } catch (const PluginError& e) {
     spdlog::error("{}: {}", file, e.what());
     return kExitInvalidInput;
+  } catch (const OutputError& e) {
+    spdlog::error("{}: writing the outputs: {}", file, e.what());
+    return e.user_error() ? kExitInvalidInput : kExitOutput;
   } catch (const std::exception& e) {
     spdlog::error("{}: {}", file, e.what());
     return kExitInternal;

@@ -12,6 +12,7 @@
 #include "frichb/core/continuation.hpp"
 #include "frichb/core/dense_lu.hpp"
 #include "frichb/core/harmonic_balance.hpp"
+#include "frichb/core/interrupt.hpp"
 #include "frichb/core/loop.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/core/response.hpp"
@@ -91,16 +92,18 @@ std::string response_plot_script(const Scene& scene, const std::vector<NodeColum
      << "set terminal pngcairo size 1000,640 noenhanced\n"
      << "set output 'response.png'\n"
      << "set datafile separator ','\n"
-     << "set title '" << (scene.name.empty() ? scene.file.stem().string() : scene.name)
-     << ": forced response'\n"
+     << "set title "
+     << gnuplot_string((scene.name.empty() ? scene.file.stem().string() : scene.name) +
+                       ": forced response")
+     << "\n"
      << "set xlabel 'frequency [" << unit_name(scene.continuation.unit) << "]'\n"
      << "set ylabel 'amplitude [m]'\nset grid\nset key top right\n";
   const int xcol = scene.continuation.unit == FrequencyUnit::kHz ? 2 : 3;
   gp << "plot ";
   for (std::size_t i = 0; i < nodes.size(); ++i)
     gp << (i ? ", \\\n     " : "") << "'response.csv' using " << xcol << ":"
-       << "(column('" << nodes[i].name << "_amplitude_m')) with linespoints pt 7 ps 0.4 title '"
-       << nodes[i].name << "'";
+       << "(column(" << gnuplot_string(nodes[i].name + "_amplitude_m")
+       << ")) with linespoints pt 7 ps 0.4 title " << gnuplot_string(nodes[i].name);
   gp << "\n";
   return gp.str();
 }
@@ -108,11 +111,12 @@ std::string response_plot_script(const Scene& scene, const std::vector<NodeColum
 std::string loop_plot_script(const std::string& csv, const std::string& title, int dims) {
   std::ostringstream gp;
   gp << "set terminal pngcairo size 800,600 noenhanced\n"
-     << "set output '" << fs::path(csv).replace_extension(".png").filename().string() << "'\n"
+     << "set output " << gnuplot_string(fs::path(csv).replace_extension(".png").filename().string())
+     << "\n"
      << "set datafile separator ','\nset grid\n"
-     << "set title '" << title << "'\n"
+     << "set title " << gnuplot_string(title) << "\n"
      << "set xlabel 'relative displacement u_t1 [m]'\nset ylabel 'friction force T1 [N]'\n"
-     << "plot '" << fs::path(csv).filename().string() << "' using 2:" << (2 + dims)
+     << "plot " << gnuplot_string(fs::path(csv).filename().string()) << " using 2:" << (2 + dims)
      << " with lines lw 2 title 'loop'\n";
   return gp.str();
 }
@@ -297,6 +301,15 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
   };
   nlohmann::json timing;
   try {
+    // The output folder is taken first: a path that cannot hold the results, or a folder
+    // another run is writing, stops the run before any work.
+    std::optional<StagedOutput> out;
+    try {
+      out.emplace(out_dir, std::vector<std::string>{"response.csv", "response.gp", "response.png",
+                                                    "summary.json", "loops"});
+    } catch (const OutputError& e) {
+      return fail(e.user_error() ? kExitInvalidInput : kExitOutput, "output_error", e.what());
+    }
     std::unique_ptr<StructureInstance> structure;
     std::unique_ptr<HarmonicBalanceModel> model;
     try {
@@ -393,6 +406,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     const auto t_cont = Clock::now();
     double last_report = -1.0;
     auto progress = [&](const ContinuationPoint& p, std::size_t index) {
+      if (interrupted()) return false;
       const double f = p.y(n) / unit;
       const double done = std::clamp((f - C.from) / (C.to - C.from), 0.0, 1.0);
       if (done - last_report >= 0.05 || index == 0) {
@@ -410,6 +424,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
       for (int i = 0; i <= steps; ++i) {
         ContinuationPoint p;
         p.y = Eigen::VectorXd::Constant(1, w_from + (w_to - w_from) * i / steps);
+        p.tangent = Eigen::VectorXd::Constant(1, w_to > w_from ? 1.0 : -1.0);
         p.step = i ? span / steps : 0.0;
         summary.points.push_back(p);
       }
@@ -420,6 +435,11 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
       summary = trace_curve(*model, y0, options, progress);
     }
     timing["continuation_s"] = seconds_since(t_cont);
+    if (interrupted())
+      return fail(interrupted_exit_code(), "interrupted",
+                  scene.file.string() + ": interrupted by signal " +
+                      std::to_string(interrupt_signal()) + " at point " +
+                      std::to_string(summary.points.size()) + "; no output written");
     if (summary.reached_end())
       spdlog::log(routine,
                   "reached {} {} with {} points ({} rejected steps, {} turning points) in {:.3f} s",
@@ -498,9 +518,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
 
     // ---- outputs ----
     const bool plots = run_options.plots < 0 ? scene.output.plots : run_options.plots != 0;
-    StagedOutput out(out_dir,
-                     {"response.csv", "response.gp", "response.png", "summary.json", "loops"});
-    write_csv(out.path("response.csv"), header, rows);
+    write_csv(out->path("response.csv"), header, rows);
 
     // Friction loops: every crossing of each requested frequency, solved exactly there.
     nlohmann::json loops = nlohmann::json::array();
@@ -546,7 +564,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
           }
           const std::string base = "loops/" + contact.name + "_" + format_number(f_req, 10) +
                                    unit_name(C.unit).substr(0, 2) + "_" + std::to_string(crossing);
-          const fs::path csv = out.path(base + ".csv");
+          const fs::path csv = out->path(base + ".csv");
           write_csv(csv, lh, lrows);
           // Energy dissipated per cycle: the closed integral of f . du over the loop.
           double energy = 0;
@@ -561,7 +579,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
           const int shown =
               std::min((samples - 1) / 2, std::max(10, scene.harmonic_balance.harmonics.back()));
           const ForceHarmonics force_table = force_harmonics(trace.force, comps, shown);
-          write_csv(out.path(base + "_harmonics.csv"), force_table.header, force_table.rows);
+          write_csv(out->path(base + "_harmonics.csv"), force_table.header, force_table.rows);
           nlohmann::json force_amplitudes = nlohmann::json::object();
           for (std::size_t a = 0; a < comps.size(); ++a)
             force_amplitudes[names[comps[a]]] = force_table.amplitude[a];
@@ -574,7 +592,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
                            {"dissipated_energy_per_cycle_J", energy},
                            {"trace_passes", trace.passes}});
           if (plots) {
-            const fs::path gp = out.path(base + ".gp");
+            const fs::path gp = out->path(base + ".gp");
             write_text(gp, loop_plot_script(csv.string(),
                                             contact.name + " at " + format_number(f_req) + " " +
                                                 unit_name(C.unit),
@@ -587,8 +605,8 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
         spdlog::warn("friction loop at {} {}: the response curve does not reach it", f_req,
                      unit_name(C.unit));
     }
-    if (plots) {
-      const fs::path gp = out.path("response.gp");
+    if (plots && !rows.empty()) {  // no points: no empty plot
+      const fs::path gp = out->path("response.gp");
       write_text(gp, response_plot_script(scene, nodes));
       run_gnuplot(gp);
     }
@@ -686,8 +704,12 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     if (stats.contacts_with_fd_jacobian && model->jacobian_mode() == JacobianMode::kAnalytic)
       spdlog::warn("{} contact traces used finite differences (a law without tangents)",
                    stats.contacts_with_fd_jacobian);
-    write_json(out.path("summary.json"), doc);
-    out.commit();
+    if (interrupted())
+      return fail(interrupted_exit_code(), "interrupted",
+                  scene.file.string() + ": interrupted by signal " +
+                      std::to_string(interrupt_signal()) + " while writing; no output written");
+    write_json(out->path("summary.json"), doc);
+    out->commit();
     outcome.wrote_output = true;
     outcome.exit_code = summary.reached_end() ? kExitOk : kExitIncomplete;
     outcome.termination = to_string(summary.termination);
@@ -697,6 +719,9 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     spdlog::log(routine, "wrote {} ({} points; total {:.3f} s)", out_dir.string(), rows.size(),
                 outcome.wall_seconds);
     return outcome;
+  } catch (const OutputError& e) {
+    return fail(e.user_error() ? kExitInvalidInput : kExitOutput, "output_error",
+                scene.file.string() + ": writing the outputs: " + e.what());
   } catch (const std::exception& e) {
     return fail(kExitInternal, "internal_error", scene.file.string() + ": " + e.what());
   }

@@ -657,7 +657,7 @@ std::vector<CoreSection> core_schemas() {
        "`params`: the law's parameters (see Contact laws below). `frame`: the local directions "
        "(below). The relative displacement is u = frame . (x_B - x_A), B the second side. The "
        "law's force f (spring-like: +kt u when stuck) enters the equations of motion as "
-       "M x'' + C x' + K x + f_nl = f_ext with f_nl = +f on B and -f on A (seed eq. 2.13): "
+       "M x'' + C x' + K x + f_nl = f_ext with f_nl = +f on B and -f on A (thesis eq. 2.13): "
        "the contact pushes B back by -f."},
       {"contacts[].between[]", side_schema(), "The map form of a side."},
       {"contacts[].frame", frame_schema(),

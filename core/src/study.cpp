@@ -20,6 +20,7 @@
 #include <system_error>
 #include <thread>
 
+#include "frichb/core/interrupt.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/plugin/sdk.hpp"
 
@@ -193,12 +194,6 @@ class Progress {
 
 std::string unit_name(FrequencyUnit u) {
   return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
-}
-
-std::string quoted(const std::string& s) {
-  std::string q;
-  for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
-  return "'" + q + "'";
 }
 
 }  // namespace
@@ -405,18 +400,22 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
   // Rank 0 stages the output; every rank writes its runs into the staging folder.
   std::unique_ptr<StagedOutput> out;
   std::string staging;
+  int staging_failure = kExitInternal;
   if (leader) {
     try {
       out = std::make_unique<StagedOutput>(
           out_dir, std::vector<std::string>{"study.csv", "study.json", "overlay.gp", "overlay.png",
                                             "peak.gp", "peak.png", "runs"});
       staging = out->path("runs").string();
+    } catch (const OutputError& e) {
+      spdlog::error("{}: {}", request.scene_file.string(), e.what());
+      staging_failure = e.user_error() ? kExitInvalidInput : kExitOutput;
     } catch (const std::exception& e) {
       spdlog::error("cannot create the output folder {}: {}", out_dir.string(), e.what());
     }
   }
-  staging = comm.broadcast(staging);
-  if (staging.empty()) return kExitInternal;
+  staging = comm.broadcast(staging.empty() ? "!" + std::to_string(staging_failure) : staging);
+  if (staging.starts_with("!")) return std::stoi(staging.substr(1));
 
   std::vector<std::size_t> mine;
   for (std::size_t i = static_cast<std::size_t>(comm.rank()); i < runs.size();
@@ -446,7 +445,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
   Progress progress(mine.size(), leader);  // under MPI: rank 0's share of the runs
   std::atomic<std::size_t> next{0};
   auto worker = [&] {
-    for (std::size_t k = next++; k < mine.size(); k = next++) {
+    for (std::size_t k = next++; k < mine.size() && !interrupted(); k = next++) {
       StudyRun& run = runs[mine[k]];
       RunOptions options;
       options.quiet = true;
@@ -491,7 +490,11 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
   const auto gathered =
       comm.gather(my_outcomes.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   int code = kExitOk;
-  if (leader) {
+  if (leader && interrupted()) {
+    spdlog::error("{}: interrupted by signal {}; no output written", request.scene_file.string(),
+                  interrupt_signal());
+    code = interrupted_exit_code();
+  } else if (leader) {
     try {
       std::vector<nlohmann::json> by_index(runs.size());
       for (const auto& text : gathered)
@@ -581,7 +584,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
         gp << "# gnuplot script written by frichb study; `gnuplot overlay.gp` remakes it\n"
            << "set terminal pngcairo size 1100,700 noenhanced\nset output 'overlay.png'\n"
            << "set datafile separator ','\nset grid\nset key outside right top\n"
-           << "set title " << quoted(title + ": " + study.node + " over the study") << "\n"
+           << "set title " << gnuplot_string(title + ": " + study.node + " over the study") << "\n"
            << "set xlabel 'frequency [" << unit_name(C.unit) << "]'\n"
            << "set ylabel 'amplitude [m]'\n"
            << "set palette defined (0 '#1f4fbf', 0.5 '#2ca02c', 1 '#d62728')\nunset colorbox\n"
@@ -595,12 +598,13 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
             label += (s ? ", " : "") +
                      study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) + "=" +
                      short_value(runs[i].values[s]);
-          gp << (first ? "" : ", \\\n     ") << "'runs/" << runs[i].id << "/response.csv' using "
-             << xcol << ":(column('" << study.node
-             << "_amplitude_m')) with lines lw 1.5 lc palette frac "
+          gp << (first ? "" : ", \\\n     ")
+             << gnuplot_string("runs/" + runs[i].id + "/response.csv") << " using " << xcol
+             << ":(column(" << gnuplot_string(study.node + "_amplitude_m")
+             << ")) with lines lw 1.5 lc palette frac "
              << (runs.size() > 1 ? static_cast<double>(i) / static_cast<double>(runs.size() - 1)
                                  : 0.0)
-             << " title " << quoted(label);
+             << " title " << gnuplot_string(label);
           first = false;
         }
         gp << "\n";
@@ -619,8 +623,8 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
         pk << "# gnuplot script written by frichb study; `gnuplot peak.gp` remakes it\n"
            << "set terminal pngcairo size 900,600 noenhanced\nset output 'peak.png'\n"
            << "set datafile separator ','\nset grid\nset key outside right top\n"
-           << "set title " << quoted(title + ": peak amplitude of " + study.node) << "\n"
-           << "set xlabel " << quoted(s0.path) << "\nset ylabel 'peak amplitude [m]'\n"
+           << "set title " << gnuplot_string(title + ": peak amplitude of " + study.node) << "\n"
+           << "set xlabel " << gnuplot_string(s0.path) << "\nset ylabel 'peak amplitude [m]'\n"
            << (lo > 0 && hi / lo > 100 ? "set logscale x\n" : "");
         const int peak_col =
             static_cast<int>(1 + study.sweeps.size() + 3) +
@@ -632,7 +636,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
         const std::size_t first_axis = study.axes().front().size();
         if (first_axis == study.sweeps.size()) {
           pk << "plot 'study.csv' using 2:" << peak_col << " with linespoints pt 7 lw 2 title "
-             << quoted(study.node) << "\n";
+             << gnuplot_string(study.node) << "\n";
         } else {
           // Grid: the first sweep on the axis, one line per combination of the others.
           std::vector<std::vector<double>> others;
@@ -655,7 +659,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
                        "=" + short_value(value);
             }
             pk << (g ? ", \\\n     " : "") << "'study.csv' using 2:((" << cond << ") ? column("
-               << peak_col << ") : 1/0) with linespoints pt 7 lw 2 title " << quoted(label);
+               << peak_col << ") : 1/0) with linespoints pt 7 lw 2 title " << gnuplot_string(label);
           }
           pk << "\n";
         }
@@ -670,10 +674,14 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
                                       : std::string(),
                    wall);
       code = failed ? kExitIncomplete : kExitOk;
+    } catch (const OutputError& e) {
+      spdlog::error("{}: writing the study: {}", request.scene_file.string(), e.what());
+      code = e.user_error() ? kExitInvalidInput : kExitOutput;
     } catch (const std::exception& e) {
       spdlog::error("{}: writing the study index: {}", request.scene_file.string(), e.what());
       code = kExitInternal;
     }
+    if (code != kExitOk && code != kExitIncomplete) out.reset();  // staging removed
   }
   return std::stoi(comm.broadcast(std::to_string(code)));
 }

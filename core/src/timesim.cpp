@@ -206,6 +206,9 @@ int run_timesim(const TimesimRequest& request) {
   } catch (const SceneError& e) {
     spdlog::error("{}", e.what());
     return kExitInvalidInput;
+  } catch (const OutputError& e) {
+    spdlog::error("{}: writing the outputs: {}", file, e.what());
+    return e.user_error() ? kExitInvalidInput : kExitOutput;
   } catch (const std::exception& e) {
     spdlog::error("{}: {}", file, e.what());
     return kExitInternal;

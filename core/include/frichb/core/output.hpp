@@ -1,21 +1,50 @@
-// Writers: CSV tables, JSON documents and gnuplot plots, staged so that a failed run leaves
-// no half-written output. Files are written into a hidden staging folder beside the output
-// folder and moved into place by commit(); a StagedOutput destroyed before commit() removes
-// its staging folder.
+// Writers: CSV tables, JSON documents and gnuplot plots, staged so that the output folder
+// holds either the whole earlier set of results or the whole new one, never a mix and never
+// a half-written file.
+//
+// A StagedOutput owns one output folder for the time of a run: it takes an advisory lock
+// (`.NAME.lock` beside the folder; a second run into the same folder is refused), removes the
+// staging that an earlier, killed run left there, and gives paths inside a hidden staging
+// folder `.NAME.partial-PID` beside the output folder. commit() syncs every staged file and
+// folder to the disk and swaps the staging folder with the output folder in one rename
+// (renameat2 RENAME_EXCHANGE; where the file system lacks it, the old folder is first moved
+// aside and restored by the next run if the commit is interrupted). Files of the output
+// folder that the writer does not manage (a user's notes) are moved into the new folder.
+// A StagedOutput destroyed before commit() removes its staging folder and leaves the output
+// folder as it was.
+//
+// Every write is checked after it is flushed and closed; a failure throws OutputError.
+// Threading: one StagedOutput per thread; distinct output folders may be staged concurrently.
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace frichb::core {
 
+// A failure to write the outputs. `user_error`: the output path itself is wrong (a file where
+// a folder is expected, a folder without write permission, a folder in use by another run);
+// otherwise the system failed while writing (disk full, I/O error).
+class OutputError : public std::runtime_error {
+ public:
+  OutputError(const std::string& what, bool user_error)
+      : std::runtime_error(what), user_error_(user_error) {}
+  bool user_error() const { return user_error_; }
+
+ private:
+  bool user_error_;
+};
+
 class StagedOutput {
  public:
-  // `managed`: top-level names (files or folders) this output owns in the final folder;
-  // commit() removes them there first, so nothing of an earlier run is left beside the new
-  // files. Other files in the final folder are never touched.
+  // `managed`: top-level names (files or folders) this output owns in the final folder; the
+  // new set replaces them, and everything else in the final folder is kept. Throws
+  // OutputError (user_error) when the folder is in use by another run or cannot be created.
   StagedOutput(std::filesystem::path final_directory, std::vector<std::string> managed);
   ~StagedOutput();
   StagedOutput(const StagedOutput&) = delete;
@@ -24,23 +53,46 @@ class StagedOutput {
   // Path of `relative` inside the staging folder (parent folders are created).
   std::filesystem::path path(const std::filesystem::path& relative) const;
   const std::filesystem::path& final_directory() const { return final_; }
-  // Moves every staged file into the final folder (replacing files of the same name).
+  // Syncs the staged files and replaces the managed names of the final folder with them.
+  // Throws OutputError; the final folder then holds the earlier set or, where the failure
+  // came after the swap, the new one.
   void commit();
 
+  // Test seam: `hook` is called with the name of each step of commit() ("synced",
+  // "moved_aside", "swapped", "kept_unmanaged", "removed_old") after it is done. A hook that
+  // throws simulates a failure there; one that calls _exit simulates a kill.
+  // `without_exchange`: take the move-aside path of file systems without RENAME_EXCHANGE.
+  // Not thread-safe: set it before any output is staged.
+  static void set_commit_hook(std::function<void(std::string_view step)> hook,
+                              bool without_exchange = false);
+
  private:
-  std::filesystem::path final_, staging_;
+  void release_lock() noexcept;
+  std::filesystem::path final_, staging_, lock_file_;
   std::vector<std::string> managed_;
+  int lock_fd_ = -1;
   bool committed_ = false;
 };
 
+// Writes `bytes` to `file` (created or truncated), checking every write and the close.
+// Throws OutputError naming the file and the system's reason.
+void write_file(const std::filesystem::path& file, std::string_view bytes);
 // Writes a CSV with a header row. Throws std::runtime_error if any value is NaN or Inf
-// (an output file never holds them) or the file cannot be written.
+// (an output file never holds them), OutputError if the file cannot be written.
 void write_csv(const std::filesystem::path& file, const std::vector<std::string>& header,
                const std::vector<std::vector<double>>& rows);
 void write_json(const std::filesystem::path& file, const nlohmann::json& document);
 void write_text(const std::filesystem::path& file, const std::string& text);
-// Runs gnuplot on `script` in its folder; false (and a warning) when gnuplot is missing
-// or fails.
+
+// `text` as a gnuplot string expression that gnuplot reads back byte for byte: single-quoted
+// runs (no substitution of any kind inside them) joined by `.` to double-quoted octal escapes
+// for single quotes and control characters. For titles, labels, file and column names.
+std::string gnuplot_string(std::string_view text);
+
+// Runs gnuplot on `script` in the script's folder, without a shell (posix_spawn with the
+// script's name as the only argument; stdin, stdout and stderr on /dev/null). Returns false
+// (and warns) when gnuplot is not on PATH, fails, or the run is interrupted (the child is
+// then terminated).
 bool run_gnuplot(const std::filesystem::path& script);
 
 }  // namespace frichb::core

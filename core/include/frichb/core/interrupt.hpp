@@ -1,0 +1,24 @@
+// Interruption by SIGINT or SIGTERM: the signal only sets a flag; long computations poll it
+// (the continuation at every point, studies between runs, child programs while they run),
+// stop, discard their staged outputs and return exit code 128 + the signal's number.
+// Thread-safe (a lock-free atomic).
+#pragma once
+
+namespace frichb::core {
+
+// Installs handlers for SIGINT and SIGTERM that record the signal (the first one wins).
+void install_interrupt_handlers();
+// The signal that asked the process to stop, or 0.
+int interrupt_signal();
+inline bool interrupted() {
+  return interrupt_signal() != 0;
+}
+// Records `signal` as if it had arrived (tests; a caller that wants to stop a run).
+void request_interrupt(int signal);
+// Forgets an earlier interruption (tests).
+void clear_interrupt();
+// The exit code of a run stopped by the recorded signal: 128 + its number (130 for SIGINT,
+// 143 for SIGTERM).
+int interrupted_exit_code();
+
+}  // namespace frichb::core

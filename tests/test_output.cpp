@@ -1,0 +1,333 @@
+// The writers and the staged output folder: checked writes, the swap of the whole result set,
+// recovery after a failure or a kill at every step of the commit, the lock against a second
+// run, and gnuplot strings that gnuplot reads back byte for byte without running anything.
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "frichb/core/output.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using frichb::core::gnuplot_string;
+using frichb::core::OutputError;
+using frichb::core::run_gnuplot;
+using frichb::core::StagedOutput;
+using frichb::core::write_file;
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string pattern = (fs::temp_directory_path() / "frichb-output-XXXXXX").string();
+    if (!mkdtemp(pattern.data())) throw std::runtime_error("mkdtemp failed");
+    path_ = pattern;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Every file below `folder` (relative path -> content), hidden ones included.
+std::map<std::string, std::string> snapshot(const fs::path& folder) {
+  std::map<std::string, std::string> files;
+  if (!fs::exists(folder)) return files;
+  for (const auto& e : fs::recursive_directory_iterator(folder))
+    if (e.is_regular_file()) files[fs::relative(e.path(), folder).string()] = read_text(e.path());
+  return files;
+}
+
+// Names beside the output folder other than the folder itself (staging, aside, lock files).
+std::vector<std::string> leftovers(const fs::path& parent, const std::string& name) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator(parent)) {
+    const std::string n = e.path().filename().string();
+    if (n != name && n.find(name) != std::string::npos) out.push_back(n);
+  }
+  return out;
+}
+
+const std::vector<std::string> kManaged = {"summary.json", "response.csv", "loops"};
+
+// Writes one result set ("A" or "B") into a staged output of `folder` and commits it. Set B
+// has no loops folder, so a stale loops/ of set A must not survive it.
+void write_set(const fs::path& folder, const std::string& tag) {
+  StagedOutput out(folder, kManaged);
+  write_file(out.path("summary.json"), "{\"set\": \"" + tag + "\"}\n");
+  write_file(out.path("response.csv"), "point,set\n0," + tag + "\n");
+  if (tag == "A") write_file(out.path("loops/c_1.csv"), "loop of " + tag + "\n");
+  out.commit();
+}
+
+std::map<std::string, std::string> expected_set(const std::string& tag) {
+  std::map<std::string, std::string> files = {{"summary.json", "{\"set\": \"" + tag + "\"}\n"},
+                                              {"response.csv", "point,set\n0," + tag + "\n"}};
+  if (tag == "A") files["loops/c_1.csv"] = "loop of A\n";
+  return files;
+}
+
+// Set A and a user's file beside it.
+fs::path prepare_folder(const TempDir& dir) {
+  const fs::path folder = dir.path() / "out";
+  write_set(folder, "A");
+  write_file(folder / "notes.txt", "mine\n");
+  return folder;
+}
+
+struct HookGuard {
+  ~HookGuard() { StagedOutput::set_commit_hook({}); }
+};
+
+TEST(StagedOutput, CommitReplacesTheManagedSetAndKeepsTheUsersFiles) {
+  TempDir dir;
+  const fs::path folder = prepare_folder(dir);
+  auto expected = expected_set("A");
+  expected["notes.txt"] = "mine\n";
+  EXPECT_EQ(snapshot(folder), expected);
+  write_set(folder, "B");
+  expected = expected_set("B");
+  expected["notes.txt"] = "mine\n";
+  EXPECT_EQ(snapshot(folder), expected);
+  EXPECT_TRUE(leftovers(dir.path(), "out").empty());
+}
+
+TEST(StagedOutput, DestroyedBeforeCommitLeavesTheFolderAsItWas) {
+  TempDir dir;
+  const fs::path folder = prepare_folder(dir);
+  const auto before = snapshot(folder);
+  {
+    StagedOutput out(folder, kManaged);
+    write_file(out.path("summary.json"), "half");
+  }
+  EXPECT_EQ(snapshot(folder), before);
+  EXPECT_TRUE(leftovers(dir.path(), "out").empty());
+}
+
+// A failure at each step of the commit: the folder holds the whole earlier set (failure
+// before the swap) or the whole new one (after it), the user's file in both cases, and
+// nothing is left beside it.
+TEST(StagedOutput, AFailureAtEveryStepOfTheCommitLeavesOneWholeSet) {
+  HookGuard guard;
+  for (const bool exchange : {true, false}) {
+    for (const std::string step :
+         {"synced", "moved_aside", "swapped", "kept_unmanaged", "removed_old"}) {
+      if (exchange && step == "moved_aside") continue;  // a step of the fallback only
+      SCOPED_TRACE(step + (exchange ? " (exchange)" : " (move aside)"));
+      TempDir dir;
+      const fs::path folder = prepare_folder(dir);
+      StagedOutput::set_commit_hook(
+          [step](std::string_view at) {
+            if (at == step) throw OutputError("injected failure at " + step, false);
+          },
+          !exchange);
+      EXPECT_THROW(write_set(folder, "B"), OutputError);
+      StagedOutput::set_commit_hook({});
+      const bool before_swap = step == "synced" || step == "moved_aside";
+      auto expected = expected_set(before_swap ? "A" : "B");
+      expected["notes.txt"] = "mine\n";
+      EXPECT_EQ(snapshot(folder), expected);
+      EXPECT_TRUE(leftovers(dir.path(), "out").empty()) << leftovers(dir.path(), "out").front();
+    }
+  }
+}
+
+// A kill (the child process ends at the step without any cleanup): right after it the folder
+// holds one whole set (or, in the move-aside fallback killed between its two renames, no
+// folder until the next run restores it); the next run into the folder restores the user's
+// file and removes what the killed run left.
+TEST(StagedOutput, AKillAtEveryStepOfTheCommitIsRecoveredByTheNextRun) {
+  for (const bool exchange : {true, false}) {
+    for (const std::string step :
+         {"synced", "moved_aside", "swapped", "kept_unmanaged", "removed_old"}) {
+      if (exchange && step == "moved_aside") continue;
+      SCOPED_TRACE(step + (exchange ? " (exchange)" : " (move aside)"));
+      TempDir dir;
+      const fs::path folder = prepare_folder(dir);
+      const pid_t child = fork();
+      ASSERT_GE(child, 0);
+      if (child == 0) {
+        StagedOutput::set_commit_hook(
+            [step](std::string_view at) {
+              if (at == step) _exit(9);
+            },
+            !exchange);
+        write_set(folder, "B");
+        _exit(0);
+      }
+      int status = 0;
+      ASSERT_EQ(waitpid(child, &status, 0), child);
+      ASSERT_TRUE(WIFEXITED(status));
+      ASSERT_EQ(WEXITSTATUS(status), 9);
+      const bool before_swap = step == "synced" || step == "moved_aside";
+      auto files = snapshot(folder);
+      files.erase("notes.txt");  // after the swap it waits in the old folder until recovery
+      if (step == "moved_aside")
+        EXPECT_FALSE(fs::exists(folder));
+      else
+        EXPECT_EQ(files, expected_set(before_swap ? "A" : "B"));
+      // The next run recovers, then fails before its own commit: the folder as recovered.
+      { StagedOutput next(folder, kManaged); }
+      auto expected = expected_set(before_swap ? "A" : "B");
+      expected["notes.txt"] = "mine\n";
+      EXPECT_EQ(snapshot(folder), expected);
+      EXPECT_TRUE(leftovers(dir.path(), "out").empty()) << leftovers(dir.path(), "out").front();
+    }
+  }
+}
+
+TEST(StagedOutput, ASecondRunIntoAFolderInUseIsRefused) {
+  TempDir dir;
+  StagedOutput first(dir.path() / "out", kManaged);
+  try {
+    StagedOutput second(dir.path() / "out", kManaged);
+    FAIL() << "a second staged output of the same folder was allowed";
+  } catch (const OutputError& e) {
+    EXPECT_TRUE(e.user_error());
+    EXPECT_NE(std::string(e.what()).find("in use by another frichb run"), std::string::npos)
+        << e.what();
+  }
+  // Another process too (flock is per open file, so this checks the same path from a child).
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    try {
+      StagedOutput other(dir.path() / "out", kManaged);
+    } catch (const OutputError& e) {
+      _exit(e.user_error() ? 2 : 3);
+    }
+    _exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+}
+
+TEST(StagedOutput, PathsThatCannotHoldTheResultsAreUserErrors) {
+  TempDir dir;
+  write_file(dir.path() / "afile", "x");
+  for (const fs::path& bad : {dir.path() / "afile", dir.path() / "afile" / "sub", fs::path("/")}) {
+    SCOPED_TRACE(bad.string());
+    try {
+      StagedOutput out(bad, kManaged);
+      FAIL() << "accepted";
+    } catch (const OutputError& e) {
+      EXPECT_TRUE(e.user_error()) << e.what();
+    }
+  }
+  // The current folder (or one above it) would be swapped away under the process.
+  const fs::path cwd = fs::current_path();
+  fs::create_directories(dir.path() / "here" / "deeper");
+  fs::current_path(dir.path() / "here" / "deeper");
+  EXPECT_THROW(StagedOutput(".", kManaged), OutputError);
+  EXPECT_THROW(StagedOutput(dir.path() / "here", kManaged), OutputError);
+  fs::current_path(cwd);
+}
+
+TEST(Writers, AFullDeviceIsAnIoErrorNamingTheFile) {
+  try {
+    write_file("/dev/full", std::string(100000, 'x'));
+    FAIL() << "a write to /dev/full succeeded";
+  } catch (const OutputError& e) {
+    EXPECT_FALSE(e.user_error());
+    EXPECT_NE(std::string(e.what()).find("/dev/full"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("No space left on device"), std::string::npos) << e.what();
+  }
+}
+
+// A file-size limit (RLIMIT_FSIZE: writes past it fail as on a full disk) in a child process:
+// the second run into a folder fails and the earlier results stay whole.
+TEST(Writers, AWriteThatFailsHalfwayKeepsTheEarlierSet) {
+  TempDir dir;
+  const fs::path folder = prepare_folder(dir);
+  const auto before = snapshot(folder);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit{64, 64};
+    setrlimit(RLIMIT_FSIZE, &limit);
+    try {
+      StagedOutput out(folder, kManaged);
+      write_file(out.path("summary.json"), std::string(1000, 'y'));
+      out.commit();
+    } catch (const OutputError& e) {
+      _exit(e.user_error() ? 2 : 5);
+    }
+    _exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  EXPECT_EQ(WEXITSTATUS(status), 5);
+  EXPECT_EQ(snapshot(folder), before);
+  EXPECT_TRUE(leftovers(dir.path(), "out").empty());
+}
+
+// Strings an attacker would put in a scene name or a DOF name. gnuplot prints each back
+// exactly (its own `print` into a file), and none of the commands inside them runs.
+TEST(GnuplotString, HostileTextIsReadBackByteForByteAndRunsNothing) {
+  TempDir dir;
+  const fs::path marker = dir.path() / "PWNED";
+  const std::string m = marker.string();
+  const std::vector<std::string> texts = {
+      "plain",
+      "",
+      "it's",
+      "x'; system('touch " + m + "'); print '",
+      "\"; system(\"touch " + m + "\"); print \"",
+      "`touch " + m + "`",
+      "$(touch " + m + ")",
+      "a;b;c",
+      "line\nsystem('touch " + m + "')\n",
+      "tab\tcr\r bell\a del\x7f",
+      "back\\slash \\' \\\"",
+      "@x macro",
+      "caf\xc3\xa9 \xe2\x88\x9e \xf0\x9f\x94\xa5",
+      "''''",
+  };
+  std::ostringstream script;
+  script << "x = \"system('touch " << m << "')\"\n";
+  script << "set print 'printed.txt'\n";
+  for (const auto& t : texts) script << "print " << gnuplot_string(t) << "\n";
+  const fs::path gp = dir.path() / "strings.gp";
+  write_file(gp, script.str());
+  ASSERT_TRUE(run_gnuplot(gp)) << script.str();
+  std::string expected;
+  for (const auto& t : texts) expected += t + "\n";
+  EXPECT_EQ(read_text(dir.path() / "printed.txt"), expected);
+  EXPECT_FALSE(fs::exists(marker));
+}
+
+// The script runs in its own folder, by name: a folder name with shell syntax is only a name.
+TEST(RunGnuplot, RunsInTheScriptsFolderWithoutAShell) {
+  TempDir dir;
+  const fs::path folder = dir.path() / "a b';touch PWNED;'$(touch PWNED2)";
+  fs::create_directories(folder);
+  write_file(folder / "-s.gp", "set print 'done.txt'\nprint 'ok'\n");
+  ASSERT_TRUE(run_gnuplot(folder / "-s.gp"));
+  EXPECT_EQ(read_text(folder / "done.txt"), "ok\n");
+  EXPECT_FALSE(fs::exists(dir.path() / "PWNED"));
+  EXPECT_FALSE(fs::exists(folder / "PWNED"));
+  EXPECT_FALSE(fs::exists(folder / "PWNED2"));
+}
+
+}  // namespace
