@@ -124,17 +124,18 @@ class Cli : public ::testing::Test {
 
   // Runs `frichb run SCENE -o DIR` on `text` and checks the refusal common to every bad scene:
   // exit code 2, the file named, nothing written. Returns the program's output.
-  std::string expect_refused(const std::string& file_name, const std::string& text) {
+  std::string expect_refused(const std::string& file_name, const std::string& text,
+                             const std::string& flags = "") {
     const fs::path scene = write_scene(file_name, text);
     const fs::path out = dir_ / "out";
-    const Result r = frichb("run " + quoted(scene) + " -o " + quoted(out));
+    const Result r = frichb(flags + " run " + quoted(scene) + " -o " + quoted(out));
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_THAT(r.output, HasSubstr(scene.string()));
     EXPECT_FALSE(fs::exists(out)) << "the output folder was created for a refused scene";
     for (const auto& entry : fs::directory_iterator(dir_))
       EXPECT_EQ(entry.path(), scene) << "unexpected file written: " << entry.path();
     // `validate` refuses it the same way.
-    const Result v = frichb("validate " + quoted(scene));
+    const Result v = frichb(flags + " validate " + quoted(scene));
     EXPECT_EQ(v.code, 2) << v.output;
     EXPECT_THAT(v.output, HasSubstr(scene.string()));
     return r.output;
@@ -268,12 +269,102 @@ TEST_F(Cli, PluginOfAnotherAbi) {
                    "\nname: friction_oscillator\nplugin_paths: [" + kTestPluginDir.string() + "]");
   text = replace_once(text, "law: jenkins_1d", "law: wrong_abi_law");
   const fs::path scene = dir_ / "wrong_abi.yaml";
-  const std::string out = expect_refused("wrong_abi.yaml", text);
+  const std::string out = expect_refused("wrong_abi.yaml", text, "--allow-scene-plugins");
   EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "law: ") +
                              ": contacts[0].law: plugin "));
   EXPECT_THAT(out, HasSubstr((kTestPluginDir / "frichb_test_wrong_abi.so").string()));
   EXPECT_THAT(out, HasSubstr("ABI 99."));
   EXPECT_THAT(out, HasSubstr("ABI " + std::to_string(FRICHB_ABI_MAJOR) + "."));
+}
+
+// A library from a folder the scene names is code the scene brings: loaded only when the user
+// allows it, and the refusal names the library it would have loaded.
+TEST_F(Cli, PluginsFromTheScenesFoldersNeedPermission) {
+  const fs::path library = kTestPluginDir / "frichb_test_wrong_abi.so";
+  ASSERT_TRUE(fs::is_regular_file(library)) << "build the target frichb_test_plugins";
+  std::string text =
+      replace_once(quickstart_, "\nname: friction_oscillator",
+                   "\nname: friction_oscillator\nplugin_paths: [" + kTestPluginDir.string() + "]");
+  text = replace_once(text, "law: jenkins_1d", "law: wrong_abi_law");
+  const fs::path scene = dir_ / "scene_plugin.yaml";
+  const std::string out = expect_refused("scene_plugin.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "law: ") +
+                             ": contacts[0].law: would load "));
+  EXPECT_THAT(out, HasSubstr(library.string()));
+  EXPECT_THAT(out, HasSubstr("--allow-scene-plugins"));
+  EXPECT_THAT(out, Not(HasSubstr("ABI 99.")));  // refused before it was loaded
+  // A folder listed in FRICHB_PLUGIN_PATH is the user's own choice: loaded (and refused
+  // later, for its ABI).
+  const Result listed = frichb("validate " + quoted(scene));
+  EXPECT_EQ(listed.code, 2);
+  setenv("FRICHB_PLUGIN_PATH", kTestPluginDir.c_str(), 1);
+  const Result trusted = frichb("validate " + quoted(scene));
+  unsetenv("FRICHB_PLUGIN_PATH");
+  EXPECT_EQ(trusted.code, 2) << trusted.output;
+  EXPECT_THAT(trusted.output, HasSubstr("ABI 99."));
+}
+
+TEST_F(Cli, APluginPathThatDoesNotExistIsLocated) {
+  const std::string text =
+      replace_once(quickstart_, "\nname: friction_oscillator",
+                   "\nname: friction_oscillator\nplugin_paths: [no_such_folder]");
+  const fs::path scene = dir_ / "missing_plugin_path.yaml";
+  const std::string out = expect_refused("missing_plugin_path.yaml", text);
+  EXPECT_THAT(out, HasSubstr(scene.string() + ":" + location_after(text, "plugin_paths: [") +
+                             ": plugin_paths[0]: folder '" + (dir_ / "no_such_folder").string() +
+                             "' does not exist"));
+}
+
+TEST_F(Cli, DuplicateKeysAndSecondDocumentsAreRefusedNamingBothLines) {
+  // Each bad scene alone in the folder (expect_refused checks nothing else is there).
+  auto refused = [&](const std::string& name, const std::string& text) {
+    const std::string out = expect_refused(name, text);
+    fs::remove(dir_ / name);
+    return out;
+  };
+  {
+    const std::string text = replace_once(quickstart_, "  samples_per_period: 128",
+                                          "  samples_per_period: 128\n  samples_per_period: 64");
+    const std::string out = refused("duplicate.yaml", text);
+    const std::string second = location_after(text, "128\n  ");
+    EXPECT_THAT(out, HasSubstr("duplicate.yaml:" + second +
+                               ": harmonic_balance.samples_per_period: duplicate key"));
+    const std::string first_line =
+        location_after(text, "  samples_per_period: 128")
+            .substr(0, location_after(text, "  samples_per_period: 128").find(':'));
+    EXPECT_THAT(out, HasSubstr("given on line " + first_line + " and again on line " +
+                               second.substr(0, second.find(':'))));
+  }
+  {  // a whole section twice
+    const std::string text = quickstart_ + "\noutput:\n  plots: false\n";
+    const std::string out = refused("duplicate_section.yaml", text);
+    EXPECT_THAT(out, HasSubstr(": output: duplicate key 'output'"));
+  }
+  {  // a DOF name twice (also a duplicate key)
+    const std::string text =
+        replace_once(quickstart_, "dofs: {blade: 0}", "dofs: {blade: 0, blade: 0}");
+    EXPECT_THAT(refused("duplicate_dof.yaml", text),
+                HasSubstr("structure.dofs.blade: duplicate key 'blade'"));
+  }
+  {
+    const std::string text = quickstart_ + "\n---\nname: another scene\n";
+    const std::string out = refused("two_documents.yaml", text);
+    const auto lines = std::count(quickstart_.begin(), quickstart_.end(), '\n');
+    EXPECT_THAT(out, HasSubstr("two_documents.yaml:" + std::to_string(lines + 3) +
+                               ":1: a second YAML document"));
+  }
+  {  // yaml-cpp reads an unclosed quote to the end of the file
+    const std::string text =
+        replace_once(quickstart_, "name: friction_oscillator", "name: \"friction_oscillator");
+    const std::string out = refused("unclosed.yaml", text);
+    EXPECT_THAT(out, HasSubstr("unclosed.yaml:" + location_after(text, "\nname: ") +
+                               ": name: malformed YAML: the quote \" opened here is never closed"));
+  }
+  {  // names that become CSV columns
+    const std::string text = replace_once(quickstart_, "dofs: {blade: 0}", "dofs: {\"bl,ade\": 0}");
+    EXPECT_THAT(refused("dof_name.yaml", text),
+                HasSubstr("structure.dofs.bl,ade: 'bl,ade': use letters, digits"));
+  }
 }
 
 // Known core bug (see the test report): a non-scalar map key makes `kv.first.as<std::string>()`

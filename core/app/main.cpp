@@ -74,7 +74,8 @@ Exit codes: 0 ok; 1 bad command line; 2 invalid input (scene, plugin, file, outp
             output folder keeps its earlier results); 130/143 interrupted by SIGINT/SIGTERM
             (no output written).
 Plugins are searched in <frichb dir>/../lib/frichb/plugins, the install prefix,
-$FRICHB_PLUGIN_PATH (':'-separated) and the scene's plugin_paths.
+$FRICHB_PLUGIN_PATH (':'-separated) and the scene's plugin_paths; a plugin found only in a
+scene's plugin_paths is loaded (its code run) only with --allow-scene-plugins.
 Documentation: docs/getting-started.md and docs/scene-reference.md.
 
 Options:
@@ -128,6 +129,10 @@ int main(int argc, char** argv) {
       "no-timesim", "`convergence`: skip the time-integration reference")(
       "threads", po::value<int>(),
       "threads per process of `study` (default: the scene's study.parallel; 0 = one per core)")(
+      "allow-scene-plugins",
+      "load plugins from the folders a scene's (or loop input's) plugin_paths names; without "
+      "it only folders of the default search path (and FRICHB_PLUGIN_PATH) are loaded from, "
+      "since loading a library runs its code")(
       "set", po::value<std::vector<std::string>>()->composing(),
       "override a numeric scene key, PATH=VALUE (repeatable; PATH as in study sweeps, e.g. "
       "contacts.shroud.params.mu=0 or harmonic_balance.max_harmonic=3)");
@@ -181,6 +186,7 @@ int main(int argc, char** argv) {
   }
   spdlog::set_level(level);
   install_interrupt_handlers();
+  allow_input_plugin_folders(vm.count("allow-scene-plugins") > 0);
 
   if (vm.count("help")) {
     std::cout << kUsage << opts << "\n";

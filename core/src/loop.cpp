@@ -139,11 +139,7 @@ int run_loop(const LoopRequest& request) {
       std::error_code ec;
       if (!fs::is_regular_file(request.input_file, ec))
         throw SceneError(file, 0, 0, "", "cannot open the loop input file");
-      try {
-        root = YAML::LoadFile(file);
-      } catch (const YAML::Exception& e) {
-        throw SceneError(file, e.mark.line + 1, e.mark.column + 1, "", "malformed YAML: " + e.msg);
-      }
+      root = load_scene_yaml(request.input_file);
     }
     if (!root.IsMap()) ctx.fail(root, "", "a loop input is a YAML map");
     const auto top =
@@ -151,13 +147,21 @@ int run_loop(const LoopRequest& request) {
                         std::vector<std::string>{"params", "motion", "sampling", "output"});
     const auto tv = view(top_schema(), top);
     std::vector<fs::path> extra;
-    for (const auto& p : tv.texts("plugin_paths")) {
-      fs::path path(p);
-      extra.push_back(path.is_absolute() ? path : request.input_file.parent_path() / path);
+    const auto listed_paths = tv.texts("plugin_paths");
+    for (std::size_t i = 0; i < listed_paths.size(); ++i) {
+      fs::path path(listed_paths[i]);
+      if (!path.is_absolute()) path = request.input_file.parent_path() / path;
+      std::error_code missing;
+      if (!fs::is_directory(path, missing))
+        ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
+                 "folder '" + path.string() +
+                     "' does not exist (a relative path is taken from the input file's folder)");
+      extra.push_back(path);
     }
     const Registry registry(Registry::default_search_path(extra));
     std::shared_ptr<const LoadedPlugin> plugin;
     try {
+      check_plugin_allowed(registry.file_of(tv.text("law")), extra);
       plugin = registry.load(tv.text("law"), FRICHB_KIND_CONTACT_LAW);
     } catch (const PluginError& e) {
       ctx.fail(root["law"], "law", e.what());

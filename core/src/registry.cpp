@@ -232,4 +232,35 @@ frichb_modal_basis StructureInstance::modal_basis(int harmonic_index,
   return basis;
 }
 
+namespace {
+bool& input_folders_allowed_flag() {
+  static bool allowed = false;
+  return allowed;
+}
+}  // namespace
+
+void allow_input_plugin_folders(bool allowed) {
+  input_folders_allowed_flag() = allowed;
+}
+bool input_plugin_folders_allowed() {
+  return input_folders_allowed_flag();
+}
+
+void check_plugin_allowed(const fs::path& plugin_file, const std::vector<fs::path>& input_folders) {
+  if (input_plugin_folders_allowed() || plugin_file.empty() || input_folders.empty()) return;
+  std::error_code ec;
+  const fs::path folder = fs::weakly_canonical(plugin_file, ec).parent_path();
+  // Folders of the default search path (the program's own, the install prefix and
+  // FRICHB_PLUGIN_PATH) are the user's choice: trusted even when a scene names them too.
+  for (const auto& trusted : Registry::default_search_path())
+    if (fs::weakly_canonical(trusted, ec) == folder) return;
+  for (const auto& input : input_folders)
+    if (fs::weakly_canonical(input, ec) == folder)
+      throw PluginError("would load " + plugin_file.string() +
+                        " from the input's plugin_paths folder " + input.string() +
+                        ": loading a library runs its code, so plugins from folders that an "
+                        "input names are loaded only with --allow-scene-plugins, or when the "
+                        "folder is listed in FRICHB_PLUGIN_PATH");
+}
+
 }  // namespace frichb::core

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <set>
 #include <sstream>
@@ -229,20 +230,123 @@ double ContinuationSpec::to_rad_per_s() const {
   return unit == FrequencyUnit::kHz ? 2.0 * std::numbers::pi : 1.0;
 }
 
+namespace {
+
+// Names that become file names and CSV columns: letters, digits, '_', '-' and '.', not
+// starting with '.' or '-'.
+bool is_plain_name(const std::string& name) {
+  return !name.empty() && name[0] != '.' && name[0] != '-' &&
+         std::all_of(name.begin(), name.end(), [](char ch) {
+           return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' ||
+                  ch == '.';
+         });
+}
+
+std::string child_path(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+// The end of the quoted scalar that opens at `text[open]` (a ' or "), or npos when the file
+// ends first. yaml-cpp reads an unclosed quote as a string running to the end of the file.
+std::size_t closing_quote(const std::string& text, std::size_t open) {
+  const char quote = text[open];
+  for (std::size_t i = open + 1; i < text.size(); ++i) {
+    if (quote == '"' && text[i] == '\\') {
+      ++i;
+    } else if (text[i] == quote) {
+      if (quote == '\'' && i + 1 < text.size() && text[i + 1] == '\'') {
+        ++i;  // '' is a quote inside a single-quoted scalar
+        continue;
+      }
+      return i;
+    }
+  }
+  return std::string::npos;
+}
+
+// What yaml-cpp accepts silently and a scene must not hold: a key twice in one map (yaml-cpp
+// keeps both and a lookup finds the first) and a quoted scalar that is never closed.
+void check_strict(const YAML::Node& node, const std::string& path, const std::string& text,
+                  const std::string& file) {
+  if (node.IsScalar()) {
+    const YAML::Mark m = node.Mark();
+    if (node.Tag() == "!" && m.pos >= 0 && static_cast<std::size_t>(m.pos) < text.size()) {
+      const auto open = static_cast<std::size_t>(m.pos);
+      if ((text[open] == '"' || text[open] == '\'') &&
+          closing_quote(text, open) == std::string::npos)
+        throw SceneError(file, m.line + 1, m.column + 1, path,
+                         std::string("malformed YAML: the quote ") + text[open] +
+                             " opened here is never closed");
+    }
+    return;
+  }
+  if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i)
+      check_strict(node[i], path + "[" + std::to_string(i) + "]", text, file);
+    return;
+  }
+  if (!node.IsMap()) return;
+  std::map<std::string, YAML::Mark> seen;
+  for (const auto& kv : node) {
+    const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string();
+    if (kv.first.IsScalar()) {
+      const auto [at, inserted] = seen.emplace(key, kv.first.Mark());
+      if (!inserted)
+        throw SceneError(
+            file, kv.first.Mark().line + 1, kv.first.Mark().column + 1, child_path(path, key),
+            "duplicate key '" + key + "': given on line " + std::to_string(at->second.line + 1) +
+                " and again on line " + std::to_string(kv.first.Mark().line + 1) +
+                " (keep one; YAML readers differ on which one wins)");
+    }
+    check_strict(kv.first, path, text, file);
+    check_strict(kv.second, child_path(path, key), text, file);
+  }
+}
+
+}  // namespace
+
 YAML::Node load_scene_yaml(const fs::path& file) {
+  std::string text;
   {
     std::error_code ec;
     if (fs::is_directory(file, ec))
       throw SceneError(file.string(), 0, 0, "", "is a folder, not a scene file");
-    std::ifstream probe(file);
-    if (!probe) throw SceneError(file.string(), 0, 0, "", "cannot open the scene file");
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw SceneError(file.string(), 0, 0, "", "cannot open the scene file");
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    text = buffer.str();
   }
+  std::vector<YAML::Node> documents;
   try {
-    return YAML::LoadFile(file.string());
+    documents = YAML::LoadAll(text);
   } catch (const YAML::Exception& e) {
     throw SceneError(file.string(), e.mark.line + 1, e.mark.column + 1, "",
                      "malformed YAML: " + e.msg);
   }
+  if (documents.size() > 1) {
+    // Where the second document starts: its root's mark, or the second `---` line.
+    int line = documents[1].Mark().line;
+    if (line < 0) {
+      std::istringstream lines(text);
+      std::string l;
+      int number = 0, separators = 0;
+      const bool explicit_start = text.starts_with("---");
+      while (std::getline(lines, l)) {
+        if (l.starts_with("---") && ++separators == (explicit_start ? 2 : 1)) {
+          line = number;
+          break;
+        }
+        ++number;
+      }
+    }
+    throw SceneError(file.string(), line + 1, 1, "",
+                     "a second YAML document (after `---`): a scene file holds one document; "
+                     "put each scene in a file of its own");
+  }
+  YAML::Node root = documents.empty() ? YAML::Node() : documents.front();
+  check_strict(root, "", text, file.string());
+  return root;
 }
 
 namespace {
@@ -291,9 +395,18 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   const auto topv = view(top_schema(), top);
   scene.name = topv.text("name");
   scene.description = topv.text("description");
-  for (const auto& p : topv.texts("plugin_paths")) {
-    fs::path path(p);
-    scene.plugin_paths.push_back(path.is_absolute() ? path : file.parent_path() / path);
+  {
+    const auto listed_paths = topv.texts("plugin_paths");
+    for (std::size_t i = 0; i < listed_paths.size(); ++i) {
+      fs::path path(listed_paths[i]);
+      if (!path.is_absolute()) path = file.parent_path() / path;
+      std::error_code ec;
+      if (!fs::is_directory(path, ec))
+        ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
+                 "folder '" + path.string() +
+                     "' does not exist (a relative path is taken from the scene file's folder)");
+      scene.plugin_paths.push_back(path);
+    }
   }
   scene.core_values = top.to_json(top_schema());
 
@@ -341,6 +454,13 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
     node.definition = kv.second;
     const std::string path = "structure.dofs." + node.name;
     if (node.name == "ground") dofs_ctx.fail(kv.first, path, "'ground' is reserved");
+    if (!is_plain_name(node.name))
+      dofs_ctx.fail(kv.first, path,
+                    "'" + node.name +
+                        "': use letters, digits, '_', '-' and '.' (it names columns of "
+                        "response.csv)");
+    if (scene.structure.find(node.name))
+      dofs_ctx.fail(kv.first, path, "DOF name '" + node.name + "' is used twice");
     auto read_index = [&](const YAML::Node& n) {
       double x = -1;
       if (!n.IsScalar() || !YAML::convert<double>::decode(n, x) || x < 0 || x != std::floor(x) ||
@@ -449,12 +569,7 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
     ContactSpec contact;
     contact.name = v.text("name");
     contact.law = v.text("law");
-    const bool safe_name = !contact.name.empty() && contact.name[0] != '.' &&
-                           std::all_of(contact.name.begin(), contact.name.end(), [](char ch) {
-                             return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' ||
-                                    ch == '-' || ch == '.';
-                           });
-    if (!safe_name)
+    if (!is_plain_name(contact.name))
       ctx.fail(c["name"], path + ".name",
                "'" + contact.name + "': use letters, digits, '_', '-' and '.' (it names files)");
     if (!contact_names.insert(contact.name).second)
@@ -586,6 +701,7 @@ void bind_plugins(Scene& scene, const Registry& registry) {
     ctx.fail(node, path, e.what());
   };
   try {
+    check_plugin_allowed(registry.file_of(scene.structure.provider), scene.plugin_paths);
     scene.structure.plugin = registry.load(scene.structure.provider, FRICHB_KIND_STRUCTURE);
   } catch (const PluginError& e) {
     fail_plugin(scene.root["structure"]["provider"], "structure.provider", e);
@@ -596,6 +712,7 @@ void bind_plugins(Scene& scene, const Registry& registry) {
     auto& c = scene.contacts[i];
     const std::string path = "contacts[" + std::to_string(i) + "]";
     try {
+      check_plugin_allowed(registry.file_of(c.law), scene.plugin_paths);
       c.plugin = registry.load(c.law, FRICHB_KIND_CONTACT_LAW);
     } catch (const PluginError& e) {
       fail_plugin(scene.root["contacts"][i]["law"], path + ".law", e);
