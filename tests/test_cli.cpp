@@ -7,25 +7,40 @@
 //
 // Needs the built plugins (frichb_jenkins_1d, frichb_lumped) and the test-only plugins of
 // tests/plugins (target frichb_test_plugins).
+#include <fcntl.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <poll.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
 
 #include "frichb/core/scene.hpp"
 #include "frichb/plugin/abi.h"
+
+extern char** environ;  // NOLINT(readability-redundant-declaration): POSIX, for execve
 
 namespace {
 
@@ -717,6 +732,521 @@ TEST_F(Cli, BadCommandLinesExitWithOne) {
   const Result bad_option = frichb("--no-such-option");
   EXPECT_EQ(bad_option.code, 1) << bad_option.output;
   EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+// ---------------------------------------------------------------------------------------
+// Trust: signals, concurrent runs, unusable or full output folders, hostile names. The
+// program is started with fork + execve (no shell between the test and frichb), its output
+// to a file or a pipe, and watched with waitpid.
+// ---------------------------------------------------------------------------------------
+
+using Clock = std::chrono::steady_clock;
+
+// Polls `done` every 10 ms for up to `seconds`; true once it holds.
+bool wait_until(const std::function<bool()>& done, double seconds) {
+  const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
+  while (!done()) {
+    if (Clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
+// The text of `file`, or "" while it does not exist.
+std::string text_or_empty(const fs::path& file) {
+  std::error_code ec;
+  return fs::exists(file, ec) ? read_text(file) : std::string();
+}
+
+// The executable `name` on this process's PATH, or empty.
+std::string find_program(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  std::istringstream folders(path ? path : "");
+  for (std::string folder; std::getline(folders, folder, ':');) {
+    if (folder.empty()) continue;
+    const fs::path candidate = fs::path(folder) / name;
+    if (::access(candidate.c_str(), X_OK) == 0 && fs::is_regular_file(candidate))
+      return candidate.string();
+  }
+  return {};
+}
+
+// How a child is started.
+struct Launch {
+  fs::path log;               // stdout and stderr into this file; empty: into a pipe (output())
+  fs::path cwd;               // its working folder; empty: this process's
+  std::string path_variable;  // its PATH; empty: this process's
+  long file_size_limit = -1;  // RLIMIT_FSIZE in bytes (SIGXFSZ ignored); -1: none
+};
+
+// A program started with fork + execve. Exit codes as the shell shows them for an exit;
+// a death by a signal is -signal (so an exit(143) and a death by SIGTERM differ). Killed and
+// reaped on destruction if still running.
+class Process {
+ public:
+  Process(const std::vector<std::string>& argv, const Launch& launch) {
+    // Everything the child needs is made before the fork: after it, only system calls.
+    std::vector<std::string> env;
+    for (char** e = environ; *e != nullptr; ++e)
+      if (launch.path_variable.empty() || !std::string_view(*e).starts_with("PATH="))
+        env.emplace_back(*e);
+    if (!launch.path_variable.empty()) env.push_back("PATH=" + launch.path_variable);
+    std::vector<std::string> args = argv;
+    std::vector<char*> arg_pointers, env_pointers;
+    for (auto& a : args) arg_pointers.push_back(a.data());
+    arg_pointers.push_back(nullptr);
+    for (auto& e : env) env_pointers.push_back(e.data());
+    env_pointers.push_back(nullptr);
+    const std::string cwd = launch.cwd.string();
+
+    int out = -1;
+    if (!launch.log.empty()) {
+      out = ::open(launch.log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    } else {
+      std::array<int, 2> fds{};
+      if (::pipe2(fds.data(), O_CLOEXEC) == 0) {
+        pipe_ = fds[0];
+        out = fds[1];
+      }
+    }
+    const int null_in = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+    if (out < 0 || null_in < 0) throw std::runtime_error("cannot open the child's files");
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      ::dup2(null_in, 0);
+      ::dup2(out, 1);
+      ::dup2(out, 2);
+      // Default signal handling whatever this test was started under (a background job
+      // ignores SIGINT, for one).
+      struct sigaction dfl {};
+      dfl.sa_handler = SIG_DFL;
+      ::sigaction(SIGINT, &dfl, nullptr);
+      ::sigaction(SIGTERM, &dfl, nullptr);
+      sigset_t none;
+      sigemptyset(&none);
+      ::sigprocmask(SIG_SETMASK, &none, nullptr);
+      if (!cwd.empty() && ::chdir(cwd.c_str()) != 0) ::_exit(126);
+      if (launch.file_size_limit >= 0) {
+        // A write past the limit then fails with EFBIG, as a full disk fails with ENOSPC;
+        // an ignored disposition survives execve.
+        struct sigaction ignore {};
+        ignore.sa_handler = SIG_IGN;
+        ::sigaction(SIGXFSZ, &ignore, nullptr);
+        const auto limit = static_cast<rlim_t>(launch.file_size_limit);
+        const struct rlimit r = {limit, limit};
+        if (::setrlimit(RLIMIT_FSIZE, &r) != 0) ::_exit(126);
+      }
+      ::execve(arg_pointers[0], arg_pointers.data(), env_pointers.data());
+      ::_exit(127);
+    }
+    ::close(out);
+    ::close(null_in);
+    if (pid_ < 0) throw std::runtime_error("fork failed");
+  }
+  Process(const Process&) = delete;
+  Process& operator=(const Process&) = delete;
+  ~Process() {
+    if (pid_ > 0 && !code_) {
+      ::kill(pid_, SIGKILL);
+      int status = 0;
+      ::waitpid(pid_, &status, 0);
+    }
+    if (pipe_ >= 0) ::close(pipe_);
+  }
+
+  pid_t pid() const { return pid_; }
+  void signal(int s) const { ::kill(pid_, s); }
+
+  // False once it has exited (it is then reaped and its exit code kept).
+  bool running() {
+    if (code_) return false;
+    int status = 0;
+    if (::waitpid(pid_, &status, WNOHANG) == pid_)
+      code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+    return !code_;
+  }
+  // Its exit code once it exits within `seconds`; else it is killed and nullopt returned.
+  std::optional<int> wait(double seconds) {
+    if (wait_until([&] { return !running(); }, seconds)) return code_;
+    ::kill(pid_, SIGKILL);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    code_ = -SIGKILL;
+    return std::nullopt;
+  }
+  // Everything it writes to the pipe (Launch::log empty) until it closes it, at most
+  // `seconds` long.
+  std::string output(double seconds) {
+    std::string text;
+    const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
+    std::array<char, 4096> buffer{};
+    while (pipe_ >= 0 && Clock::now() < deadline) {
+      pollfd p{pipe_, POLLIN, 0};
+      if (::poll(&p, 1, 50) <= 0) continue;
+      const ssize_t got = ::read(pipe_, buffer.data(), buffer.size());
+      if (got < 0 && errno == EINTR) continue;
+      if (got <= 0) break;
+      text.append(buffer.data(), static_cast<std::size_t>(got));
+    }
+    return text;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int pipe_ = -1;
+  std::optional<int> code_;
+};
+
+// Runs frichb (no shell) to its end, output through a pipe.
+Result run_frichb(const std::vector<std::string>& args, Launch launch = {}) {
+  launch.log.clear();
+  std::vector<std::string> argv = {FRICHB_EXE};
+  argv.insert(argv.end(), args.begin(), args.end());
+  Process p(argv, launch);
+  Result r;
+  r.output = p.output(120);
+  r.code = p.wait(10).value_or(-1000);
+  return r;
+}
+
+// Starts `frichb run SCENE -o OUT EXTRA...` with its output into `log`.
+std::unique_ptr<Process> start_run(const fs::path& scene, const fs::path& out, const fs::path& log,
+                                   const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> argv = {FRICHB_EXE, "run", scene.string(), "-o", out.string()};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  Launch launch;
+  launch.log = log;
+  return std::make_unique<Process>(argv, launch);
+}
+
+// Overrides that make the quick start trace for about 4 s on 2 cores (some 2300 points of 16
+// harmonics on 512 samples, 4.5 s in all, instead of 154 points of 8 harmonics in 0.3 s): long
+// enough to be interrupted, or run beside, while it traces.
+const std::vector<std::string> kSlow = {
+    "--set", "continuation.step.initial=0.13",         "--set", "continuation.step.max=0.13",
+    "--set", "continuation.max_points=100000",         "--set", "harmonic_balance.max_harmonic=15",
+    "--set", "harmonic_balance.samples_per_period=512"};
+
+// Every file and folder below `root` (relative path -> bytes, or "<folder>").
+std::map<std::string, std::string> snapshot(const fs::path& root) {
+  std::map<std::string, std::string> entries;
+  for (const auto& entry : fs::recursive_directory_iterator(root))
+    entries[entry.path().lexically_relative(root).string()] =
+        entry.is_directory() ? std::string("<folder>") : read_text(entry.path());
+  return entries;
+}
+
+// What differs between two snapshots ("changed X", "new X", "missing X").
+std::vector<std::string> differences(const std::map<std::string, std::string>& before,
+                                     const std::map<std::string, std::string>& after) {
+  std::vector<std::string> found;
+  for (const auto& [name, bytes] : before) {
+    const auto it = after.find(name);
+    if (it == after.end())
+      found.push_back("missing " + name);
+    else if (it->second != bytes)
+      found.push_back("changed " + name);
+  }
+  for (const auto& [name, bytes] : after)
+    if (!before.contains(name)) found.push_back("new " + name);
+  return found;
+}
+
+// The names in `names`, one a line ("" for none).
+std::string joined(const std::vector<std::string>& names) {
+  std::string text;
+  for (const auto& name : names) text += name + "\n";
+  return text;
+}
+
+// The hidden entries frichb keeps beside an output folder DIR while it runs:
+// .DIR.partial-PID (staging), .DIR.previous-PID (moved aside), .DIR.lock.
+std::vector<std::string> hidden_beside(const fs::path& out) {
+  std::vector<std::string> names;
+  const std::string prefix = "." + out.filename().string() + ".";
+  for (const auto& entry : fs::directory_iterator(out.parent_path()))
+    if (entry.path().filename().string().starts_with(prefix))
+      names.push_back(entry.path().filename().string());
+  return names;
+}
+
+// Waits until `log` shows the trace under way (its first progress line) while `run` runs.
+::testing::AssertionResult wait_for_tracing(Process& run, const fs::path& log) {
+  const bool seen = wait_until(
+      [&] { return text_or_empty(log).find("[  0%]") != std::string::npos || !run.running(); }, 60);
+  if (seen && run.running()) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "the run did not start tracing (or ended first):\n"
+                                       << text_or_empty(log);
+}
+
+TEST_F(Cli, SignalWhileTracingExitsWithoutOutputAndKeepsTheEarlierResults) {
+  const fs::path out = dir_ / "results";
+  ASSERT_EQ(frichb("run " + quoted(kQuickstart) + " -o " + quoted(out)).code, 0);
+  std::ofstream(out / "notes.txt") << "mine";
+  const auto before = snapshot(out);
+  ASSERT_TRUE(before.contains("summary.json") &&
+              before.contains("loops/root_friction_330Hz_1.csv"));
+
+  for (const auto& [sig, expected] : {std::pair{SIGTERM, 143}, std::pair{SIGINT, 130}}) {
+    SCOPED_TRACE("signal " + std::to_string(sig));
+    const fs::path log = dir_ / ("signal_" + std::to_string(sig) + ".log");
+    const auto run = start_run(kQuickstart, out, log, kSlow);
+    ASSERT_TRUE(wait_for_tracing(*run, log));
+    const std::string staging = ".results.partial-" + std::to_string(run->pid());
+    EXPECT_TRUE(fs::is_directory(dir_ / staging)) << "the run stages into " << staging;
+    run->signal(sig);
+    const auto code = run->wait(30);
+    const std::string text = read_text(log);
+    EXPECT_EQ(code, std::optional<int>(expected)) << text;
+    EXPECT_THAT(text, HasSubstr("interrupted by signal " + std::to_string(sig) + " at point "));
+    EXPECT_THAT(text, HasSubstr("no output written"));
+    EXPECT_THAT(text, Not(HasSubstr("reached 450 Hz"))) << "the signal came after the trace";
+    EXPECT_EQ(joined(differences(before, snapshot(out))), "");
+    EXPECT_EQ(joined(hidden_beside(out)), "") << "staging or lock file left beside the results";
+  }
+}
+
+TEST_F(Cli, SigintWhileGnuplotRunsEndsGnuplotAndExitsWithoutOutput) {
+  // A gnuplot that records its PID and hangs; frichb finds it first on PATH.
+  const fs::path bin = dir_ / "fake_bin";
+  const fs::path marker = dir_ / "gnuplot.pid";
+  fs::create_directories(bin);
+  std::ofstream(bin / "gnuplot") << "#!/bin/sh\necho $$ > " << quoted(marker.string() + ".tmp")
+                                 << " && mv " << quoted(marker.string() + ".tmp") << " "
+                                 << quoted(marker) << "\nexec sleep 60\n";
+  fs::permissions(bin / "gnuplot", fs::perms::owner_all | fs::perms::group_read |
+                                       fs::perms::group_exec | fs::perms::others_read |
+                                       fs::perms::others_exec);
+  const char* path = std::getenv("PATH");
+  const fs::path out = dir_ / "out";
+  const fs::path log = dir_ / "run.log";
+  Launch launch;
+  launch.log = log;
+  launch.cwd = dir_;
+  launch.path_variable = bin.string() + ":" + (path ? path : "/usr/bin:/bin");
+  Process run({FRICHB_EXE, "run", kQuickstart.string(), "-o", out.string()}, launch);
+  ASSERT_TRUE(wait_until([&] { return fs::exists(marker) || !run.running(); }, 60))
+      << text_or_empty(log);
+  ASSERT_TRUE(run.running()) << "frichb ended before starting gnuplot:\n" << read_text(log);
+  const pid_t gnuplot = std::stoi(read_text(marker));
+  ASSERT_GT(gnuplot, 1);
+
+  const auto t0 = Clock::now();
+  run.signal(SIGINT);  // frichb only, not its process group
+  const auto code = run.wait(30);
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  const std::string text = read_text(log);
+  EXPECT_EQ(code, std::optional<int>(130)) << text;
+  EXPECT_LT(seconds, 5.0) << "frichb waited for gnuplot instead of ending it";
+  EXPECT_THAT(text, HasSubstr("interrupted by signal 2"));
+  EXPECT_THAT(text, HasSubstr("no output written"));
+  const bool gone = wait_until([&] { return ::kill(gnuplot, 0) != 0 && errno == ESRCH; }, 2.0);
+  EXPECT_TRUE(gone) << "gnuplot (PID " << gnuplot << ") still runs after frichb exited";
+  if (!gone) ::kill(gnuplot, SIGKILL);
+  EXPECT_FALSE(fs::exists(out)) << "an interrupted run created its output folder";
+  EXPECT_EQ(joined(hidden_beside(out)), "");
+}
+
+TEST_F(Cli, StagingLeftByAKilledRunIsRemovedByTheNextRun) {
+  const fs::path out = dir_ / "results";
+  ASSERT_EQ(frichb("run " + quoted(kQuickstart) + " -o " + quoted(out)).code, 0);
+  std::ofstream(out / "notes.txt") << "mine";
+  const auto before = snapshot(out);
+
+  const fs::path log = dir_ / "killed.log";
+  const auto killed = start_run(kQuickstart, out, log, kSlow);
+  ASSERT_TRUE(wait_for_tracing(*killed, log));
+  killed->signal(SIGKILL);
+  EXPECT_EQ(killed->wait(30), std::optional<int>(-SIGKILL));
+  const std::string staging = ".results.partial-" + std::to_string(killed->pid());
+  // What a kill leaves: the staging folder and the lock file; the results are untouched.
+  ASSERT_TRUE(fs::is_directory(dir_ / staging)) << "precondition: the kill left " << staging;
+  EXPECT_TRUE(fs::exists(dir_ / ".results.lock"));
+  EXPECT_EQ(joined(differences(before, snapshot(out))), "");
+
+  const Result next = frichb("run " + quoted(kQuickstart) + " -o " + quoted(out));
+  EXPECT_EQ(next.code, 0) << next.output;
+  EXPECT_THAT(next.output, HasSubstr("removed " + staging + " left by an interrupted run"));
+  EXPECT_EQ(joined(hidden_beside(out)), "");
+  EXPECT_FALSE(fs::exists(dir_ / staging));
+  EXPECT_EQ(read_text(out / "notes.txt"), "mine");
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary.at("termination").at("reached_end"), true);
+}
+
+TEST_F(Cli, ASecondRunIntoAFolderInUseIsRefused) {
+  const fs::path out = dir_ / "shared";
+  const fs::path log = dir_ / "first.log";
+  const auto first = start_run(kQuickstart, out, log, kSlow);
+  ASSERT_TRUE(wait_for_tracing(*first, log));
+
+  const Result second = run_frichb({"run", kQuickstart.string(), "-o", out.string()});
+  EXPECT_EQ(second.code, 2) << second.output;
+  EXPECT_THAT(second.output,
+              HasSubstr("output folder " + out.string() + " is in use by another frichb run"));
+  EXPECT_TRUE(first->running()) << "precondition: the second run came while the first traced";
+  EXPECT_FALSE(fs::exists(out)) << "the refused run wrote the folder";
+
+  const auto code = first->wait(120);
+  const std::string text = read_text(log);
+  ASSERT_EQ(code, std::optional<int>(0)) << text;
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary.at("termination").at("reached_end"), true);
+  const auto points = summary.at("points").get<std::size_t>();
+  EXPECT_GT(points, 1000u) << "the slow scene's curve";
+  const auto rows = csv_numbers(read_text(out / "response.csv"));
+  EXPECT_EQ(rows.size(), points);
+  EXPECT_TRUE(fs::is_regular_file(out / "loops" / "root_friction_400Hz_1.csv"));
+  EXPECT_EQ(joined(hidden_beside(out)), "");
+}
+
+// Known core bug (see the test report): the recovery of StagedOutput takes every entry
+// beside DIR that starts with .DIR.partial- or .DIR.previous- for a killed run's leftovers,
+// so the lock file and live staging folder of a run into DIR.previous-x (.DIR.previous-x.lock,
+// .DIR.previous-x.partial-PID) are moved into DIR as "earlier results" or deleted: the run
+// into DIR exits 4 (or 0), and a third run into DIR.previous-x is let in beside the first.
+// Enable once fixed.
+TEST_F(Cli, DISABLED_ARunLeavesTheHiddenFilesOfAFolderNamedLikeItsOwnAlone) {
+  const fs::path other = dir_ / "results.previous-x";
+  const fs::path log = dir_ / "other.log";
+  const auto first = start_run(kQuickstart, other, log, kSlow);
+  ASSERT_TRUE(wait_for_tracing(*first, log));
+  const std::string held = joined(hidden_beside(other));  // its lock and staging
+  ASSERT_THAT(held, HasSubstr(".results.previous-x.lock"));
+
+  const fs::path out = dir_ / "results";
+  const Result r = run_frichb({"run", kQuickstart.string(), "-o", out.string()});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, Not(HasSubstr("interrupted run")));
+  EXPECT_TRUE(fs::is_regular_file(out / "summary.json"));
+  EXPECT_EQ(joined(hidden_beside(other)), held) << "the live run's lock and staging";
+  const Result third = run_frichb({"run", kQuickstart.string(), "-o", other.string()});
+  EXPECT_EQ(third.code, 2) << "let in beside a live run: " << third.output;
+  EXPECT_EQ(first->wait(120), std::optional<int>(0)) << read_text(log);
+}
+
+TEST_F(Cli, AnOutputPathThatIsAFileOrInsideOneIsInvalidInput) {
+  const fs::path file = dir_ / "a_file";
+  std::ofstream(file) << "precious\n";
+  const Result is_file = run_frichb({"run", kQuickstart.string(), "-o", file.string()});
+  EXPECT_EQ(is_file.code, 2) << is_file.output;
+  EXPECT_THAT(is_file.output, HasSubstr("exists and is not a folder"));
+  const Result inside = run_frichb({"run", kQuickstart.string(), "-o", (file / "sub").string()});
+  EXPECT_EQ(inside.code, 2) << inside.output;
+  EXPECT_THAT(inside.output, HasSubstr(file.string()));
+  EXPECT_EQ(read_text(file), "precious\n");
+  for (const auto& entry : fs::directory_iterator(dir_))
+    EXPECT_EQ(entry.path(), file) << "unexpected entry " << entry.path();
+}
+
+TEST_F(Cli, OutputsThatCannotBeWrittenExitWithFiveAndKeepTheEarlierResults) {
+  const fs::path out = dir_ / "results";
+  ASSERT_EQ(frichb("run " + quoted(kQuickstart) + " -o " + quoted(out)).code, 0);
+  std::ofstream(out / "notes.txt") << "mine";
+  const auto before = snapshot(out);
+  ASSERT_GT(before.at("response.csv").size(), 2000u) << "precondition: the limit is hit";
+
+  // Every file of the run limited to 2000 bytes: response.csv (23 kB) fails part-way, as on
+  // a full disk. (The output goes to a pipe, which the limit does not cover.)
+  Launch launch;
+  launch.file_size_limit = 2000;
+  const Result r = run_frichb({"run", kQuickstart.string(), "-o", out.string()}, launch);
+  EXPECT_EQ(r.code, 5) << r.output;
+  EXPECT_THAT(r.output, ContainsRegex("cannot write [^ ]*/response\\.csv \\(2000 of [0-9]+ bytes "
+                                      "written\\): File too large"));
+  EXPECT_EQ(joined(differences(before, snapshot(out))), "");
+  EXPECT_EQ(joined(hidden_beside(out)), "");
+}
+
+// A YAML double-quoted scalar holding `text` byte for byte.
+std::string yaml_quoted(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\')
+      out += std::string("\\") + c;
+    else if (c == '\n')
+      out += "\\n";
+    else
+      out += c;
+  }
+  return out + "\"";
+}
+
+// Scene names and file names that would run commands if they reached gnuplot or a shell as
+// code: each run succeeds, plots, runs nothing, and gnuplot reads the title back byte for byte.
+TEST_F(Cli, HostileSceneAndFileNamesRunNothing) {
+  const std::string gnuplot = find_program("gnuplot");
+  if (gnuplot.empty()) GTEST_SKIP() << "gnuplot is not on PATH";
+  const std::vector<std::string> names = {
+      "x'; system('touch PWNED'); print '",
+      "x'.system('touch PWNED1').'",
+      "$(touch PWNED2)",
+      "`touch PWNED4`",
+      "line one\nsystem('touch PWNED5')",
+      "say \"hi\"; system(\"touch PWNED6\"); \\",
+  };
+  // (title expected, scene file)
+  std::vector<std::pair<std::string, fs::path>> scenes;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    scenes.emplace_back(names[i],
+                        write_scene("named_" + std::to_string(i) + ".yaml",
+                                    replace_once(quickstart_, "\nname: friction_oscillator",
+                                                 "\nname: " + yaml_quoted(names[i]))));
+  // Without a name the title is the file's stem, and out/<stem> the output folder.
+  const std::string stem = "e';touch PWNED3;'";
+  scenes.emplace_back(
+      stem,
+      write_scene(stem + ".yaml", replace_once(quickstart_, "\nname: friction_oscillator", "")));
+
+  // Control: the first name pasted into a script unescaped does run its command.
+  fs::create_directories(dir_ / "control");
+  std::ofstream(dir_ / "control" / "naive.gp")
+      << "set print 'naive.txt'\nset title '" << names[0] << ": forced response'\n";
+  Launch in_control;
+  in_control.cwd = dir_ / "control";
+  {
+    Process naive({gnuplot, "naive.gp"}, in_control);
+    naive.output(30);
+    naive.wait(30);
+  }
+  ASSERT_TRUE(fs::exists(dir_ / "control" / "PWNED")) << "the payload is not live";
+  fs::remove_all(dir_ / "control");
+
+  Launch in_dir;
+  in_dir.cwd = dir_;
+  for (std::size_t i = 0; i < scenes.size(); ++i) {
+    const auto& [title, scene] = scenes[i];
+    SCOPED_TRACE(title);
+    const Result r = run_frichb({"run", scene.filename().string()}, in_dir);  // no -o
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_THAT(r.output, Not(HasSubstr("gnuplot failed")));
+    const fs::path out = dir_ / "out" / scene.stem();
+    ASSERT_TRUE(fs::is_regular_file(out / "response.png")) << r.output;
+    EXPECT_GT(fs::file_size(out / "response.png"), 0u);
+
+    // gnuplot's own reading of the title expression.
+    std::istringstream gp(read_text(out / "response.gp"));
+    std::string title_line;
+    for (std::string line; std::getline(gp, line);)
+      if (line.starts_with("set title ")) title_line = line;
+    ASSERT_FALSE(title_line.empty());
+    const fs::path check = dir_ / ("title_check_" + std::to_string(i));
+    fs::create_directories(check);
+    std::ofstream(check / "print.gp")
+        << "set print 'title.txt'\nprint " << title_line.substr(std::string("set title ").size())
+        << "\n";
+    Launch in_check;
+    in_check.cwd = check;
+    Process print({gnuplot, "print.gp"}, in_check);
+    const std::string complaints = print.output(30);
+    EXPECT_EQ(print.wait(30), std::optional<int>(0)) << complaints;
+    EXPECT_EQ(text_or_empty(check / "title.txt"), title + ": forced response\n") << title_line;
+  }
+  for (const auto& entry : fs::recursive_directory_iterator(dir_))
+    EXPECT_FALSE(entry.path().filename().string().starts_with("PWNED"))
+        << "a name ran a command: " << entry.path();
+  for (const auto& entry : fs::directory_iterator(fs::current_path()))
+    EXPECT_FALSE(entry.path().filename().string().starts_with("PWNED")) << entry.path();
 }
 
 }  // namespace
