@@ -1100,13 +1100,11 @@ TEST_F(Cli, ASecondRunIntoAFolderInUseIsRefused) {
   EXPECT_EQ(joined(hidden_beside(out)), "");
 }
 
-// Known core bug (see the test report): the recovery of StagedOutput takes every entry
-// beside DIR that starts with .DIR.partial- or .DIR.previous- for a killed run's leftovers,
-// so the lock file and live staging folder of a run into DIR.previous-x (.DIR.previous-x.lock,
-// .DIR.previous-x.partial-PID) are moved into DIR as "earlier results" or deleted: the run
-// into DIR exits 4 (or 0), and a third run into DIR.previous-x is let in beside the first.
-// Enable once fixed.
-TEST_F(Cli, DISABLED_ARunLeavesTheHiddenFilesOfAFolderNamedLikeItsOwnAlone) {
+// The recovery of a killed run's leftovers beside DIR takes only .DIR.partial-PID and
+// .DIR.previous-PID: the lock file and live staging folder of a run into DIR.previous-x
+// (.DIR.previous-x.lock, .DIR.previous-x.partial-PID) are that run's, left alone, and a third
+// run into DIR.previous-x is refused while the first still runs.
+TEST_F(Cli, ARunLeavesTheHiddenFilesOfAFolderNamedLikeItsOwnAlone) {
   const fs::path other = dir_ / "results.previous-x";
   const fs::path log = dir_ / "other.log";
   const auto first = start_run(kQuickstart, other, log, kSlow);

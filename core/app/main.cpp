@@ -284,7 +284,16 @@ int main(int argc, char** argv) {
         if (scene.root["study"]) {
           try {
             const auto runs = prepare_study_runs(scene, load_study(scene), *registry);
-            spdlog::info("{}: study of {} runs, each valid", args[1], runs.size());
+            for (const auto& run : runs) {
+              try {
+                check_run_start(run.scene);
+              } catch (const SceneError& e) {
+                spdlog::error("study run {}: {}", run.id, e.what());
+                return kExitInvalidInput;
+              }
+            }
+            spdlog::info("{}: study of {} runs, each valid up to its first Newton iteration",
+                         args[1], runs.size());
           } catch (const SceneError& e) {
             spdlog::error("{}", e.what());
             return kExitInvalidInput;

@@ -81,7 +81,14 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   for (const auto& spec : scene.contacts) {
     ContactModel c;
     c.name = spec.name;
-    c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
+    try {
+      c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
+    } catch (const PluginError& e) {
+      const std::size_t index = static_cast<std::size_t>(&spec - scene.contacts.data());
+      fail_plugin_refusal(ctx, root["contacts"][index],
+                          "contacts[" + std::to_string(index) + "].params", spec.plugin->schema(),
+                          e.what());
+    }
     c.tracer = std::make_unique<PeriodicTracer>(*c.law, trace_layout_, trace_options);
     const auto& comps = c.tracer->components();
     const auto d = static_cast<Eigen::Index>(comps.size());

@@ -242,8 +242,15 @@ StagedOutput::StagedOutput(fs::path final_directory, std::vector<std::string> ma
     const FileId final_id = file_id(final_);
     for (const auto& entry : fs::directory_iterator(parent)) {
       const std::string entry_name = entry.path().filename().string();
-      const bool staging = entry_name.starts_with(staging_prefix);
-      const bool aside = entry_name.starts_with(aside_prefix);
+      // Only "<prefix><pid>": the hidden files of a folder named like this one plus a suffix
+      // (out.previous-x beside out) are that folder's, not debris of this one.
+      auto pid_suffix = [&](const std::string& prefix) {
+        return entry_name.size() > prefix.size() && entry_name.starts_with(prefix) &&
+               std::all_of(entry_name.begin() + static_cast<std::ptrdiff_t>(prefix.size()),
+                           entry_name.end(), [](char c) { return c >= '0' && c <= '9'; });
+      };
+      const bool staging = pid_suffix(staging_prefix);
+      const bool aside = pid_suffix(aside_prefix);
       if (!staging && !aside) continue;
       const bool swapped = dead.staging_id.valid && final_id == dead.staging_id;
       if (aside && !fs::exists(final_)) {

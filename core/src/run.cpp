@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -260,13 +261,149 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
   return "";
 }
 
+// Total physical memory of the machine in bytes, or 0 when unknown.
+double physical_memory_bytes() {
+  const long pages = sysconf(_SC_PHYS_PAGES);
+  const long page = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
+}
+
+// The start of a run, up to its first Newton iteration: the structure and the model built
+// (every DOF, frame and sector count checked, the modal bases fetched), the contact-free
+// response checked over the sweep, the memory the Newton matrices need checked against the
+// machine's, the scaling and the continuation options.
+struct RunStart {
+  std::unique_ptr<StructureInstance> structure;
+  std::unique_ptr<HarmonicBalanceModel> model;
+  ContinuationOptions options;
+  double peak = 0.0;    // largest contact-free displacement over the sweep, m
+  double u_unit = 0.0;  // displacement scale of the arclength, m
+  double span = 0.0;    // the sweep's width in the scene's unit
+};
+
+// Bytes the continuation holds per Newton matrix entry: the Jacobian, its LU factors and the
+// bordered Keller matrix, (n + 1)^2 doubles each.
+constexpr double kNewtonMatrixBytesPerEntry = 3.0 * sizeof(double);
+
+RunStart start_run(const Scene& scene, int contact_threads) {
+  RunStart start;
+  const YamlContext ctx{scene.file.string()};
+  YAML::Node root = scene.root;  // non-const: a missing key then gives an undefined node
+  try {
+    start.structure =
+        std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
+    start.model = std::make_unique<HarmonicBalanceModel>(scene, *start.structure);
+    start.model->set_contact_threads(contact_threads);
+  } catch (const PluginError& e) {
+    fail_plugin_refusal(ctx, root["structure"], "structure.params",
+                        scene.structure.plugin->schema(), e.what());
+  } catch (const std::bad_alloc&) {
+    ctx.fail(root["harmonic_balance"] ? root["harmonic_balance"] : root, "harmonic_balance",
+             "the model does not fit in this machine's memory (an allocation failed while "
+             "building it): keep fewer harmonics, samples_per_period or contacts");
+  }
+  auto& model = start.model;
+  const auto& C = scene.continuation;
+  const double unit = C.to_rad_per_s();
+  const double w_from = C.from * unit, w_to = C.to * unit;
+  const Eigen::Index n = model->equation_count();
+  {
+    const double needed =
+        kNewtonMatrixBytesPerEntry * static_cast<double>(n + 1) * static_cast<double>(n + 1);
+    const double available = physical_memory_bytes();
+    if (available > 0 && needed > 0.8 * available)
+      ctx.fail(root["contacts"] ? root["contacts"] : root, "contacts",
+               "the scene has " + std::to_string(n) + " unknowns: its Newton matrices need " +
+                   format_number(needed / (1 << 30), 3) +
+                   " GiB, more than 80 % of this "
+                   "machine's " +
+                   format_number(available / (1 << 30), 3) +
+                   " GiB; keep fewer harmonics or contacts");
+  }
+
+  // A static harmonic needs a grounded structure: a rigid-body mode has no static receptance.
+  const auto& kept = model->layout().harmonics();
+  if (std::find(kept.begin(), kept.end(), 0) != kept.end()) {
+    const Eigen::VectorXd& w0 = model->structure().natural_frequencies(0);
+    if (w0.size() && w0.minCoeff() <= 1e-8 * std::max(1.0, w0.maxCoeff()))
+      ctx.fail(root["structure"], "structure",
+               "the structure has a rigid-body mode (natural frequency " +
+                   format_number(w0.minCoeff() / (2 * std::numbers::pi)) +
+                   " Hz) and harmonic 0 is kept: its static response is unbounded; ground the "
+                   "structure or drop harmonic 0");
+  }
+
+  // Scaling: frequency in the scene's unit; displacements so that the contact-free peak
+  // over the sweep is kTallness times as tall as the sweep is wide. Friction peaks are
+  // lower than the contact-free one, so a tall box keeps the arclength resolving them;
+  // a taller one costs points on curves that do climb (gaps closing, light friction).
+  constexpr double kTallness = 5.0;
+  double peak = 0.0;
+  for (int i = 0; i <= 256; ++i) {
+    const double w = w_from + (w_to - w_from) * i / 256.0;
+    const Eigen::VectorXd u0 = model->linear_response(w);
+    if (!u0.allFinite())
+      ctx.fail(root["structure"], "structure",
+               "the contact-free response is not finite at " + format_number(w / unit) + " " +
+                   unit_name(C.unit) +
+                   " (harmonic 0 with a rigid-body mode, or an undamped resonance): ground the "
+                   "structure, drop harmonic 0, or add damping");
+    if (u0.size()) peak = std::max(peak, u0.cwiseAbs().maxCoeff());
+  }
+  if (peak == 0.0) peak = 1e-6;
+  start.peak = peak;
+  start.span = std::abs(C.to - C.from);
+  start.u_unit = C.displacement_scale > 0 ? C.displacement_scale : peak / (kTallness * start.span);
+
+  ContinuationOptions& options = start.options;
+  options.lambda_start = w_from;
+  options.lambda_end = w_to;
+  // The curve stays within a quarter of the window's span around it (and at positive
+  // frequency): one that comes back that far past its start has walked its branch
+  // backwards (or the branch overhangs the window by that much) and ends with a reason.
+  constexpr double kBoundsMargin = 0.25;
+  const double margin = kBoundsMargin * std::abs(w_to - w_from);
+  options.lambda_min = std::max(0.0, std::min(w_from, w_to) - margin);
+  options.lambda_max = std::max(w_from, w_to) + margin;
+  options.initial_step = C.initial_step;
+  options.min_step = C.min_step;
+  options.max_step = C.max_step;
+  options.target_newton_iterations = C.target_newton_iterations;
+  options.max_points = C.max_points;
+  options.max_wall_seconds = C.max_wall_seconds;
+  options.reuse_factorisation_from = C.reuse_factorisation_from;
+  options.turning_point_control = C.turning_point_control;
+  options.steep_branch_alpha = C.steep_branch_alpha;
+  options.newton.max_iterations = C.max_newton_iterations;
+  options.newton.residual_tolerance = C.tolerance;
+  options.newton.step_tolerance = C.tolerance;
+  options.unknown_scale = Eigen::VectorXd::Constant(n + 1, start.u_unit);
+  options.unknown_scale(n) = unit;
+  options.residual_scale = Eigen::VectorXd::Constant(n, peak);
+  return start;
+}
+
 }  // namespace
+
+void check_run_start(const Scene& scene) {
+  start_run(scene, 1);
+}
 
 int run_scene(const RunRequest& request) {
   Scene scene;
   std::unique_ptr<Registry> registry;
   if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
   if (request.validate_only) {
+    // Everything `run` checks before its first Newton iteration.
+    try {
+      check_run_start(scene);
+    } catch (const SceneError& e) {
+      spdlog::error("{}", e.what());
+      return kExitInvalidInput;
+    } catch (const std::exception& e) {
+      spdlog::error("{}: {}", scene.file.string(), e.what());
+      return kExitInternal;
+    }
     std::string contacts;
     for (const auto& c : scene.contacts)
       contacts += (contacts.empty() ? "" : ", ") + c.name + " (" + c.plugin->name() + " " +
@@ -274,6 +411,12 @@ int run_scene(const RunRequest& request) {
     spdlog::info("{}: valid; structure '{}' {}; contacts: {}", request.scene_file.string(),
                  scene.structure.plugin->name(), scene.structure.plugin->descriptor().version,
                  contacts.empty() ? "none" : contacts);
+    // Loading a plugin runs its code: the files the run loads, each once.
+    std::vector<std::string> files = {scene.structure.plugin->file().string()};
+    for (const auto& c : scene.contacts)
+      if (std::find(files.begin(), files.end(), c.plugin->file().string()) == files.end())
+        files.push_back(c.plugin->file().string());
+    for (const auto& f : files) spdlog::info("  loads {}", f);
     return kExitOk;
   }
   if (scene.root["study"])
@@ -310,19 +453,16 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     } catch (const OutputError& e) {
       return fail(e.user_error() ? kExitInvalidInput : kExitOutput, "output_error", e.what());
     }
-    std::unique_ptr<StructureInstance> structure;
-    std::unique_ptr<HarmonicBalanceModel> model;
+    RunStart prepared;
     try {
-      structure =
-          std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
-      model = std::make_unique<HarmonicBalanceModel>(scene, *structure);
-      model->set_contact_threads(run_options.contact_threads);
-    } catch (const PluginError& e) {
-      return fail(kExitInvalidInput, "invalid_input", scene.file.string() + ": " + e.what());
+      prepared = start_run(scene, run_options.contact_threads);
     } catch (const SceneError& e) {
       return fail(kExitInvalidInput, "invalid_input", e.what());
     }
     timing["setup_s"] = seconds_since(t_start);
+    const auto& model = prepared.model;
+    const ContinuationOptions options = prepared.options;
+    const double peak = prepared.peak, u_unit = prepared.u_unit, span = prepared.span;
     const auto& C = scene.continuation;
     const double unit = C.to_rad_per_s();
     const double w_from = C.from * unit, w_to = C.to * unit;
@@ -332,54 +472,6 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
                 scene.name.empty() ? scene.file.stem().string() : scene.name,
                 model->contacts().size(), n, model->layout().harmonics().size(),
                 model->layout().samples(), C.from, unit_name(C.unit), C.to, unit_name(C.unit));
-
-    // Scaling: frequency in the scene's unit; displacements so that the contact-free peak
-    // over the sweep is kTallness times as tall as the sweep is wide. Friction peaks are
-    // lower than the contact-free one, so a tall box keeps the arclength resolving them;
-    // a taller one costs points on curves that do climb (gaps closing, light friction).
-    constexpr double kTallness = 5.0;
-    double peak = 0.0;
-    for (int i = 0; i <= 256; ++i) {
-      const double w = w_from + (w_to - w_from) * i / 256.0;
-      const Eigen::VectorXd u0 = model->linear_response(w);
-      if (!u0.allFinite())
-        return fail(kExitInvalidInput, "invalid_input",
-                    scene.file.string() + ": the contact-free response is not finite at " +
-                        format_number(w / unit) + " " + unit_name(C.unit) +
-                        " (harmonic 0 with a rigid-body mode, or an undamped resonance): "
-                        "ground the structure, drop harmonic 0, or add damping");
-      if (u0.size()) peak = std::max(peak, u0.cwiseAbs().maxCoeff());
-    }
-    if (peak == 0.0) peak = 1e-6;
-    const double span = std::abs(C.to - C.from);
-    const double u_unit =
-        C.displacement_scale > 0 ? C.displacement_scale : peak / (kTallness * span);
-
-    ContinuationOptions options;
-    options.lambda_start = w_from;
-    options.lambda_end = w_to;
-    // The curve stays within a quarter of the window's span around it (and at positive
-    // frequency): one that comes back that far past its start has walked its branch
-    // backwards (or the branch overhangs the window by that much) and ends with a reason.
-    constexpr double kBoundsMargin = 0.25;
-    const double margin = kBoundsMargin * std::abs(w_to - w_from);
-    options.lambda_min = std::max(0.0, std::min(w_from, w_to) - margin);
-    options.lambda_max = std::max(w_from, w_to) + margin;
-    options.initial_step = C.initial_step;
-    options.min_step = C.min_step;
-    options.max_step = C.max_step;
-    options.target_newton_iterations = C.target_newton_iterations;
-    options.max_points = C.max_points;
-    options.max_wall_seconds = C.max_wall_seconds;
-    options.reuse_factorisation_from = C.reuse_factorisation_from;
-    options.turning_point_control = C.turning_point_control;
-    options.steep_branch_alpha = C.steep_branch_alpha;
-    options.newton.max_iterations = C.max_newton_iterations;
-    options.newton.residual_tolerance = C.tolerance;
-    options.newton.step_tolerance = C.tolerance;
-    options.unknown_scale = Eigen::VectorXd::Constant(n + 1, u_unit);
-    options.unknown_scale(n) = unit;
-    options.residual_scale = Eigen::VectorXd::Constant(n, peak);
 
     Eigen::VectorXd y0(n + 1);
     y0.head(n) = model->linear_response(w_from);

@@ -1,6 +1,7 @@
 #include "frichb/core/schema.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -55,6 +56,32 @@ void YamlContext::fail(const YAML::Node& node, const std::string& key_path,
     column = node.Mark().column + 1;
   }
   throw SceneError(file, line, column, key_path, message);
+}
+
+void fail_plugin_refusal(const YamlContext& context, const YAML::Node& section,
+                         const std::string& params_path, std::span<const frichb_param_spec> schema,
+                         const std::string& message) {
+  auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+  const YAML::Node params = section.IsMap() ? section["params"] : YAML::Node();
+  std::size_t best_at = std::string::npos;
+  const char* best = nullptr;
+  for (const auto& spec : schema) {
+    const std::string name = spec.name;
+    for (auto at = message.find(name); at != std::string::npos; at = message.find(name, at + 1)) {
+      const bool starts = at == 0 || !word_char(message[at - 1]);
+      const bool ends = at + name.size() >= message.size() || !word_char(message[at + name.size()]);
+      if (starts && ends && params.IsMap() && params[name]) {
+        if (at < best_at) {
+          best_at = at;
+          best = spec.name;
+        }
+        break;
+      }
+    }
+  }
+  if (best) context.fail(params[best], params_path + "." + best, message);
+  if (params.IsDefined() && !params.IsNull()) context.fail(params, params_path, message);
+  context.fail(section, params_path, message);
 }
 
 class ParamBuilder {

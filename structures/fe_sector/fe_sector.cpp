@@ -291,6 +291,28 @@ SpMat<double> checked_symmetric(const SpMat<double>& a, const std::string& what,
   return s;
 }
 
+// Refuses a mass matrix that is not positive definite (an indefinite one gives modes of
+// negative kinetic energy and a wrong response, not an error): a zero or negative pivot of
+// its LDL^T factorisation.
+void check_positive_definite(const SpMat<double>& mass, const std::string& file) {
+  const Eigen::SimplicialLDLT<SpMat<double>> ldlt(mass);
+  const Eigen::VectorXd d =
+      ldlt.info() == Eigen::Success ? Eigen::VectorXd(ldlt.vectorD()) : Eigen::VectorXd();
+  const double largest = d.size() ? d.cwiseAbs().maxCoeff() : 0.0;
+  Index worst = -1;
+  for (Index i = 0; i < d.size(); ++i)
+    if (!(d(i) > 1e-14 * largest) && (worst < 0 || d(i) < d(worst))) worst = i;
+  if (ldlt.info() == Eigen::Success && largest > 0.0 && worst < 0) return;
+  std::ostringstream m;
+  m.precision(6);
+  m << "the mass matrix '" << file << "' is not positive definite";
+  if (worst >= 0)
+    m << ": its LDL^T factorisation has the pivot " << d(worst) << " (largest " << largest
+      << "); every DOF needs a positive mass and the matrix no negative direction (a sign "
+         "or unit error in the export?)";
+  throw std::invalid_argument(m.str());
+}
+
 // ---------------------------------------------------------------------------------------
 // Disk cache
 
@@ -466,6 +488,7 @@ class FeSector final : public frichb::sdk::StructureProvider {
         cache_dir_(p.text("cache_dir")) {
     const std::string mass_file = p.text("mass"), stiffness_file = p.text("stiffness");
     mass_ = checked_symmetric(read_market(mass_file, "mass"), "mass", mass_file);
+    check_positive_definite(mass_, mass_file);
     stiffness_ =
         checked_symmetric(read_market(stiffness_file, "stiffness"), "stiffness", stiffness_file);
     if (mass_.rows() != stiffness_.rows())

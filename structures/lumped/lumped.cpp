@@ -45,6 +45,14 @@ class Lumped final : public frichb::sdk::StructureProvider {
   explicit Lumped(const frichb::sdk::Params& p) {
     const auto masses = p.reals("masses");
     const auto n = static_cast<Eigen::Index>(masses.size());
+    // Dense n x n matrices and a dense eigen-solve (n^3): beyond a few thousand DOFs that is
+    // minutes and gigabytes, which a sparse FE provider does in seconds.
+    constexpr Eigen::Index kMaxDofs = 5000;
+    if (n > kMaxDofs)
+      throw std::invalid_argument(
+          "masses has " + std::to_string(n) + " entries: the lumped provider forms dense " +
+          std::to_string(n) + " x " + std::to_string(n) + " matrices (at most " +
+          std::to_string(kMaxDofs) + " DOFs); give a large model as sparse matrices to fe_sector");
     mass_ = Eigen::MatrixXd::Zero(n, n);
     for (Eigen::Index i = 0; i < n; ++i) mass_(i, i) = masses[static_cast<std::size_t>(i)];
     stiffness_ = Eigen::MatrixXd::Zero(n, n);

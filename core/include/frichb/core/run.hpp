@@ -74,6 +74,12 @@ struct RunOutcome {
 RunOutcome run_bound_scene(const Scene& scene, const std::filesystem::path& output_directory,
                            const RunOptions& options = {});
 
+// Every check `run_bound_scene` makes before its first Newton iteration: the structure and
+// the model built (plugin parameters, matrix files, DOF indices, frames, sector counts, modal
+// bases), the contact-free response over the sweep, the memory the scene needs. Throws
+// SceneError located in the scene (or the file a value came from). For `frichb validate`.
+void check_run_start(const Scene& scene);
+
 const char* version();
 
 }  // namespace frichb::core

@@ -42,6 +42,15 @@ struct YamlContext {
                          const std::string& message) const;
 };
 
+// A plugin's refusal (its create() or a later call failed) located in the scene: at the key of
+// `params` whose name the message quotes (the first schema name it contains as a word), else
+// at `params` itself, else at `section`. `params_path` is the key path of `params`
+// (e.g. "structure.params").
+[[noreturn]] void fail_plugin_refusal(const YamlContext& context, const YAML::Node& section,
+                                      const std::string& params_path,
+                                      std::span<const frichb_param_spec> schema,
+                                      const std::string& message);
+
 // Owning storage of validated values, aligned index by index with the schema. The
 // frichb_param_value array and everything it points to stay valid while this object lives
 // (it is movable, not copyable: moving keeps every pointer valid).
