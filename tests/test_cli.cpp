@@ -1247,4 +1247,51 @@ TEST_F(Cli, HostileSceneAndFileNamesRunNothing) {
     EXPECT_FALSE(entry.path().filename().string().starts_with("PWNED")) << entry.path();
 }
 
+// Traces that never repeat within the pass limit are said, with their count and the true
+// relative change (not std::to_string's 0.000000).
+TEST_F(Cli, NonPeriodicTracesAreWarnedWithTheirCountAndChange) {
+  const fs::path scene = write_scene("scene.yaml", quickstart_);
+  const fs::path out = dir_ / "out";
+  const Result r = frichb("run " + quoted(scene) + " -o " + quoted(out) +
+                          " --set harmonic_balance.max_trace_passes=1");
+  ASSERT_TRUE(r.code == 0 || r.code == 3) << r.output;
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  const int count = summary.at("non_periodic_traces").get<int>();
+  ASSERT_GT(count, 0);
+  EXPECT_THAT(r.output,
+              HasSubstr(std::to_string(count) + " contact traces did not become periodic within "
+                                                "harmonic_balance.max_trace_passes = 1"));
+  EXPECT_THAT(r.output, ContainsRegex("last relative change [0-9.]*[1-9][0-9.e+-]*,"));
+  EXPECT_THAT(r.output, Not(HasSubstr("0.000000")));
+  // The default pass limit: periodic everywhere, no warning.
+  const Result d = frichb("run " + quoted(scene) + " -o " + quoted(out));
+  ASSERT_EQ(d.code, 0) << d.output;
+  EXPECT_THAT(d.output, Not(HasSubstr("did not become periodic")));
+}
+
+// Too few harmonics: with one harmonic the stick-slip force's spectrum is cut at its first
+// harmonic, which then carries all of the kept energy; with seven the seventh carries little.
+TEST_F(Cli, AHighestHarmonicThatCarriesTheForceIsWarned) {
+  const fs::path scene = write_scene("scene.yaml", quickstart_);
+  const fs::path out = dir_ / "out";
+  const Result few = frichb("run " + quoted(scene) + " -o " + quoted(out) +
+                            " --set harmonic_balance.max_harmonic=3");
+  ASSERT_EQ(few.code, 0) << few.output;
+  const auto s3 = nlohmann::json::parse(read_text(out / "summary.json"))["harmonic_truncation"];
+  const Result many = frichb("run " + quoted(scene) + " -o " + quoted(out));
+  ASSERT_EQ(many.code, 0) << many.output;
+  const auto s7 = nlohmann::json::parse(read_text(out / "summary.json"))["harmonic_truncation"];
+  EXPECT_EQ(s7["highest_harmonic"], 7);
+  EXPECT_LT(s7["largest_energy_share"].get<double>(), 0.02);
+  EXPECT_THAT(many.output, Not(HasSubstr("cut the force's spectrum")));
+  EXPECT_EQ(s3["highest_harmonic"], 3);
+  if (s3["largest_energy_share"].get<double>() > 0.02) {
+    EXPECT_THAT(few.output, HasSubstr("harmonic 3 carries"));
+  } else {
+    EXPECT_THAT(few.output, Not(HasSubstr("cut the force's spectrum")));
+  }
+  // A Jenkins force at stick-slip has odd harmonics: the third carries more than the seventh.
+  EXPECT_GT(s3["largest_energy_share"].get<double>(), s7["largest_energy_share"].get<double>());
+}
+
 }  // namespace

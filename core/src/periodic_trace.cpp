@@ -1,6 +1,7 @@
 #include "frichb/core/periodic_trace.hpp"
 
 #include <cmath>
+#include <cstdio>
 
 namespace frichb::core {
 
@@ -123,11 +124,17 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
     if (change <= tol * scale && dchange <= tol * dscale) break;
     if (out.passes >= options_.max_passes) {
       out.periodic = false;
-      out.diagnostic = "state did not repeat after " + std::to_string(out.passes) +
-                       " passes (last relative change " + std::to_string(change / scale) +
-                       (with_derivative ? ", of its derivative " + std::to_string(dchange / dscale)
-                                        : std::string()) +
-                       ")";
+      // %g, not std::to_string's fixed six decimals (which print 1e-9 as 0.000000).
+      auto number = [](double x) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.3g", x);
+        return std::string(text);
+      };
+      out.diagnostic =
+          "state did not repeat after " + std::to_string(out.passes) +
+          " passes (last relative change " + number(change / scale) +
+          (with_derivative ? ", of its derivative " + number(dchange / dscale) : std::string()) +
+          ", tolerance " + number(tol) + ")";
       break;
     }
   }

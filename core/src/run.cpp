@@ -261,6 +261,60 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
   return "";
 }
 
+// Share of a contact force's energy (over the kept harmonics from 1 up) above which its
+// highest kept harmonic is warned about: the force's spectrum is cut where it still matters.
+constexpr double kHighestHarmonicShare = 0.02;
+
+// At the curve's highest point (of the first response node, column 3 of `rows`), the largest
+// share of any contact force component's energy that its highest kept harmonic carries.
+nlohmann::json harmonic_truncation(const Scene& scene, const HarmonicBalanceModel& model,
+                                   const ContinuationSummary& summary,
+                                   const std::vector<std::vector<double>>& rows) {
+  const auto& kept = model.layout().harmonics();
+  const int highest = kept.back();
+  if (rows.empty() || model.contacts().empty() || highest < 2) return nullptr;
+  std::size_t top = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i)
+    if (rows[i][3] > rows[top][3]) top = i;
+  const Eigen::Index n = model.equation_count();
+  double worst = 0.0;
+  std::string where;
+  for (std::size_t c = 0; c < model.contacts().size(); ++c) {
+    ContactTrace trace;
+    if (!model.trace_contact(c, summary.points[top].y, trace, nullptr)) continue;
+    if (highest > (static_cast<int>(trace.force.rows()) - 1) / 2) continue;
+    const auto& comps = model.contacts()[c].tracer->components();
+    const ForceHarmonics table = force_harmonics(trace.force, comps, highest);
+    for (std::size_t a = 0; a < comps.size(); ++a) {
+      double total = 0.0;
+      for (int h : kept)
+        if (h > 0) total += std::pow(table.amplitude[a][static_cast<std::size_t>(h)], 2);
+      const double top_share =
+          total > 0 ? std::pow(table.amplitude[a][static_cast<std::size_t>(highest)], 2) / total
+                    : 0.0;
+      if (top_share > worst) {
+        worst = top_share;
+        static const char* axes[] = {"t1", "t2", "n"};
+        where = model.contacts()[c].name + " (" + axes[comps[a]] + ")";
+      }
+    }
+  }
+  const double unit = scene.continuation.to_rad_per_s();
+  const double at = summary.points[top].y(n) / unit;
+  if (worst > kHighestHarmonicShare)
+    spdlog::warn(
+        "{}: at the curve's highest point ({} {}) harmonic {} carries {:.1f} % of the force "
+        "energy of contact {}: the kept harmonics cut the force's spectrum where it still "
+        "matters; keep more harmonics (harmonic_balance.max_harmonic) and compare the peak",
+        scene.file.string(), format_number(at), unit_name(scene.continuation.unit), highest,
+        100 * worst, where);
+  return {{"frequency", at},
+          {"highest_harmonic", highest},
+          {"largest_energy_share", worst},
+          {"contact", where},
+          {"warning_above", kHighestHarmonicShare}};
+}
+
 // Total physical memory of the machine in bytes, or 0 when unknown.
 double physical_memory_bytes() {
   const long pages = sysconf(_SC_PHYS_PAGES);
@@ -596,6 +650,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
         refined[k] = true;
       }
     }
+    const nlohmann::json truncation = harmonic_truncation(scene, *model, summary, rows);
     for (std::size_t k = 0; k < nodes.size(); ++k) {
       if (peak_amp[k] < 0) {  // no point on the curve: no peak
         peaks[nodes[k].name] = nullptr;
@@ -777,6 +832,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
            model->jacobian_mode() == JacobianMode::kAnalytic ? "analytic" : "finite_difference"},
           {"contact_traces_with_finite_differences", stats.contacts_with_fd_jacobian}}},
         {"non_periodic_traces", stats.non_periodic_traces},
+        {"harmonic_truncation", truncation},
         {"unknowns", n},
         {"scaling", {{"displacement_m", u_unit}, {"residual_m", peak}}},
         {"peak", peaks},
@@ -793,6 +849,15 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
       for (const auto& o : scene_overrides()) set[o.path] = o.value;
       doc["command_line_overrides"] = set;
     }
+    if (stats.non_periodic_traces > 0)
+      spdlog::warn(
+          "{}: {} contact traces did not become periodic within "
+          "harmonic_balance.max_trace_passes = {} passes (each costs that many passes; last: "
+          "{}); a contact that sticks and slips in a limit cycle of its own, or a tolerance "
+          "too tight for it: raise max_trace_passes if the curve changes, or raise "
+          "trace_oversampling",
+          scene.file.string(), stats.non_periodic_traces, scene.harmonic_balance.max_trace_passes,
+          stats.last_trace_diagnostic);
     if (stats.contacts_with_fd_jacobian && model->jacobian_mode() == JacobianMode::kAnalytic)
       spdlog::warn("{} contact traces used finite differences (a law without tangents)",
                    stats.contacts_with_fd_jacobian);
