@@ -566,6 +566,13 @@ bool StepPastKink(const CurveProblem& problem, const Scaling& s, const NewtonOpt
   return true;
 }
 
+// The largest step from a point at `lambda` that the resonance bands allow (scaled units).
+double BandStepLimit(const ContinuationOptions& options, double lambda, double lambda_scale,
+                     double tangent_lambda) {
+  const double slope = std::max(std::abs(tangent_lambda), 1e-12);
+  return std::max(options.band_advance(lambda) / lambda_scale / slope, options.min_step);
+}
+
 }  // namespace
 
 const char* to_string(TerminationType t) {
@@ -657,6 +664,13 @@ NewtonResult solve_fixed_parameter(const CurveProblem& problem, const VectorXd& 
   result.y(n) = y_guess(n);  // unscaling must not perturb the fixed parameter
   result.message = core.message;
   return result;
+}
+
+double ContinuationOptions::band_advance(double lambda) const {
+  double limit = std::numeric_limits<double>::infinity();
+  for (const auto& band : step_bands)
+    limit = std::min(limit, band.step + band.growth * std::abs(lambda - band.centre));
+  return limit;
 }
 
 ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_guess,
@@ -768,6 +782,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       step = std::min(
           step, std::max(options.min_step, options.steep_branch_step_factor * options.max_step));
     if (refining) step = std::min(step, refine_cap);
+    step = std::min(step, BandStepLimit(options, last.y(n), s.unknown(n), last.tangent(n)));
 
     const VectorXd ys_last = last.y.cwiseQuotient(s.unknown);
     const VectorXd predictor = ys_last + step * last.tangent;

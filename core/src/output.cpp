@@ -172,7 +172,7 @@ void StagedOutput::set_commit_hook(std::function<void(std::string_view)> hook,
   commit_without_exchange() = without_exchange;
 }
 
-StagedOutput::StagedOutput(fs::path final_directory, std::vector<std::string> managed)
+StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::string> managed)
     : managed_(std::move(managed)) {
   std::error_code ec;
   final_ = fs::absolute(final_directory, ec).lexically_normal();

@@ -335,6 +335,43 @@ struct RunStart {
   double span = 0.0;    // the sweep's width in the scene's unit
 };
 
+// The advance in lambda at a resonance, in half-power half-widths: a point lands within that
+// distance of the peak, where a single mode's amplitude is within 0.25 % of its peak
+// (1 / sqrt(1 + 0.07^2)); the bound grows by 0.8 times the distance from there, so that a
+// resonance costs a few points more than the curve would take without it.
+constexpr double kCentreStepInHalfWidths = 0.07;
+constexpr double kAdvanceGrowth = 0.8;
+
+// The linear resonances of the free structure in [lambda_min, lambda_max] (rad/s): for every
+// kept harmonic k >= 1, the modes of its harmonic index at w_r / k, with half-power half-width
+// zeta_r w_r / k (zeta_r = C_rr / (2 w_r) of the modal damping). The continuation bounds its
+// step near them, so that no resonance is stepped over.
+std::vector<ContinuationOptions::StepBand> resonance_bands(const Scene& scene,
+                                                           const HarmonicBalanceModel& model,
+                                                           double lambda_min, double lambda_max) {
+  std::vector<ContinuationOptions::StepBand> bands;
+  for (int k : model.layout().harmonics()) {
+    if (k <= 0) continue;
+    const auto& basis = model.structure().basis(scene.cyclic.harmonic_index(k));
+    for (Eigen::Index r = 0; r < basis.frequencies.size(); ++r) {
+      const double w = basis.frequencies(r);
+      if (!(w > 0)) continue;
+      const double centre = w / k;
+      if (centre < lambda_min || centre > lambda_max) continue;
+      const double zeta = basis.damping(r, r) / (2 * w);
+      const double half_width = std::max(zeta, 1e-9) * centre;
+      bands.push_back({centre, kCentreStepInHalfWidths * half_width, kAdvanceGrowth});
+    }
+  }
+  return bands;
+}
+
+nlohmann::json bands_json(const std::vector<ContinuationOptions::StepBand>& bands, double unit) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& b : bands) out.push_back({{"centre", b.centre / unit}, {"step", b.step / unit}});
+  return out;
+}
+
 // Bytes the continuation holds per Newton matrix entry: the Jacobian, its LU factors and the
 // bordered Keller matrix, (n + 1)^2 doubles each.
 constexpr double kNewtonMatrixBytesPerEntry = 3.0 * sizeof(double);
@@ -431,6 +468,7 @@ RunStart start_run(const Scene& scene, int contact_threads) {
   options.newton.max_iterations = C.max_newton_iterations;
   options.newton.residual_tolerance = C.tolerance;
   options.newton.step_tolerance = C.tolerance;
+  options.step_bands = resonance_bands(scene, *model, options.lambda_min, options.lambda_max);
   options.unknown_scale = Eigen::VectorXd::Constant(n + 1, start.u_unit);
   options.unknown_scale(n) = unit;
   options.residual_scale = Eigen::VectorXd::Constant(n, peak);
@@ -566,17 +604,25 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     // the largest step instead of traced (there is nothing to continue).
     ContinuationSummary summary;
     if (n == 0) {
-      const int steps = std::max(1, static_cast<int>(std::ceil(span / C.max_step)));
-      for (int i = 0; i <= steps; ++i) {
+      // The largest step, shortened near each resonance as the continuation's bands do.
+      std::vector<double> ws = {w_from};
+      const double largest = C.max_step * unit, direction = w_to > w_from ? 1.0 : -1.0;
+      while (direction * (w_to - ws.back()) > 1e-12 * std::abs(w_to)) {
+        const double advance = std::min(largest, options.band_advance(ws.back()));
+        ws.push_back(direction * (w_to - ws.back()) <= advance ? w_to
+                                                               : ws.back() + direction * advance);
+      }
+      for (std::size_t i = 0; i < ws.size(); ++i) {
         ContinuationPoint p;
-        p.y = Eigen::VectorXd::Constant(1, w_from + (w_to - w_from) * i / steps);
+        p.y = Eigen::VectorXd::Constant(1, ws[i]);
         p.tangent = Eigen::VectorXd::Constant(1, w_to > w_from ? 1.0 : -1.0);
-        p.step = i ? span / steps : 0.0;
+        p.step = i ? std::abs(ws[i] - ws[i - 1]) / unit : 0.0;
         summary.points.push_back(p);
       }
       summary.termination = TerminationType::kReachedEnd;
-      summary.message = "linear scene (no contacts): sampled every " + format_number(span / steps) +
-                        " " + unit_name(C.unit);
+      summary.message = "linear scene (no contacts): sampled every " + format_number(C.max_step) +
+                        " " + unit_name(C.unit) + ", finer near " +
+                        std::to_string(options.step_bands.size()) + " resonance(s)";
     } else {
       summary = trace_curve(*model, y0, options, progress);
     }
@@ -832,6 +878,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
            model->jacobian_mode() == JacobianMode::kAnalytic ? "analytic" : "finite_difference"},
           {"contact_traces_with_finite_differences", stats.contacts_with_fd_jacobian}}},
         {"non_periodic_traces", stats.non_periodic_traces},
+        {"resonance_bands", bands_json(options.step_bands, unit)},
         {"harmonic_truncation", truncation},
         {"unknowns", n},
         {"scaling", {{"displacement_m", u_unit}, {"residual_m", peak}}},

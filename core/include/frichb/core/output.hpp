@@ -45,7 +45,7 @@ class StagedOutput {
   // `managed`: top-level names (files or folders) this output owns in the final folder; the
   // new set replaces them, and everything else in the final folder is kept. Throws
   // OutputError (user_error) when the folder is in use by another run or cannot be created.
-  StagedOutput(std::filesystem::path final_directory, std::vector<std::string> managed);
+  StagedOutput(const std::filesystem::path& final_directory, std::vector<std::string> managed);
   ~StagedOutput();
   StagedOutput(const StagedOutput&) = delete;
   StagedOutput& operator=(const StagedOutput&) = delete;
