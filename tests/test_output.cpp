@@ -87,8 +87,8 @@ std::map<std::string, std::string> expected_set(const std::string& tag) {
 }
 
 // Set A and a user's file beside it.
-fs::path prepare_folder(const TempDir& dir) {
-  const fs::path folder = dir.path() / "out";
+fs::path prepare_folder(const TempDir& dir, const std::string& name = "out") {
+  const fs::path folder = dir.path() / name;
   write_set(folder, "A");
   write_file(folder / "notes.txt", "mine\n");
   return folder;
@@ -156,43 +156,44 @@ TEST(StagedOutput, AFailureAtEveryStepOfTheCommitLeavesOneWholeSet) {
 // folder until the next run restores it); the next run into the folder restores the user's
 // file and removes what the killed run left.
 TEST(StagedOutput, AKillAtEveryStepOfTheCommitIsRecoveredByTheNextRun) {
-  for (const bool exchange : {true, false}) {
-    for (const std::string step :
-         {"synced", "moved_aside", "swapped", "kept_unmanaged", "removed_old"}) {
-      if (exchange && step == "moved_aside") continue;
-      SCOPED_TRACE(step + (exchange ? " (exchange)" : " (move aside)"));
-      TempDir dir;
-      const fs::path folder = prepare_folder(dir);
-      const pid_t child = fork();
-      ASSERT_GE(child, 0);
-      if (child == 0) {
-        StagedOutput::set_commit_hook(
-            [step](std::string_view at) {
-              if (at == step) _exit(9);
-            },
-            !exchange);
-        write_set(folder, "B");
-        _exit(0);
+  for (const std::string name : {"out", "my out"})  // a name with a space too
+    for (const bool exchange : {true, false}) {
+      for (const std::string step :
+           {"synced", "moved_aside", "swapped", "kept_unmanaged", "removed_old"}) {
+        if (exchange && step == "moved_aside") continue;
+        SCOPED_TRACE(name + ": " + step + (exchange ? " (exchange)" : " (move aside)"));
+        TempDir dir;
+        const fs::path folder = prepare_folder(dir, name);
+        const pid_t child = fork();
+        ASSERT_GE(child, 0);
+        if (child == 0) {
+          StagedOutput::set_commit_hook(
+              [step](std::string_view at) {
+                if (at == step) _exit(9);
+              },
+              !exchange);
+          write_set(folder, "B");
+          _exit(0);
+        }
+        int status = 0;
+        ASSERT_EQ(waitpid(child, &status, 0), child);
+        ASSERT_TRUE(WIFEXITED(status));
+        ASSERT_EQ(WEXITSTATUS(status), 9);
+        const bool before_swap = step == "synced" || step == "moved_aside";
+        auto files = snapshot(folder);
+        files.erase("notes.txt");  // after the swap it waits in the old folder until recovery
+        if (step == "moved_aside")
+          EXPECT_FALSE(fs::exists(folder));
+        else
+          EXPECT_EQ(files, expected_set(before_swap ? "A" : "B"));
+        // The next run recovers, then fails before its own commit: the folder as recovered.
+        { StagedOutput next(folder, kManaged); }
+        auto expected = expected_set(before_swap ? "A" : "B");
+        expected["notes.txt"] = "mine\n";
+        EXPECT_EQ(snapshot(folder), expected);
+        EXPECT_TRUE(leftovers(dir.path(), name).empty()) << leftovers(dir.path(), name).front();
       }
-      int status = 0;
-      ASSERT_EQ(waitpid(child, &status, 0), child);
-      ASSERT_TRUE(WIFEXITED(status));
-      ASSERT_EQ(WEXITSTATUS(status), 9);
-      const bool before_swap = step == "synced" || step == "moved_aside";
-      auto files = snapshot(folder);
-      files.erase("notes.txt");  // after the swap it waits in the old folder until recovery
-      if (step == "moved_aside")
-        EXPECT_FALSE(fs::exists(folder));
-      else
-        EXPECT_EQ(files, expected_set(before_swap ? "A" : "B"));
-      // The next run recovers, then fails before its own commit: the folder as recovered.
-      { StagedOutput next(folder, kManaged); }
-      auto expected = expected_set(before_swap ? "A" : "B");
-      expected["notes.txt"] = "mine\n";
-      EXPECT_EQ(snapshot(folder), expected);
-      EXPECT_TRUE(leftovers(dir.path(), "out").empty()) << leftovers(dir.path(), "out").front();
     }
-  }
 }
 
 TEST(StagedOutput, ASecondRunIntoAFolderInUseIsRefused) {
@@ -234,6 +235,10 @@ TEST(StagedOutput, PathsThatCannotHoldTheResultsAreUserErrors) {
       EXPECT_TRUE(e.user_error()) << e.what();
     }
   }
+  // A symbolic link: the swap would replace the link and move the files it points to.
+  fs::create_directories(dir.path() / "elsewhere");
+  fs::create_symlink(dir.path() / "elsewhere", dir.path() / "link");
+  EXPECT_THROW(StagedOutput(dir.path() / "link", kManaged), OutputError);
   // The current folder (or one above it) would be swapped away under the process.
   const fs::path cwd = fs::current_path();
   fs::create_directories(dir.path() / "here" / "deeper");

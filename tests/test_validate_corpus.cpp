@@ -232,6 +232,24 @@ std::vector<BadScene> corpus() {
        swap("\nname: friction_oscillator", "\nname: friction_oscillator\nplugin_paths: [nowhere]"),
        {},
        "plugin_paths[0]: folder"},
+      {"alias_cycle",
+       false,
+       [](std::string t) { return t + "\nanchors: &a [*a]\n"; },
+       {},
+       "nests deeper than 64 levels"},
+      {"alias_fan_out",
+       false,
+       [](std::string t) {
+         t += "\na0: &a0 [1, 1, 1, 1, 1, 1, 1, 1]\n";
+         for (int i = 1; i < 10; ++i) {
+           t += "a" + std::to_string(i) + ": &a" + std::to_string(i) + " [";
+           for (int k = 0; k < 8; ++k) t += (k ? ", *a" : "*a") + std::to_string(i - 1);
+           t += "]\n";
+         }
+         return t;
+       },
+       {},
+       "more than a million nodes"},
       {"malformed_yaml", false, swap("masses: [0.1]", "masses: [0.1"), {}, "malformed YAML"},
       {"wrong_type", false, swap("mu: 0.5", "mu: lots"), {}, "contacts[0].params.mu"},
       {"unknown_key",

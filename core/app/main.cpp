@@ -185,7 +185,6 @@ int main(int argc, char** argv) {
     return kExitUsage;
   }
   spdlog::set_level(level);
-  install_interrupt_handlers();
   allow_input_plugin_folders(vm.count("allow-scene-plugins") > 0);
 
   if (vm.count("help")) {
@@ -204,6 +203,10 @@ int main(int argc, char** argv) {
     return kExitUsage;
   }
   const std::string& verb = args[0];
+  // The verbs that poll for a stop (the others end at a signal as any program does; their
+  // staging is removed by the next run into the folder).
+  if (verb == "run" || verb == "study" || verb == "convergence" || verb == "loop")
+    install_interrupt_handlers();
   auto need = [&](std::size_t count, const char* what) {
     if (args.size() != count + 1) {
       std::cerr << "frichb " << verb << ": expected " << what << "\nTry 'frichb --help'.\n";

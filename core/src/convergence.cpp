@@ -283,6 +283,10 @@ int run_convergence(const ConvergenceRequest& request) {
       write_text(out.path("convergence.gp"), gp.str());
       run_gnuplot(out.path("convergence.gp"));
     }
+    if (interrupted()) {  // a signal while gnuplot ran: nothing is committed
+      spdlog::error("interrupted by signal {}; no output written", interrupt_signal());
+      return interrupted_exit_code();
+    }
     out.commit();
     spdlog::info("wrote {} ({} settings, {} ended early)", out_dir.string(), rows.size(),
                  incomplete);

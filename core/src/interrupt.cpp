@@ -19,7 +19,8 @@ void install_interrupt_handlers() {
   struct sigaction action {};
   action.sa_handler = record_signal;
   sigemptyset(&action.sa_mask);
-  action.sa_flags = 0;
+  // A second signal of the same kind ends the process at once (the default action).
+  action.sa_flags = SA_RESETHAND;
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
 }

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "frichb/core/harmonics.hpp"
+#include "frichb/core/interrupt.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/core/periodic_trace.hpp"
 #include "frichb/core/registry.hpp"
@@ -329,6 +330,10 @@ int run_loop(const LoopRequest& request) {
       if (d > 1) gp << "unset multiplot\n";
       write_text(out.path("loop.gp"), gp.str());
       run_gnuplot(out.path("loop.gp"));
+    }
+    if (interrupted()) {  // a signal while gnuplot ran: nothing is committed
+      spdlog::error("interrupted by signal {}; no output written", interrupt_signal());
+      return interrupted_exit_code();
     }
     out.commit();
     spdlog::info(

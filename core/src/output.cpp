@@ -118,14 +118,18 @@ LockRecord read_lock_record(int fd) {
     text.append(buffer, static_cast<std::size_t>(got));
   LockRecord record;
   std::istringstream in(text);
-  std::string key;
-  while (in >> key) {
+  std::string line;
+  while (std::getline(in, line)) {  // "key value", the value to the end of the line
+    const auto space = line.find(' ');
+    if (space == std::string::npos) continue;
+    const std::string key = line.substr(0, space), value = line.substr(space + 1);
     if (key == "staging") {
-      in >> record.staging;
+      record.staging = value;
     } else if (key == "id") {
+      std::istringstream numbers(value);
       unsigned long long device = 0, inode = 0;
-      in >> device >> inode;
-      record.staging_id = {static_cast<dev_t>(device), static_cast<ino_t>(inode), bool(in)};
+      numbers >> device >> inode;
+      record.staging_id = {static_cast<dev_t>(device), static_cast<ino_t>(inode), bool(numbers)};
     }
   }
   return record;
@@ -146,16 +150,24 @@ void write_lock_record(int fd, const fs::path& lock_file, const std::string& sta
 }
 
 // Moves the entries of `old_folder` that `final_folder` lacks and that are not `managed` into
-// `final_folder` (a user's files beside the results), then removes `old_folder`.
-void keep_unmanaged(const fs::path& old_folder, const fs::path& final_folder,
-                    const std::vector<std::string>& managed) {
-  for (const auto& entry : fs::directory_iterator(old_folder)) {
-    const std::string name = entry.path().filename().string();
+// `final_folder` (a user's files beside the results), as far as it can. True when none is
+// left behind in `old_folder`.
+bool move_unmanaged(const fs::path& old_folder, const fs::path& final_folder,
+                    const std::vector<std::string>& managed) noexcept {
+  bool all = true;
+  std::error_code ec;
+  for (fs::directory_iterator it(old_folder, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
     if (std::find(managed.begin(), managed.end(), name) != managed.end()) continue;
-    std::error_code ec;
-    if (fs::exists(fs::symlink_status(final_folder / name, ec))) continue;
-    rename_or_throw(entry.path(), final_folder / name);
+    std::error_code exists;
+    if (fs::exists(fs::symlink_status(final_folder / name, exists))) continue;
+    if (std::rename(it->path().c_str(), (final_folder / name).c_str()) != 0) {
+      spdlog::warn("cannot move {} back into {}: {}", it->path().string(), final_folder.string(),
+                   system_reason(errno));
+      all = false;
+    }
   }
+  return all && !ec;
 }
 
 bool remove_quietly(const fs::path& p) {
@@ -183,9 +195,14 @@ StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::str
     throw OutputError("output folder '" + final_directory.string() +
                           "': give a folder of its own, e.g. -o out/run1",
                       true);
+  if (fs::is_symlink(fs::symlink_status(final_, ec)))
+    throw OutputError("output folder '" + final_directory.string() +
+                          "' is a symbolic link: give the folder it points to",
+                      true);
   const fs::path cwd = fs::current_path(ec);
   if (!ec) {
-    const fs::path rel = cwd.lexically_normal().lexically_relative(final_);
+    const fs::path rel =
+        fs::weakly_canonical(cwd, ec).lexically_relative(fs::weakly_canonical(final_, ec));
     if (!rel.empty() && *rel.begin() != "..")
       throw OutputError("output folder '" + final_directory.string() +
                             "' contains the current folder, which the results would replace: "
@@ -206,7 +223,7 @@ StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::str
   // The lock: flock on a file beside the folder (the folder itself is swapped by commit). A
   // lock file replaced between open and flock (a run finishing and removing it) is retried.
   for (int attempt = 0; attempt < 16 && lock_fd_ < 0; ++attempt) {
-    const int fd = ::open(lock_file_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    const int fd = ::open(lock_file_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
     if (fd < 0) {
       const int e = errno;
       throw OutputError("cannot write into " + parent.string() + " (lock file " +
@@ -259,8 +276,11 @@ StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::str
                      final_.string());
         continue;
       }
-      if ((staging && entry_name == dead.staging && swapped) || (aside && swapped))
-        keep_unmanaged(entry.path(), final_, managed_);
+      if (((staging && entry_name == dead.staging && swapped) || (aside && swapped)) &&
+          !move_unmanaged(entry.path(), final_, managed_)) {
+        keep_aside(entry.path());
+        continue;
+      }
       if (remove_quietly(entry.path()))
         spdlog::warn("{}: removed {} left by an interrupted run", final_.string(), entry_name);
       else
@@ -280,6 +300,19 @@ StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::str
         "cannot prepare the output folder " + final_.string() + ": " + e.code().message(),
         is_user_errno(e.code().value()));
   }
+}
+
+void StagedOutput::keep_aside(const fs::path& folder) const noexcept {
+  const fs::path kept = final_.parent_path() / ("." + final_.filename().string() + ".unrestored-" +
+                                                std::to_string(getpid()));
+  if (std::rename(folder.c_str(), kept.c_str()) == 0)
+    spdlog::warn(
+        "{}: files of yours that were beside the earlier results could not be moved "
+        "into the new ones; they are kept in {}",
+        final_.string(), kept.string());
+  else
+    spdlog::warn("{}: files of yours that were beside the earlier results are kept in {}",
+                 final_.string(), folder.string());
 }
 
 StagedOutput::~StagedOutput() {
@@ -346,16 +379,21 @@ void StagedOutput::commit() {
   try {
     fsync_path(parent, true);
     step_done("swapped");
-    keep_unmanaged(old_set, final_, managed_);
-    step_done("kept_unmanaged");
-    fs::remove_all(old_set);
-    step_done("removed_old");
-  } catch (...) {
-    try {
-      if (fs::exists(old_set)) keep_unmanaged(old_set, final_, managed_);
-    } catch (...) {  // NOLINT(bugprone-empty-catch): reported by the rethrow below
+    if (!move_unmanaged(old_set, final_, managed_)) {
+      keep_aside(old_set);
+    } else {
+      step_done("kept_unmanaged");
+      fs::remove_all(old_set);
+      step_done("removed_old");
     }
-    remove_quietly(old_set);
+  } catch (...) {
+    std::error_code missing;
+    if (fs::exists(old_set, missing)) {
+      if (move_unmanaged(old_set, final_, managed_))
+        remove_quietly(old_set);
+      else
+        keep_aside(old_set);
+    }
     release_lock();
     throw;
   }

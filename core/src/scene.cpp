@@ -267,7 +267,15 @@ std::size_t closing_quote(const std::string& text, std::size_t open) {
 // What yaml-cpp accepts silently and a scene must not hold: a key twice in one map (yaml-cpp
 // keeps both and a lookup finds the first) and a quoted scalar that is never closed.
 void check_strict(const YAML::Node& node, const std::string& path, const std::string& text,
-                  const std::string& file) {
+                  const std::string& file, int depth, std::size_t& visited) {
+  // Aliases can make a cycle or a tree that doubles at every level: bounded.
+  constexpr int kMaxDepth = 64;
+  constexpr std::size_t kMaxNodes = 1000000;
+  if (depth > kMaxDepth || ++visited > kMaxNodes)
+    throw SceneError(file, node.Mark().line + 1, node.Mark().column + 1, path,
+                     "the YAML nests deeper than " + std::to_string(kMaxDepth) +
+                         " levels or holds more than a million nodes (aliases that refer to "
+                         "themselves or to each other?)");
   if (node.IsScalar()) {
     const YAML::Mark m = node.Mark();
     if (node.Tag() == "!" && m.pos >= 0 && static_cast<std::size_t>(m.pos) < text.size()) {
@@ -282,7 +290,7 @@ void check_strict(const YAML::Node& node, const std::string& path, const std::st
   }
   if (node.IsSequence()) {
     for (std::size_t i = 0; i < node.size(); ++i)
-      check_strict(node[i], path + "[" + std::to_string(i) + "]", text, file);
+      check_strict(node[i], path + "[" + std::to_string(i) + "]", text, file, depth + 1, visited);
     return;
   }
   if (!node.IsMap()) return;
@@ -298,8 +306,8 @@ void check_strict(const YAML::Node& node, const std::string& path, const std::st
                 " and again on line " + std::to_string(kv.first.Mark().line + 1) +
                 " (keep one; YAML readers differ on which one wins)");
     }
-    check_strict(kv.first, path, text, file);
-    check_strict(kv.second, child_path(path, key), text, file);
+    check_strict(kv.first, path, text, file, depth + 1, visited);
+    check_strict(kv.second, child_path(path, key), text, file, depth + 1, visited);
   }
 }
 
@@ -345,7 +353,8 @@ YAML::Node load_scene_yaml(const fs::path& file) {
                      "put each scene in a file of its own");
   }
   YAML::Node root = documents.empty() ? YAML::Node() : documents.front();
-  check_strict(root, "", text, file.string());
+  std::size_t visited = 0;
+  check_strict(root, "", text, file.string(), 0, visited);
   return root;
 }
 

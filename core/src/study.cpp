@@ -666,6 +666,9 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
         write_text(out->path("peak.gp"), pk.str());
         run_gnuplot(out->path("peak.gp"));
       }
+      if (interrupted())  // a signal while gnuplot ran: nothing is committed
+        throw std::runtime_error("interrupted by signal " + std::to_string(interrupt_signal()) +
+                                 "; no output written");
       out->commit();
       spdlog::info("wrote {}: {} runs, {} did not reach the end of their sweep{} ({:.2f} s)",
                    out_dir.string(), runs.size(), failed,
@@ -679,7 +682,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
       code = e.user_error() ? kExitInvalidInput : kExitOutput;
     } catch (const std::exception& e) {
       spdlog::error("{}: writing the study index: {}", request.scene_file.string(), e.what());
-      code = kExitInternal;
+      code = interrupted() ? interrupted_exit_code() : kExitInternal;
     }
     if (code != kExitOk && code != kExitIncomplete) out.reset();  // staging removed
   }

@@ -6,7 +6,8 @@
 
 namespace frichb::core {
 
-// Installs handlers for SIGINT and SIGTERM that record the signal (the first one wins).
+// Installs handlers for SIGINT and SIGTERM that record the signal (the first one wins; a
+// second one then ends the process). For the verbs that poll it.
 void install_interrupt_handlers();
 // The signal that asked the process to stop, or 0.
 int interrupt_signal();

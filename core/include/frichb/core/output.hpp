@@ -68,6 +68,9 @@ class StagedOutput {
 
  private:
   void release_lock() noexcept;
+  // Renames `folder` (an old set holding files of the user's that could not be moved back) to
+  // `.NAME.unrestored-PID`, which no later run removes, and says where.
+  void keep_aside(const std::filesystem::path& folder) const noexcept;
   std::filesystem::path final_, staging_, lock_file_;
   std::vector<std::string> managed_;
   int lock_fd_ = -1;
