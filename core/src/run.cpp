@@ -380,6 +380,23 @@ RunStart start_run(const Scene& scene, int contact_threads) {
   RunStart start;
   const YamlContext ctx{scene.file.string()};
   YAML::Node root = scene.root;  // non-const: a missing key then gives an undefined node
+  {
+    // The time-frequency tables of the AFT hold samples x coefficients doubles: checked before
+    // they are allocated.
+    const auto& hb = scene.harmonic_balance;
+    const double samples = static_cast<double>(hb.samples_per_period) * hb.trace_oversampling;
+    const double coefficients = 2.0 * static_cast<double>(hb.harmonics.size());
+    const double needed = samples * coefficients * sizeof(double);
+    const double available = physical_memory_bytes();
+    if (available > 0 && needed > 0.5 * available)
+      ctx.fail(root["harmonic_balance"] ? root["harmonic_balance"] : root, "harmonic_balance",
+               "the model does not fit in this machine's memory: " +
+                   std::to_string(hb.harmonics.size()) + " harmonics at " +
+                   format_number(samples, 8) + " samples per period need " +
+                   format_number(needed / (1 << 30), 3) +
+                   " GiB of time-frequency tables; keep fewer harmonics, samples_per_period or "
+                   "contacts");
+  }
   try {
     start.structure =
         std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
