@@ -570,7 +570,8 @@ bool StepPastKink(const CurveProblem& problem, const Scaling& s, const NewtonOpt
 double BandStepLimit(const ContinuationOptions& options, double lambda, double lambda_scale,
                      double tangent_lambda) {
   const double slope = std::max(std::abs(tangent_lambda), 1e-12);
-  return std::max(options.band_advance(lambda) / lambda_scale / slope, options.min_step);
+  return std::max(options.band_advance(lambda, tangent_lambda) / lambda_scale / slope,
+                  options.min_step);
 }
 
 }  // namespace
@@ -666,10 +667,13 @@ NewtonResult solve_fixed_parameter(const CurveProblem& problem, const VectorXd& 
   return result;
 }
 
-double ContinuationOptions::band_advance(double lambda) const {
+double ContinuationOptions::band_advance(double lambda, double direction) const {
   double limit = std::numeric_limits<double>::infinity();
-  for (const auto& band : step_bands)
-    limit = std::min(limit, band.step + band.growth * std::abs(lambda - band.centre));
+  for (const auto& band : step_bands) {
+    const bool approaching = direction * (band.centre - lambda) > 0;
+    limit = std::min(limit, band.step + (approaching ? band.growth : band.leaving_growth) *
+                                            std::abs(lambda - band.centre));
+  }
   return limit;
 }
 

@@ -18,6 +18,7 @@
 #include <cstring>
 #include <fstream>
 #include <iomanip>
+#include <mutex>
 #include <sstream>
 #include <thread>
 
@@ -43,6 +44,41 @@ void step_done(std::string_view step) {
   if (commit_hook()) commit_hook()(step);
 }
 
+// The staging folders of the live StagedOutputs with their final folders, so that a write
+// error names the file the user asked for (a study's runs stage on several threads).
+struct StagingFolder {
+  fs::path staging, final;
+};
+std::mutex& staging_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::vector<StagingFolder>& staging_folders() {
+  static std::vector<StagingFolder> folders;
+  return folders;
+}
+void register_staging(const fs::path& staging, const fs::path& final) {
+  const std::lock_guard lock(staging_mutex());
+  staging_folders().push_back({staging, final});
+}
+void unregister_staging(const fs::path& staging) noexcept {
+  const std::lock_guard lock(staging_mutex());
+  auto& folders = staging_folders();
+  std::erase_if(folders, [&](const StagingFolder& f) { return f.staging == staging; });
+}
+// A path as the user knows it: a file being staged is named by its place in the final
+// folder, with the staging folder it is written in.
+std::string shown_path(const fs::path& p) {
+  const std::lock_guard lock(staging_mutex());
+  for (const StagingFolder& f : staging_folders()) {
+    const fs::path relative = p.lexically_relative(f.staging);
+    if (relative.empty() || *relative.begin() == "..") continue;
+    const fs::path final = relative == "." ? f.final : f.final / relative;
+    return final.string() + " (staged in " + f.staging.string() + ")";
+  }
+  return p.string();
+}
+
 std::string system_reason(int error) {
   return std::strerror(error);
 }
@@ -58,7 +94,7 @@ void fsync_path(const fs::path& p, bool directory) {
   const int fd = ::open(p.c_str(), (directory ? O_RDONLY | O_DIRECTORY : O_RDONLY) | O_CLOEXEC);
   if (fd < 0) {
     const int e = errno;
-    throw OutputError("cannot open " + p.string() + " to sync it: " + system_reason(e),
+    throw OutputError("cannot open " + shown_path(p) + " to sync it: " + system_reason(e),
                       is_user_errno(e));
   }
   const int rc = ::fsync(fd);
@@ -66,7 +102,7 @@ void fsync_path(const fs::path& p, bool directory) {
   ::close(fd);
   // Some file systems cannot sync a folder (EINVAL); their data is still synced file by file.
   if (rc != 0 && !(directory && e == EINVAL))
-    throw OutputError("cannot sync " + p.string() + " to the disk: " + system_reason(e), false);
+    throw OutputError("cannot sync " + shown_path(p) + " to the disk: " + system_reason(e), false);
 }
 
 // fsync of every file and folder below `root` (and of `root`), children before parents.
@@ -291,6 +327,7 @@ StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::str
     fs::remove_all(staging_);
     fs::create_directories(staging_);
     write_lock_record(lock_fd_, lock_file_, staging_.filename().string(), file_id(staging_));
+    register_staging(staging_, final_);
   } catch (const OutputError&) {
     release_lock();
     throw;
@@ -316,6 +353,7 @@ void StagedOutput::keep_aside(const fs::path& folder) const noexcept {
 }
 
 StagedOutput::~StagedOutput() {
+  if (!staging_.empty()) unregister_staging(staging_);
   if (!committed_ && !staging_.empty()) remove_quietly(staging_);
   release_lock();
 }
@@ -404,7 +442,8 @@ void write_file(const fs::path& file, std::string_view bytes) {
   const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) {
     const int e = errno;
-    throw OutputError("cannot create " + file.string() + ": " + system_reason(e), is_user_errno(e));
+    throw OutputError("cannot create " + shown_path(file) + ": " + system_reason(e),
+                      is_user_errno(e));
   }
   std::size_t done = 0;
   while (done < bytes.size()) {
@@ -413,7 +452,7 @@ void write_file(const fs::path& file, std::string_view bytes) {
     if (wrote <= 0) {
       const int e = wrote < 0 ? errno : ENOSPC;
       ::close(fd);
-      throw OutputError("cannot write " + file.string() + " (" + std::to_string(done) + " of " +
+      throw OutputError("cannot write " + shown_path(file) + " (" + std::to_string(done) + " of " +
                             std::to_string(bytes.size()) + " bytes written): " + system_reason(e),
                         false);
     }
@@ -421,7 +460,8 @@ void write_file(const fs::path& file, std::string_view bytes) {
   }
   if (::close(fd) != 0) {
     const int e = errno;
-    throw OutputError("cannot write " + file.string() + " (on close): " + system_reason(e), false);
+    throw OutputError("cannot write " + shown_path(file) + " (on close): " + system_reason(e),
+                      false);
   }
 }
 

@@ -14,6 +14,7 @@
 #include "frichb/core/dense_lu.hpp"
 #include "frichb/core/harmonic_balance.hpp"
 #include "frichb/core/interrupt.hpp"
+#include "frichb/core/linear_resonances.hpp"
 #include "frichb/core/loop.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/core/response.hpp"
@@ -330,45 +331,48 @@ struct RunStart {
   std::unique_ptr<StructureInstance> structure;
   std::unique_ptr<HarmonicBalanceModel> model;
   ContinuationOptions options;
-  double peak = 0.0;    // largest contact-free displacement over the sweep, m
-  double u_unit = 0.0;  // displacement scale of the arclength, m
-  double span = 0.0;    // the sweep's width in the scene's unit
+  double peak = 0.0;                        // largest contact-free displacement over the sweep, m
+  double u_unit = 0.0;                      // displacement scale of the arclength, m
+  double span = 0.0;                        // the sweep's width in the scene's unit
+  std::vector<LinearResonance> resonances;  // of the free and the stuck structure, in the window
 };
 
-// The advance in lambda at a resonance, in half-power half-widths: a point lands within that
-// distance of the peak, where a single mode's amplitude is within 0.25 % of its peak
-// (1 / sqrt(1 + 0.07^2)); the bound grows by 0.8 times the distance from there, so that a
-// resonance costs a few points more than the curve would take without it.
-constexpr double kCentreStepInHalfWidths = 0.07;
-constexpr double kAdvanceGrowth = 0.8;
+// The advance in lambda at a resonance, in half-power half-widths, and its growth with the
+// distance d from the centre. Approaching, a point at d lands at least 0.2 d - 0.1 closer: the
+// last point before the centre is within 0.1 / 0.2 of it and the next one past it within 0.1,
+// so one of them is within 0.1 / 1.2 = 0.083 half-widths, where a single mode's amplitude is
+// within 0.35 % of its peak (1 / sqrt(1 + 0.083^2)). Moving away, the advance grows faster
+// (0.1 + 2 d): the peak is behind, its flank drawn by a point at 0.3, 1, 3, 9 ... half-widths.
+constexpr double kCentreStepInHalfWidths = 0.1;
+constexpr double kApproachGrowth = 0.8;
+constexpr double kLeavingGrowth = 2.0;
 
-// The linear resonances of the free structure in [lambda_min, lambda_max] (rad/s): for every
-// kept harmonic k >= 1, the modes of its harmonic index at w_r / k, with half-power half-width
-// zeta_r w_r / k (zeta_r = C_rr / (2 w_r) of the modal damping). The continuation bounds its
-// step near them, so that no resonance is stepped over.
-std::vector<ContinuationOptions::StepBand> resonance_bands(const Scene& scene,
-                                                           const HarmonicBalanceModel& model,
-                                                           double lambda_min, double lambda_max) {
+// The step bands of the linear resonances (linear_resonances.hpp): the continuation bounds its
+// advance in frequency near each, so that no resonance is stepped over.
+std::vector<ContinuationOptions::StepBand> resonance_bands(
+    const std::vector<LinearResonance>& resonances) {
   std::vector<ContinuationOptions::StepBand> bands;
-  for (int k : model.layout().harmonics()) {
-    if (k <= 0) continue;
-    const auto& basis = model.structure().basis(scene.cyclic.harmonic_index(k));
-    for (Eigen::Index r = 0; r < basis.frequencies.size(); ++r) {
-      const double w = basis.frequencies(r);
-      if (!(w > 0)) continue;
-      const double centre = w / k;
-      if (centre < lambda_min || centre > lambda_max) continue;
-      const double zeta = basis.damping(r, r) / (2 * w);
-      const double half_width = std::max(zeta, 1e-9) * centre;
-      bands.push_back({centre, kCentreStepInHalfWidths * half_width, kAdvanceGrowth});
-    }
-  }
+  bands.reserve(resonances.size());
+  for (const LinearResonance& r : resonances)
+    bands.push_back(
+        {r.centre, kCentreStepInHalfWidths * r.half_width, kApproachGrowth, kLeavingGrowth});
   return bands;
 }
 
-nlohmann::json bands_json(const std::vector<ContinuationOptions::StepBand>& bands, double unit) {
+nlohmann::json resonances_json(const std::vector<LinearResonance>& resonances,
+                               const std::vector<ContinuationOptions::StepBand>& bands,
+                               double unit) {
   nlohmann::json out = nlohmann::json::array();
-  for (const auto& b : bands) out.push_back({{"centre", b.centre / unit}, {"step", b.step / unit}});
+  for (std::size_t i = 0; i < resonances.size(); ++i) {
+    const LinearResonance& r = resonances[i];
+    out.push_back({{"system", system_name(r.system)},
+                   {"harmonic", r.harmonic},
+                   {"harmonic_index", r.harmonic_index},
+                   {"centre", r.centre / unit},
+                   {"half_width", r.half_width / unit},
+                   {"damping_ratio", r.damping_ratio},
+                   {"step", bands[i].step / unit}});
+  }
   return out;
 }
 
@@ -485,7 +489,8 @@ RunStart start_run(const Scene& scene, int contact_threads) {
   options.newton.max_iterations = C.max_newton_iterations;
   options.newton.residual_tolerance = C.tolerance;
   options.newton.step_tolerance = C.tolerance;
-  options.step_bands = resonance_bands(scene, *model, options.lambda_min, options.lambda_max);
+  start.resonances = linear_resonances(scene, *model, options.lambda_min, options.lambda_max);
+  options.step_bands = resonance_bands(start.resonances);
   options.unknown_scale = Eigen::VectorXd::Constant(n + 1, start.u_unit);
   options.unknown_scale(n) = unit;
   options.residual_scale = Eigen::VectorXd::Constant(n, peak);
@@ -625,7 +630,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
       std::vector<double> ws = {w_from};
       const double largest = C.max_step * unit, direction = w_to > w_from ? 1.0 : -1.0;
       while (direction * (w_to - ws.back()) > 1e-12 * std::abs(w_to)) {
-        const double advance = std::min(largest, options.band_advance(ws.back()));
+        const double advance = std::min(largest, options.band_advance(ws.back(), direction));
         ws.push_back(direction * (w_to - ws.back()) <= advance ? w_to
                                                                : ws.back() + direction * advance);
       }
@@ -895,7 +900,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
            model->jacobian_mode() == JacobianMode::kAnalytic ? "analytic" : "finite_difference"},
           {"contact_traces_with_finite_differences", stats.contacts_with_fd_jacobian}}},
         {"non_periodic_traces", stats.non_periodic_traces},
-        {"resonance_bands", bands_json(options.step_bands, unit)},
+        {"resonance_bands", resonances_json(prepared.resonances, options.step_bands, unit)},
         {"harmonic_truncation", truncation},
         {"unknowns", n},
         {"scaling", {{"displacement_m", u_unit}, {"residual_m", peak}}},

@@ -95,17 +95,19 @@ struct ContinuationOptions {
   double steep_branch_step_factor = 0.1;
   int steep_branch_points = 5;  // how many following points keep the cap
 
-  // Sharp resonances where the advance in lambda is bounded: from a point at lambda the
-  // predictor moves lambda by at most min over the bands of (step + growth |lambda - centre|),
-  // so the curve passes a centre in steps of `step` and cannot jump over it from afar (from a
-  // distance d it lands at least (1 - growth) d - step closer). The arclength step is that
+  // Sharp resonances where the advance in lambda is bounded: from a point at lambda moving
+  // towards a centre the predictor moves lambda by at most step + growth |lambda - centre|
+  // (from a distance d it lands at least (1 - growth) d - step closer, so it cannot jump over
+  // the centre from afar and passes it in steps of `step`); moving away from it, by at most
+  // step + leaving_growth |lambda - centre|. The tightest band wins. The arclength step is that
   // over |tangent_lambda| (where the curve climbs a peak the arclength goes into the
   // displacements), never below min_step. centre and step in unscaled lambda units.
   struct StepBand {
-    double centre = 0.0, step = 0.0, growth = 0.5;
+    double centre = 0.0, step = 0.0, growth = 0.5, leaving_growth = 0.5;
   };
-  // The largest advance in lambda the bands allow at `lambda` (infinite without bands).
-  double band_advance(double lambda) const;
+  // The largest advance in lambda the bands allow from `lambda` in `direction` (the sign of
+  // the change of lambda; infinite without bands).
+  double band_advance(double lambda, double direction) const;
   std::vector<StepBand> step_bands;
 
   // Scale of each unknown (size n + 1, last entry lambda's); empty means all ones.
