@@ -61,7 +61,7 @@ Eigen::MatrixXd static_contact_stiffness(const HarmonicBalanceModel& model) {
       for (std::size_t b = 0; b < comps.size(); ++b)
         stiffness(contact.offset + static_cast<Eigen::Index>(a),
                   contact.offset + static_cast<Eigen::Index>(b)) =
-            du_now[static_cast<std::size_t>(comps[a] * 3 + comps[b])];
+            du_now[(static_cast<std::size_t>(comps[a]) * 3) + static_cast<std::size_t>(comps[b])];
   }
   return stiffness;
 }
