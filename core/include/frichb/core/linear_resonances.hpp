@@ -50,8 +50,8 @@ Eigen::MatrixXd static_contact_stiffness(const HarmonicBalanceModel& model);
 
 // The free and the stuck structure's resonances with centre in [lambda_min, lambda_max]
 // (rad/s), sorted by centre. A stuck resonance within a tenth of a half-width of a free one of
-// the same harmonic (a contact without stiffness there) is left out. Not thread-safe (the
-// model's contact laws are stepped once).
+// the same harmonic (a contact without stiffness there) is left out. Reads the model only
+// (its laws' step() is const): safe beside other readers of the same model.
 std::vector<LinearResonance> linear_resonances(const Scene& scene,
                                                const HarmonicBalanceModel& model, double lambda_min,
                                                double lambda_max);
