@@ -338,9 +338,10 @@ struct RunStart {
 };
 
 // The advance in lambda at a resonance, in half-power half-widths, and its growth with the
-// distance d from the centre. Approaching, a point at d lands at least 0.2 d - 0.1 closer: the
-// last point before the centre is within 0.1 / 0.2 of it and the next one past it within 0.1,
-// so one of them is within 0.1 / 1.2 = 0.083 half-widths, where a single mode's amplitude is
+// distance d from the centre. Approaching from d, a step ends no nearer than 0.2 d - 0.1 on the
+// same side, or past the centre by at most 0.1 - 0.2 d (only from d < 0.5): the last point
+// before the centre and the first one past it are never both farther than 0.1 / 1.2 = 0.083
+// half-widths from it, where a single mode's amplitude is
 // within 0.35 % of its peak (1 / sqrt(1 + 0.083^2)). Moving away, the advance grows faster
 // (0.1 + 2 d): the peak is behind, its flank drawn by a point at 0.3, 1, 3, 9 ... half-widths.
 constexpr double kCentreStepInHalfWidths = 0.1;
@@ -359,19 +360,16 @@ std::vector<ContinuationOptions::StepBand> resonance_bands(
   return bands;
 }
 
-nlohmann::json resonances_json(const std::vector<LinearResonance>& resonances,
-                               const std::vector<ContinuationOptions::StepBand>& bands,
-                               double unit) {
+nlohmann::json resonances_json(const std::vector<LinearResonance>& resonances, double unit) {
   nlohmann::json out = nlohmann::json::array();
-  for (std::size_t i = 0; i < resonances.size(); ++i) {
-    const LinearResonance& r = resonances[i];
+  for (const LinearResonance& r : resonances) {
     out.push_back({{"system", system_name(r.system)},
                    {"harmonic", r.harmonic},
                    {"harmonic_index", r.harmonic_index},
                    {"centre", r.centre / unit},
                    {"half_width", r.half_width / unit},
                    {"damping_ratio", r.damping_ratio},
-                   {"step", bands[i].step / unit}});
+                   {"step", kCentreStepInHalfWidths * r.half_width / unit}});
   }
   return out;
 }
@@ -900,7 +898,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
            model->jacobian_mode() == JacobianMode::kAnalytic ? "analytic" : "finite_difference"},
           {"contact_traces_with_finite_differences", stats.contacts_with_fd_jacobian}}},
         {"non_periodic_traces", stats.non_periodic_traces},
-        {"resonance_bands", resonances_json(prepared.resonances, options.step_bands, unit)},
+        {"resonance_bands", resonances_json(prepared.resonances, unit)},
         {"harmonic_truncation", truncation},
         {"unknowns", n},
         {"scaling", {{"displacement_m", u_unit}, {"residual_m", peak}}},

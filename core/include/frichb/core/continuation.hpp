@@ -97,10 +97,10 @@ struct ContinuationOptions {
 
   // Sharp resonances where the advance in lambda is bounded: from a point at lambda moving
   // towards a centre the predictor moves lambda by at most step + growth |lambda - centre|
-  // (from a distance d it lands at least (1 - growth) d - step closer, so it cannot jump over
-  // the centre from afar and passes it in steps of `step`); moving away from it, by at most
-  // step + leaving_growth |lambda - centre|. The tightest band wins. The arclength step is that
-  // over |tangent_lambda| (where the curve climbs a peak the arclength goes into the
+  // (from a distance d a step ends no nearer than (1 - growth) d - step on the same side, so it
+  // cannot jump over the centre from afar and passes it in steps of `step`); moving away from it,
+  // by at most step + leaving_growth |lambda - centre|. The tightest band wins. The arclength step
+  // is that over |tangent_lambda| (where the curve climbs a peak the arclength goes into the
   // displacements), never below min_step. centre and step in unscaled lambda units.
   struct StepBand {
     double centre = 0.0, step = 0.0, growth = 0.5, leaving_growth = 0.5;
