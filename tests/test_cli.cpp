@@ -527,9 +527,11 @@ TEST_F(Cli, ValidateTheQuickstartWritesNothing) {
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr(kQuickstart.string() + ": valid"));
   EXPECT_TRUE(fs::is_empty(dir_)) << "validate wrote into the working folder";
+  // validate writes nothing, so it takes no output folder.
   const fs::path out = dir_ / "out";
   const Result with_o = frichb("validate " + quoted(kQuickstart) + " -o " + quoted(out), dir_);
-  EXPECT_EQ(with_o.code, 0) << with_o.output;
+  EXPECT_EQ(with_o.code, 1) << with_o.output;
+  EXPECT_THAT(with_o.output, HasSubstr("unrecognised option '-o' (an option of run, study"));
   EXPECT_FALSE(fs::exists(out));
   EXPECT_TRUE(fs::is_empty(dir_));
 }
@@ -690,11 +692,57 @@ TEST_F(Cli, SetOverridesAKeyLikeAnEditedScene) {
       frichb("validate " + quoted(kQuickstart) + " --set contacts.root_friction.params.mu=-1");
   EXPECT_EQ(out_of_range.code, 2) << out_of_range.output;
   EXPECT_THAT(out_of_range.output, HasSubstr("contacts[0].params.mu: value -1 violates mu >= 0"));
-  for (const char* bad : {"mu", "=1", "contacts.root_friction.params.mu=", "x=abc", "x=1e999"}) {
+  // What is wrong with the text itself is a command-line error (exit 1).
+  for (const auto& [bad, why] : std::vector<std::pair<std::string, std::string>>{
+           {"mu", "expected PATH=VALUE"},
+           {"=1", "expected PATH=VALUE"},
+           {"contacts.root_friction.params.mu=", "expected PATH=VALUE"},
+           {"a..b=1", "'a..b': empty key"},
+           {"x=1e999", "'1e999' is not a finite number"},
+           {"x={a: 1}", "'{a: 1}' is not a value or a list of values"},
+           {"x=[1, 2", "'[1, 2' is not a YAML value"}}) {
     const Result usage = frichb("validate " + quoted(kQuickstart) + " --set '" + bad + "'");
     EXPECT_EQ(usage.code, 1) << bad << ": " << usage.output;
-    EXPECT_THAT(usage.output, HasSubstr("expected PATH=NUMBER")) << bad;
+    EXPECT_THAT(usage.output, HasSubstr("--set '" + bad + "': " + why)) << bad;
   }
+}
+
+// --set values are typed by the key they set, as in the file: a boolean, a list, a word; a
+// value of the wrong type is refused by the key's own check, located at the key.
+TEST_F(Cli, SetTakesBooleansListsAndWordsTypedByTheScenesSchema) {
+  const fs::path out = dir_ / "typed";
+  const Result r = frichb(
+      "run " + quoted(kQuickstart) +
+      " --set output.plots=false --set 'output.friction_loops_at=[400]' -q -o " + quoted(out));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(out / "response.png"));
+  EXPECT_TRUE(fs::is_regular_file(out / "loops" / "root_friction_400Hz_1.csv"));
+  EXPECT_FALSE(fs::exists(out / "loops" / "root_friction_330Hz_1.csv"));
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  const auto& set = summary.at("command_line_overrides");
+  EXPECT_EQ(set.at("output.plots"), false);
+  EXPECT_EQ(set.at("output.friction_loops_at"), nlohmann::json::array({400}));
+  EXPECT_EQ(summary.at("validated_scene").at("output").at("plots"), false);
+
+  // A word where the law expects a number, a word where a boolean goes, a scalar for a list,
+  // a map: each refused as invalid input (exit 2) naming the key.
+  for (const auto& [bad, why] : std::vector<std::pair<std::string, std::string>>{
+           {"contacts.root_friction.params.mu=abc",
+            "contacts[0].params.mu: expected a finite number, got 'abc'"},
+           {"output.plots=maybe", "output.plots: expected true or false, got 'maybe'"},
+           {"output.friction_loops_at=400",
+            "'output.friction_loops_at' is a list: give a list, e.g. "
+            "output.friction_loops_at=[1, 2]"},
+           {"harmonic_balance=3", "'harmonic_balance' is a map: set one of its keys"}}) {
+    const Result refused = frichb("validate " + quoted(kQuickstart) + " --set '" + bad + "'");
+    EXPECT_EQ(refused.code, 2) << bad << ": " << refused.output;
+    EXPECT_THAT(refused.output, HasSubstr(why)) << bad;
+  }
+  // A word that names another law is taken as such (and checked as that law).
+  const Result law =
+      frichb("validate " + quoted(kQuickstart) + " --set contacts.root_friction.law=coupled_3d");
+  EXPECT_EQ(law.code, 2) << law.output;
+  EXPECT_THAT(law.output, HasSubstr("law 'coupled_3d' with these params uses the tangent2"));
 }
 
 TEST_F(Cli, ARerunReplacesItsOwnOutputsAndKeepsOtherFiles) {
@@ -731,7 +779,89 @@ TEST_F(Cli, BadCommandLinesExitWithOne) {
 
   const Result bad_option = frichb("--no-such-option");
   EXPECT_EQ(bad_option.code, 1) << bad_option.output;
+
+  // Each verb takes its own options: another verb's is refused, naming whose it is.
+  const Result foreign =
+      frichb("run " + quoted(kQuickstart) + " --at-hz 300 -o " + quoted(dir_ / "foreign"));
+  EXPECT_EQ(foreign.code, 1) << foreign.output;
+  EXPECT_THAT(foreign.output, HasSubstr("frichb run: unrecognised option '--at-hz' (an option "
+                                        "of timesim)"));
+  const Result threads = frichb("validate " + quoted(kQuickstart) + " --threads 4");
+  EXPECT_EQ(threads.code, 1) << threads.output;
+  EXPECT_THAT(threads.output, HasSubstr("(an option of study)"));
+  const Result abbreviated = frichb("study " + quoted(kQuickstart) + " --thr 2");
+  EXPECT_EQ(abbreviated.code, 1) << abbreviated.output;
+  const Result before_verb = frichb("-o " + quoted(dir_ / "x") + " run " + quoted(kQuickstart));
+  EXPECT_EQ(before_verb.code, 1) << before_verb.output;
+  EXPECT_THAT(before_verb.output, HasSubstr("a verb's options follow the verb"));
+  const Result extra = frichb("plugins extra");
+  EXPECT_EQ(extra.code, 1) << extra.output;
+  EXPECT_THAT(extra.output, HasSubstr("frichb plugins: expected no argument"));
+  const Result close = frichb("valdate " + quoted(kQuickstart));
+  EXPECT_EQ(close.code, 1) << close.output;
+  EXPECT_THAT(close.output, HasSubstr("(did you mean 'validate'?)"));
+  const Result both = frichb("validate " + quoted(kQuickstart) + " -v -q");
+  EXPECT_EQ(both.code, 1) << both.output;
+  EXPECT_THAT(both.output, HasSubstr("give one of --log-level, -v and -q, once"));
   EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+// `frichb VERB --help` (or `frichb help VERB`) prints that verb's synopsis, its own options
+// and the common ones, and an example; not the other verbs' options.
+TEST_F(Cli, EachVerbHasItsOwnHelp) {
+  const Result run = frichb("run --help");
+  EXPECT_EQ(run.code, 0) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("Usage: frichb run SCENE.yaml [OPTIONS]"));
+  EXPECT_THAT(run.output, HasSubstr("--set PATH=VALUE"));
+  EXPECT_THAT(run.output, HasSubstr("-o [ --output ] DIR"));
+  EXPECT_THAT(run.output, HasSubstr("-v [ --verbose ]"));
+  EXPECT_THAT(run.output, HasSubstr("frichb run configs/quickstart_friction_oscillator.yaml"));
+  EXPECT_THAT(run.output, Not(HasSubstr("--at-hz")));
+  EXPECT_THAT(run.output, Not(HasSubstr("--threads")));
+  const Result timesim = frichb("help timesim");
+  EXPECT_EQ(timesim.code, 0) << timesim.output;
+  EXPECT_THAT(timesim.output, HasSubstr("--at-hz F"));
+  EXPECT_THAT(timesim.output, Not(HasSubstr("--harmonics")));
+  EXPECT_EQ(frichb("timesim -h").output, timesim.output);
+  const Result plugins = frichb("plugins --help");
+  EXPECT_THAT(plugins.output, Not(HasSubstr("--output")));
+  EXPECT_THAT(plugins.output, Not(HasSubstr("--set")));
+  // Every example in every verb's help names a verb that exists and files that are shipped.
+  const Result all = frichb("--help");
+  for (const char* verb : {"run", "validate", "study", "loop", "modes", "timesim", "convergence",
+                           "plugins", "describe", "reference"}) {
+    EXPECT_THAT(all.output, HasSubstr("  frichb " + std::string(verb))) << verb;
+    const Result help = frichb(std::string(verb) + " --help");
+    EXPECT_EQ(help.code, 0) << verb;
+    const auto at = help.output.find("Example");
+    ASSERT_NE(at, std::string::npos) << verb;
+    std::istringstream words(help.output.substr(at));
+    std::string word;
+    while (words >> word) {
+      if (word.starts_with("configs/")) {
+        EXPECT_TRUE(fs::is_regular_file(fs::path(FRICHB_SOURCE_DIR) / word))
+            << verb << ": " << word;
+      }
+    }
+  }
+}
+
+// -v and -q (or --log-level, before or after the verb) set how much is logged.
+TEST_F(Cli, VerboseAndQuietSetTheLogLevel) {
+  const Result quiet = frichb("validate " + quoted(kQuickstart) + " -q");
+  EXPECT_EQ(quiet.code, 0) << quiet.output;
+  EXPECT_EQ(quiet.output, "");
+  const Result normal = frichb("validate " + quoted(kQuickstart));
+  EXPECT_THAT(normal.output, HasSubstr("[info]"));
+  EXPECT_THAT(normal.output, Not(HasSubstr("[debug]")));
+  const Result verbose = frichb("validate " + quoted(kQuickstart) + " --verbose");
+  EXPECT_THAT(verbose.output, HasSubstr("[debug]"));
+  const Result global = frichb("--log-level warn validate " + quoted(kQuickstart));
+  EXPECT_EQ(global.code, 0) << global.output;
+  EXPECT_EQ(global.output, "");
+  const Result unknown = frichb("validate " + quoted(kQuickstart) + " --log-level loud");
+  EXPECT_EQ(unknown.code, 1) << unknown.output;
+  EXPECT_THAT(unknown.output, HasSubstr("unknown log level 'loud'"));
 }
 
 // ---------------------------------------------------------------------------------------

@@ -913,7 +913,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     if (!run_options.study_context.is_null()) doc["study"] = run_options.study_context;
     if (!scene_overrides().empty()) {
       nlohmann::json set = nlohmann::json::object();
-      for (const auto& o : scene_overrides()) set[o.path] = o.value;
+      for (const auto& o : scene_overrides()) set[o.path] = scene_override_json(o);
       doc["command_line_overrides"] = set;
     }
     if (stats.non_periodic_traces > 0)

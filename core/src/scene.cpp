@@ -376,7 +376,7 @@ YAML::Node load_scene_document(const fs::path& file) {
   YAML::Node document = load_scene_yaml(file);
   for (const auto& o : scene_overrides()) {
     try {
-      set_scene_value(document, o.path, o.value);
+      set_scene_override(document, o);
     } catch (const std::invalid_argument& e) {
       throw SceneError(file.string(), 0, 0, "--set " + o.path, e.what());
     }

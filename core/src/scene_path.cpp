@@ -1,10 +1,13 @@
-// Scene-key paths: addressing one numeric scalar of a scene document (scene.hpp).
+// Scene-key paths: addressing one scalar (or list) of a scene document, and the command
+// line's --set overrides (scene.hpp).
 #include "frichb/core/scene.hpp"
 
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <iomanip>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -73,11 +76,16 @@ std::vector<std::string> map_keys(const YAML::Node& map) {
   return keys;
 }
 
+// What a path may address: a number (study sweeps), a scalar (a --set scalar value), or a
+// scalar or a list (a --set list value replaces either).
+enum class Addressable { kNumber, kScalar, kScalarOrList };
+
 // Finds the node at `path`, creating the last key of a map when absent. `create` false:
 // only checks (and never inserts).
 // `document` is a handle (yaml-cpp nodes share their data): edits go through it.
 YAML::Node resolve(YAML::Node document,  // NOLINT(performance-unnecessary-value-param)
-                   const std::string& path, bool create) {
+                   const std::string& path, bool create,
+                   Addressable addressable = Addressable::kNumber) {
   const auto parts = parse_path(path);
   YAML::Node node = document;
   std::string walked;
@@ -144,10 +152,50 @@ YAML::Node resolve(YAML::Node document,  // NOLINT(performance-unnecessary-value
       walked = here;
     }
   }
-  if (node && !node.IsScalar())
+  if (!node || node.IsScalar() || (addressable == Addressable::kScalarOrList && node.IsSequence()))
+    return node;
+  if (addressable == Addressable::kNumber)
     throw std::invalid_argument("'" + path + "' is a " + (node.IsMap() ? "map" : "list") +
                                 ", not a number");
-  return node;
+  if (node.IsMap())
+    throw std::invalid_argument("'" + path + "' is a map: set one of its keys, " + path +
+                                ".KEY=VALUE");
+  throw std::invalid_argument("'" + path + "' is a list: give a list, e.g. " + path + "=[1, 2]");
+}
+
+// A --set value: a scalar, or a flow list of scalars and lists ([1, 0, 0], [[1, 2], [3, 4]]).
+bool scalars_and_lists(const YAML::Node& node) {
+  if (node.IsScalar()) return true;
+  if (!node.IsSequence()) return false;
+  for (const auto& entry : node)
+    if (!scalars_and_lists(entry)) return false;
+  return true;
+}
+
+// A scalar as JSON: an integer or a finite number when the whole text reads as one, true or
+// false, else the text.
+nlohmann::json scalar_json(const std::string& text) {
+  if (text == "true") return true;
+  if (text == "false") return false;
+  if (!text.empty() && text.find_first_not_of("+-0123456789") == std::string::npos) {
+    try {
+      std::size_t used = 0;
+      const long long integer = std::stoll(text, &used);
+      if (used == text.size()) return integer;
+    } catch (const std::exception&) {
+    }
+  }
+  char* end = nullptr;
+  const double number = std::strtod(text.c_str(), &end);
+  if (!text.empty() && end == text.c_str() + text.size() && std::isfinite(number)) return number;
+  return text;
+}
+
+nlohmann::json value_json(const YAML::Node& node) {
+  if (node.IsScalar()) return scalar_json(node.Scalar());
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& entry : node) list.push_back(value_json(entry));
+  return list;
 }
 
 }  // namespace
@@ -167,6 +215,44 @@ void set_scene_value(YAML::Node document,  // NOLINT(performance-unnecessary-val
                      const std::string& path, double value) {
   YAML::Node node = resolve(document, path, true);
   node = format_scene_value(value);
+}
+
+SceneOverride parse_scene_override(const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == text.size())
+    throw std::invalid_argument("expected PATH=VALUE");
+  SceneOverride o{text.substr(0, eq), text.substr(eq + 1)};
+  parse_path(o.path);  // a malformed path is a command-line error
+  YAML::Node value;
+  try {
+    value = YAML::Load(o.value);
+  } catch (const YAML::Exception& e) {
+    throw std::invalid_argument("'" + o.value + "' is not a YAML value: " + e.msg);
+  }
+  if (!value.IsDefined() || value.IsNull() || !scalars_and_lists(value))
+    throw std::invalid_argument("'" + o.value + "' is not a value or a list of values");
+  if (value.IsScalar()) {
+    char* end = nullptr;
+    const double number = std::strtod(o.value.c_str(), &end);
+    if (end == o.value.c_str() + o.value.size() && !std::isfinite(number))
+      throw std::invalid_argument("'" + o.value + "' is not a finite number");
+  }
+  return o;
+}
+
+nlohmann::json scene_override_json(const SceneOverride& o) {
+  return value_json(YAML::Load(o.value));
+}
+
+void set_scene_override(YAML::Node document,  // NOLINT(performance-unnecessary-value-param)
+                        const SceneOverride& o) {
+  const YAML::Node value = YAML::Load(o.value);
+  YAML::Node node = resolve(document, o.path, true,
+                            value.IsSequence() ? Addressable::kScalarOrList : Addressable::kScalar);
+  if (value.IsScalar())
+    node = value.Scalar();  // keeps the scene's line and column for messages
+  else
+    node = value;
 }
 
 void check_scene_path(const YAML::Node& document, const std::string& path) {

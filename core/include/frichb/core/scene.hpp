@@ -149,15 +149,24 @@ void check_scene_path(const YAML::Node& document, const std::string& path);
 // A value as set_scene_value writes it.
 std::string format_scene_value(double x);
 
-// Command-line overrides of scene keys (`frichb run SCENE --set PATH=VALUE`): numeric scalars
-// addressed as scene-key paths (above).
+// Command-line overrides of scene keys (`frichb run SCENE --set PATH=VALUE`): a scene-key
+// path (above) and a value in YAML's flow syntax, typed by the schema of the key it sets like a
+// value written in the file: a number, a boolean, a word, or a list (`[330, 400]`). A scalar
+// value sets a scalar (or a key the scene did not write); a list value also replaces a list.
 // Set once by the program before any scene is read (not thread-safe against concurrent
 // loads); every scene document read by load_scene_document() then has them applied, so
 // that a study's runs and a convergence study's settings carry them too.
 struct SceneOverride {
   std::string path;
-  double value = 0.0;
+  std::string value;  // YAML flow text
 };
+// Reads `PATH=VALUE`. Throws std::invalid_argument saying what is wrong with it (no '=', an
+// empty side, a malformed path, a value that is not YAML, a map, or a number out of range).
+SceneOverride parse_scene_override(const std::string& text);
+// The value as JSON (numbers, booleans, text and lists), as summary.json records it.
+nlohmann::json scene_override_json(const SceneOverride& o);
+// Applies one override to `document`. Throws std::invalid_argument as set_scene_value.
+void set_scene_override(YAML::Node document, const SceneOverride& o);
 void set_scene_overrides(std::vector<SceneOverride> overrides);
 const std::vector<SceneOverride>& scene_overrides();
 // load_scene_yaml with the overrides applied. Throws SceneError naming the file and the
