@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <mutex>
 #include <numbers>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -16,6 +18,17 @@ std::mutex& fftw_planner_mutex() {
 }
 }  // namespace
 
+const char* const kContactAxisNames[3] = {"t1", "t2", "n"};
+
+std::string sampling_violation(int samples, double max_harmonic) {
+  const double needed = min_samples_per_period(max_harmonic);
+  if (samples >= needed) return {};
+  std::ostringstream bound;
+  bound << std::setprecision(15) << needed;
+  return "value " + std::to_string(samples) +
+         " violates samples_per_period >= 2 * max_harmonic + 1 = " + bound.str() + " (aliasing)";
+}
+
 HarmonicLayout::HarmonicLayout(std::vector<int> harmonics, int samples_per_period)
     : harmonics_(std::move(harmonics)), samples_(samples_per_period) {
   if (harmonics_.empty()) throw std::invalid_argument("no harmonic is kept");
@@ -23,11 +36,8 @@ HarmonicLayout::HarmonicLayout(std::vector<int> harmonics, int samples_per_perio
   if (std::adjacent_find(harmonics_.begin(), harmonics_.end()) != harmonics_.end())
     throw std::invalid_argument("a harmonic is listed twice");
   if (harmonics_.front() < 0) throw std::invalid_argument("harmonic numbers must be >= 0");
-  const int needed = 2 * harmonics_.back() + 1;
-  if (samples_ < needed)
-    throw std::invalid_argument("samples_per_period = " + std::to_string(samples_) +
-                                " is below 2 * max_harmonic + 1 = " + std::to_string(needed) +
-                                " (max_harmonic " + std::to_string(harmonics_.back()) + ")");
+  if (const auto why = sampling_violation(samples_, harmonics_.back()); !why.empty())
+    throw std::invalid_argument(why);
   for (int n : harmonics_) {
     cos_index_.push_back(coefficient_count_++);
     coefficient_harmonic_.push_back(n);
@@ -108,6 +118,42 @@ void Aft::to_coefficients(const double* samples, double* coefficients) {
     coefficients[layout_.cos_index(k)] = 2.0 * spectrum_[h[k]][0] * inv_n;
     coefficients[layout_.sin_index(k)] = -2.0 * spectrum_[h[k]][1] * inv_n;
   }
+}
+
+ForceHarmonics force_harmonics(const Eigen::MatrixXd& force, std::span<const int> components,
+                               int max_harmonic) {
+  const int samples = static_cast<int>(force.rows());
+  if (max_harmonic < 1 || !sampling_violation(samples, max_harmonic).empty() ||
+      static_cast<std::size_t>(force.cols()) != components.size())
+    throw std::invalid_argument("force_harmonics: " + std::to_string(samples) +
+                                " samples cannot resolve harmonic " + std::to_string(max_harmonic) +
+                                " of " + std::to_string(force.cols()) + " columns");
+  std::vector<int> harmonics;
+  for (int h = 0; h <= max_harmonic; ++h) harmonics.push_back(h);
+  const HarmonicLayout layout(harmonics, samples);
+  Aft aft(layout);
+  ForceHarmonics out;
+  out.header = {"harmonic"};
+  for (int k : components)
+    for (const char* part : {"cos", "sin", "amplitude"})
+      out.header.push_back(std::string("f_") + kContactAxisNames[k] + "_" + part + "_N");
+  out.rows.resize(static_cast<std::size_t>(max_harmonic) + 1);
+  Eigen::VectorXd coefficients(layout.coefficient_count()), column(samples);
+  for (Eigen::Index a = 0; a < force.cols(); ++a) {
+    column = force.col(a);
+    aft.to_coefficients(column.data(), coefficients.data());
+    std::vector<double> amplitude(static_cast<std::size_t>(max_harmonic + 1));
+    for (int h = 0; h <= max_harmonic; ++h) {
+      const auto k = static_cast<std::size_t>(h);
+      const double cc = coefficients(layout.cos_index(k));
+      const double ss = h ? coefficients(layout.sin_index(k)) : 0.0;
+      amplitude[k] = std::hypot(cc, ss);
+      if (out.rows[k].empty()) out.rows[k].push_back(h);
+      out.rows[k].insert(out.rows[k].end(), {cc, ss, amplitude[k]});
+    }
+    out.amplitude.push_back(std::move(amplitude));
+  }
+  return out;
 }
 
 }  // namespace frichb::core

@@ -81,8 +81,6 @@ sdk::Params view(const std::vector<frichb_param_spec>& schema, const ParamValues
   return sdk::Params(schema.data(), schema.size(), values.data());
 }
 
-const char* kComponentNames[] = {"t1", "t2", "n"};
-
 }  // namespace
 
 std::vector<CoreSection> loop_schemas() {
@@ -93,42 +91,6 @@ std::vector<CoreSection> loop_schemas() {
            "adds the constant `amplitude`."},
           {"sampling", sampling_schema(), ""},
           {"output", output_schema(), ""}};
-}
-
-ForceHarmonics force_harmonics(const Eigen::MatrixXd& force, std::span<const int> components,
-                               int max_harmonic) {
-  const int samples = static_cast<int>(force.rows());
-  if (max_harmonic < 1 || samples < 2 * max_harmonic + 1 ||
-      static_cast<std::size_t>(force.cols()) != components.size())
-    throw std::invalid_argument("force_harmonics: " + std::to_string(samples) +
-                                " samples cannot resolve harmonic " + std::to_string(max_harmonic) +
-                                " of " + std::to_string(force.cols()) + " columns");
-  std::vector<int> harmonics;
-  for (int h = 0; h <= max_harmonic; ++h) harmonics.push_back(h);
-  const HarmonicLayout layout(harmonics, samples);
-  Aft aft(layout);
-  ForceHarmonics out;
-  out.header = {"harmonic"};
-  for (int k : components)
-    for (const char* part : {"cos", "sin", "amplitude"})
-      out.header.push_back(std::string("f_") + kComponentNames[k] + "_" + part + "_N");
-  out.rows.resize(static_cast<std::size_t>(max_harmonic) + 1);
-  Eigen::VectorXd coefficients(layout.coefficient_count()), column(samples);
-  for (Eigen::Index a = 0; a < force.cols(); ++a) {
-    column = force.col(a);
-    aft.to_coefficients(column.data(), coefficients.data());
-    std::vector<double> amplitude(static_cast<std::size_t>(max_harmonic + 1));
-    for (int h = 0; h <= max_harmonic; ++h) {
-      const auto k = static_cast<std::size_t>(h);
-      const double cc = coefficients(layout.cos_index(k));
-      const double ss = h ? coefficients(layout.sin_index(k)) : 0.0;
-      amplitude[k] = std::hypot(cc, ss);
-      if (out.rows[k].empty()) out.rows[k].push_back(h);
-      out.rows[k].insert(out.rows[k].end(), {cc, ss, amplitude[k]});
-    }
-    out.amplitude.push_back(std::move(amplitude));
-  }
-  return out;
 }
 
 int run_loop(const LoopRequest& request) {
@@ -177,10 +139,8 @@ int run_loop(const LoopRequest& request) {
     const int samples = static_cast<int>(sv.integer("samples_per_period"));
     std::vector<int> harmonics;
     for (int h = 0; h <= max_h; ++h) harmonics.push_back(h);
-    if (samples < 2 * max_h + 1)
-      ctx.fail(root["sampling"], "sampling.samples_per_period",
-               "value " + std::to_string(samples) + " violates samples_per_period >= 2 * " +
-                   "max_harmonic + 1 = " + std::to_string(2 * max_h + 1));
+    if (const auto why = sampling_violation(samples, max_h); !why.empty())
+      ctx.fail(root["sampling"], "sampling.samples_per_period", why);
 
     ContactLawInstance law(plugin, law_values);
     const HarmonicLayout layout(harmonics, samples);
@@ -193,7 +153,7 @@ int run_loop(const LoopRequest& request) {
     // Motion coefficients of every component the law uses.
     Eigen::VectorXd u = Eigen::VectorXd::Zero(tracer.unknown_count());
     for (int k = 0; k < 3; ++k) {
-      const char* name = kComponentNames[k];
+      const char* name = kContactAxisNames[k];
       const auto it = std::find(comps.begin(), comps.end(), k);
       const std::size_t terms = mv.record_count(name);
       if (it == comps.end()) {
@@ -262,15 +222,15 @@ int run_loop(const LoopRequest& request) {
       std::vector<int> list;
       for (int h = 1; h <= max_h; ++h)
         if (amplitude[static_cast<std::size_t>(h)] > threshold * largest) list.push_back(h);
-      significant[kComponentNames[comps[static_cast<std::size_t>(a)]]] = list;
+      significant[kContactAxisNames[comps[static_cast<std::size_t>(a)]]] = list;
     }
 
     fs::path out_dir = request.output_directory;
     if (out_dir.empty()) out_dir = fs::path("out") / request.input_file.stem();
     StagedOutput out(out_dir, {"loop.csv", "harmonics.csv", "summary.json", "loop.gp", "loop.png"});
     std::vector<std::string> header = {"phase"};
-    for (int k : comps) header.push_back(std::string("u_") + kComponentNames[k] + "_m");
-    for (int k : comps) header.push_back(std::string("f_") + kComponentNames[k] + "_N");
+    for (int k : comps) header.push_back(std::string("u_") + kContactAxisNames[k] + "_m");
+    for (int k : comps) header.push_back(std::string("f_") + kContactAxisNames[k] + "_N");
     header.push_back("status");
     std::vector<std::vector<double>> rows;
     for (int j = 0; j <= samples; ++j) {  // closed loop: the first sample repeated

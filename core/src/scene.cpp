@@ -13,6 +13,7 @@
 #include <set>
 #include <sstream>
 
+#include "frichb/core/harmonics.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace frichb::core {
@@ -512,15 +513,9 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   // here (samples_per_period is bounded by its schema), not converted or enumerated.
   const double max_kept =
       max_h >= 0 ? static_cast<double>(max_h) : *std::max_element(listed.begin(), listed.end());
-  if (H.samples_per_period < 2 * max_kept + 1) {
-    std::ostringstream bound;
-    bound << std::setprecision(15) << 2 * max_kept + 1;
+  if (const auto why = sampling_violation(H.samples_per_period, max_kept); !why.empty())
     ctx.fail(hbn["samples_per_period"] ? hbn["samples_per_period"] : hbn,
-             "harmonic_balance.samples_per_period",
-             "value " + std::to_string(H.samples_per_period) +
-                 " violates samples_per_period >= 2 * max_harmonic + 1 = " + bound.str() +
-                 " (aliasing)");
-  }
+             "harmonic_balance.samples_per_period", why);
   if (max_h >= 0) {
     for (int n = 0; n <= max_h; ++n) H.harmonics.push_back(n);
   } else {

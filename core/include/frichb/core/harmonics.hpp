@@ -9,10 +9,23 @@
 
 #include <fftw3.h>
 
+#include <Eigen/Dense>
 #include <memory>
+#include <span>
+#include <string>
 #include <vector>
 
 namespace frichb::core {
+
+// The sampling rule of the AFT (Nyquist): N samples per period resolve the harmonics up to H
+// when N >= 2 H + 1. In double: a scene's max_harmonic is checked before it is known to fit
+// an int.
+constexpr double min_samples_per_period(double max_harmonic) {
+  return 2 * max_harmonic + 1;
+}
+// "" when `samples` resolves `max_harmonic`; else why not, as "value N violates
+// samples_per_period >= 2 * max_harmonic + 1 = B (aliasing)".
+std::string sampling_violation(int samples, double max_harmonic);
 
 class HarmonicLayout {
  public:
@@ -66,5 +79,22 @@ class Aft {
   fftw_plan forward_ = nullptr;
   fftw_plan backward_ = nullptr;
 };
+
+// Harmonics 0..max_harmonic of a contact force sampled over one period (`force`: samples x
+// components, N, equally spaced in phase; `components`: each column's local axis, 0 = t1,
+// 1 = t2, 2 = n). `rows[n]` = {n, then per component: cos, sin, amplitude} (f = c cos + s sin
+// of n w t), `header` names those columns (f_<axis>_cos_N ...), `amplitude[a][n]` the
+// amplitude of component a. Requires the samples to resolve max_harmonic >= 1; throws
+// std::invalid_argument otherwise.
+struct ForceHarmonics {
+  std::vector<std::string> header;
+  std::vector<std::vector<double>> rows;
+  std::vector<std::vector<double>> amplitude;
+};
+ForceHarmonics force_harmonics(const Eigen::MatrixXd& force, std::span<const int> components,
+                               int max_harmonic);
+
+// The names of a contact's local axes by index: t1, t2, n.
+extern const char* const kContactAxisNames[3];
 
 }  // namespace frichb::core

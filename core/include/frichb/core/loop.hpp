@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "frichb/core/harmonics.hpp"
 #include "frichb/core/scene.hpp"
 
 namespace frichb::core {
@@ -30,20 +31,6 @@ struct LoopRequest {
 
 // Returns an ExitCode (run.hpp). Never throws.
 int run_loop(const LoopRequest& request);
-
-// Harmonics 0..max_harmonic of a contact force sampled over one period (`force`: samples x
-// components, N, equally spaced in phase; `components`: each column's local axis, 0 = t1,
-// 1 = t2, 2 = n). `rows[n]` = {n, then per component: cos, sin, amplitude} (f = c cos + s sin
-// of n w t), `header` names those columns (f_<axis>_cos_N ...), `amplitude[a][n]` the
-// amplitude of component a. Requires max_harmonic <= (samples - 1) / 2; throws
-// std::invalid_argument otherwise.
-struct ForceHarmonics {
-  std::vector<std::string> header;
-  std::vector<std::vector<double>> rows;
-  std::vector<std::vector<double>> amplitude;
-};
-ForceHarmonics force_harmonics(const Eigen::MatrixXd& force, std::span<const int> components,
-                               int max_harmonic);
 
 // The loop input's section schemas, for the generated reference.
 std::vector<CoreSection> loop_schemas();
