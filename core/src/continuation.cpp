@@ -1,7 +1,5 @@
 #include "frichb/core/continuation.hpp"
 
-#include "frichb/core/dense_lu.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,6 +7,9 @@
 #include <optional>
 #include <sstream>
 #include <utility>
+
+#include "continuation/step_controller.hpp"
+#include "frichb/core/dense_lu.hpp"
 
 namespace frichb::core {
 namespace {
@@ -566,14 +567,6 @@ bool StepPastKink(const CurveProblem& problem, const Scaling& s, const NewtonOpt
   return true;
 }
 
-// The largest step from a point at `lambda` that the resonance bands allow (scaled units).
-double BandStepLimit(const ContinuationOptions& options, double lambda, double lambda_scale,
-                     double tangent_lambda) {
-  const double slope = std::max(std::abs(tangent_lambda), 1e-12);
-  return std::max(options.band_advance(lambda, tangent_lambda) / lambda_scale / slope,
-                  options.min_step);
-}
-
 }  // namespace
 
 const char* to_string(TerminationType t) {
@@ -750,7 +743,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   first.at_residual_floor = start.at_residual_floor;
   if (!emit(first)) return finish(TerminationType::kCancelled, "cancelled by callback");
 
-  double ds = options.initial_step;
+  StepController steps(options);
   // Correction / step of the last too-long correction, and how many times in a row it
   // repeated (within 10 %) as the step was halved at this point.
   double corner_ratio = kInf;
@@ -760,10 +753,6 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
   constexpr int kKinkStepAfterFailures = 4;
   int failures_here = 0;                        // failed corrections since the last accepted point
   std::optional<KinkReference> kink_reference;  // of the last point, once a kink step is tried
-  int steep_left = 0;                           // points still under the steep-branch cap
-  bool refining = false;                        // retracing towards a fold with the fine step
-  int refine_left = 0;                          // bound on that retrace in case the fold vanishes
-  double refine_cap = kInf;
   std::size_t fold_floor = 0;  // restarts never undo an accepted fold (no ping-pong)
   const long max_attempts = 64L * options.max_points + 1000L;
   // Chord corrector (ContinuationOptions::reuse_factorisation_from): the factorisation of the
@@ -781,12 +770,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
       return finish(TerminationType::kTimeLimit, "max_wall_seconds elapsed");
 
     const ContinuationPoint& last = summary.points.back();
-    double step = ds;
-    if (steep_left > 0)
-      step = std::min(
-          step, std::max(options.min_step, options.steep_branch_step_factor * options.max_step));
-    if (refining) step = std::min(step, refine_cap);
-    step = std::min(step, BandStepLimit(options, last.y(n), s.unknown(n), last.tangent(n)));
+    const double step = steps.propose(last.y(n), last.tangent(n), s.unknown(n));
 
     const VectorXd ys_last = last.y.cwiseQuotient(s.unknown);
     const VectorXd predictor = ys_last + step * last.tangent;
@@ -879,7 +863,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
 
       sign_change = last.tangent(n) * p.tangent(n) < 0.0;
       // A fold at a kink is accepted at once: no finer step gets around it.
-      if (sign_change && options.turning_point_control && !refining && !kink_step) {
+      if (sign_change && options.turning_point_control && !steps.refining() && !kink_step) {
         // Points kept: at least up to the last accepted fold; the new point is always undone.
         const std::size_t total = summary.points.size() + 1;
         const std::size_t backtrack = static_cast<std::size_t>(options.turning_point_backtrack);
@@ -892,11 +876,7 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
         kink_reference.reset();
         corner_repeats = 0;  // the corner test starts afresh from the restart point
         corner_ratio = kInf;
-        refining = true;
-        refine_cap = std::max(options.min_step, options.turning_point_refinement * step);
-        refine_left = static_cast<int>(
-            std::ceil((options.turning_point_backtrack + 2) / options.turning_point_refinement));
-        ds = refine_cap;
+        steps.on_fold(step);
         continue;
       }
 
@@ -936,12 +916,11 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     if (!ok) {
       ++summary.rejected_steps;
       ++failures_here;
-      if (step <= options.min_step) {
+      if (!steps.on_reject(step)) {
         std::ostringstream msg;
         msg << "step below min_step " << options.min_step << ": " << corr.message;
         return finish(TerminationType::kStepTooSmall, msg.str());
       }
-      ds = std::max(0.5 * step, options.min_step);
       continue;
     }
 
@@ -950,27 +929,15 @@ ContinuationSummary trace_curve(const CurveProblem& problem, const VectorXd& y_g
     kink_reference.reset();
     corner_repeats = 0;
     corner_ratio = kInf;
-    if (sign_change) {
-      refining = false;
-      fold_floor = summary.points.size();
-    } else if (refining && --refine_left <= 0) {
-      refining = false;
-    }
-    if (steep_left > 0) --steep_left;
-    if (options.steep_branch_control &&
-        p.tangent.head(n).norm() > options.steep_branch_alpha * last.tangent.head(n).norm()) {
-      steep_left = options.steep_branch_points;
-      ++summary.steep_branch_caps;
-    }
-    // Eq. 4.13; an exact predictor (0 iterations) counts as 1 so the growth cap decides.
+    if (sign_change) fold_floor = summary.points.size();
     // A chord iteration counts as half a Newton iteration: it contracts less, but costs one
     // residual and two triangular solves instead of a Jacobian and a factorisation.
     const double effective_iterations =
         (corr.iterations - corr.chord_iterations) + kChordIterationWeight * corr.chord_iterations;
-    const double ratio =
-        static_cast<double>(options.target_newton_iterations) / std::max(effective_iterations, 1.0);
-    ds = std::clamp(std::min(step * std::sqrt(ratio), 2.0 * step), options.min_step,
-                    options.max_step);
+    const bool steep =
+        p.tangent.head(n).norm() > options.steep_branch_alpha * last.tangent.head(n).norm();
+    if (steps.on_accept(step, effective_iterations, sign_change, steep))
+      ++summary.steep_branch_caps;
     if (chord) {
       std::swap(kept, candidate);
       kept_index = summary.points.size();  // the index p takes
