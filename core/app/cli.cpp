@@ -8,11 +8,12 @@
 #include <optional>
 #include <sstream>
 
+#include "frichb/core/exit_codes.hpp"
 #include "frichb/core/interrupt.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/core/registry.hpp"
-#include "frichb/core/run.hpp"
 #include "frichb/core/scene.hpp"
+#include "frichb/core/version.hpp"
 
 namespace frichb::app {
 namespace {

@@ -15,6 +15,7 @@
 #include "frichb/core/run.hpp"
 #include "frichb/core/scene.hpp"
 #include "frichb/core/timesim.hpp"
+#include "frichb/core/version.hpp"
 
 namespace frichb::core {
 

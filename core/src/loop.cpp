@@ -6,13 +6,14 @@
 #include <numbers>
 #include <sstream>
 
+#include "frichb/core/exit_codes.hpp"
 #include "frichb/core/harmonics.hpp"
 #include "frichb/core/interrupt.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/core/periodic_trace.hpp"
 #include "frichb/core/registry.hpp"
-#include "frichb/core/run.hpp"
 #include "frichb/core/scene.hpp"
+#include "frichb/core/version.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace frichb::core {

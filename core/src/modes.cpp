@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "frichb/core/exit_codes.hpp"
 #include "frichb/core/output.hpp"
 #include "frichb/core/registry.hpp"
-#include "frichb/core/run.hpp"
 #include "frichb/core/scene.hpp"
 
 namespace frichb::core {

@@ -19,6 +19,7 @@
 #include "frichb/core/output.hpp"
 #include "frichb/core/response.hpp"
 #include "frichb/core/scene.hpp"
+#include "frichb/core/version.hpp"
 
 namespace frichb::core {
 

@@ -22,6 +22,7 @@
 
 #include "frichb/core/interrupt.hpp"
 #include "frichb/core/output.hpp"
+#include "frichb/core/version.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace frichb::core {

@@ -7,9 +7,10 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "frichb/core/exit_codes.hpp"
 #include "frichb/core/harmonic_balance.hpp"
 #include "frichb/core/output.hpp"
-#include "frichb/core/run.hpp"
+#include "frichb/core/version.hpp"
 
 namespace frichb::core {
 

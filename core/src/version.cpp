@@ -1,4 +1,4 @@
-#include "frichb/core/run.hpp"
+#include "frichb/core/version.hpp"
 
 namespace frichb::core {
 const char* version() {

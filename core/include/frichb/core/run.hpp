@@ -7,19 +7,9 @@
 #include <string>
 #include <vector>
 
-namespace frichb::core {
+#include "frichb/core/exit_codes.hpp"
 
-// Exit codes of the command-line program (docs/getting-started.md).
-enum ExitCode : int {
-  kExitOk = 0,
-  kExitUsage = 1,         // bad command line
-  kExitInvalidInput = 2,  // bad scene, unknown plugin, plugin of another ABI, missing file
-  kExitIncomplete = 3,    // the curve ended before the sweep's end (outputs written)
-  kExitInternal = 4,      // unexpected failure
-  kExitOutput = 5,        // the outputs could not be written (disk full, I/O error); the
-                          // output folder keeps its earlier results
-  // 128 + signal (130 SIGINT, 143 SIGTERM): interrupted, no output written (interrupt.hpp)
-};
+namespace frichb::core {
 
 struct RunRequest {
   std::filesystem::path scene_file;
@@ -79,7 +69,5 @@ RunOutcome run_bound_scene(const Scene& scene, const std::filesystem::path& outp
 // bases), the contact-free response over the sweep, the memory the scene needs. Throws
 // SceneError located in the scene (or the file a value came from). For `frichb validate`.
 void check_run_start(const Scene& scene);
-
-const char* version();
 
 }  // namespace frichb::core
