@@ -8,7 +8,7 @@
 #include <Eigen/Dense>
 #include <string>
 
-#include "frichb/core/registry.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
 
 namespace frichb::test {
 

@@ -37,7 +37,7 @@
 #include <thread>
 #include <vector>
 
-#include "frichb/core/scene.hpp"
+#include "frichb/core/scene/scene.hpp"
 #include "frichb/plugin/abi.h"
 
 extern char** environ;  // NOLINT(readability-redundant-declaration): POSIX, for execve

@@ -1,4 +1,4 @@
-#include "frichb/core/continuation.hpp"
+#include "frichb/core/solver/continuation.hpp"
 
 #include <gtest/gtest.h>
 

@@ -10,7 +10,7 @@
 #include <numbers>
 #include <random>
 
-#include "frichb/core/periodic_trace.hpp"
+#include "frichb/core/plugin_host/periodic_trace.hpp"
 #include "law_step_checks.hpp"
 #include "test_support.hpp"
 

@@ -12,9 +12,9 @@
 #include <numbers>
 #include <sstream>
 
-#include "frichb/core/continuation.hpp"
-#include "frichb/core/harmonic_balance.hpp"
-#include "frichb/core/scene.hpp"
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/solver/continuation.hpp"
 #include "test_support.hpp"
 
 namespace frichb::core {

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <limits>
 
-#include "frichb/core/dense_lu.hpp"
+#include "frichb/core/numerics/dense_lu.hpp"
 
 namespace {
 

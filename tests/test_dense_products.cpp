@@ -7,7 +7,7 @@
 #include <complex>
 #include <stdexcept>
 
-#include "frichb/core/dense_products.hpp"
+#include "frichb/core/numerics/dense_products.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "frichb/core/harmonics.hpp"
+#include "frichb/core/numerics/harmonics.hpp"
 
 #include <gtest/gtest.h>
 

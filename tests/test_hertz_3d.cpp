@@ -11,7 +11,7 @@
 #include <numbers>
 #include <random>
 
-#include "frichb/core/periodic_trace.hpp"
+#include "frichb/core/plugin_host/periodic_trace.hpp"
 #include "test_support.hpp"
 
 namespace frichb::core {

@@ -23,9 +23,9 @@
 #include <string>
 #include <vector>
 
-#include "frichb/core/reduced_structure.hpp"
-#include "frichb/core/registry.hpp"
-#include "frichb/core/schema.hpp"
+#include "frichb/core/model/reduced_structure.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/plugin_host/schema.hpp"
 #include "test_support.hpp"
 
 namespace {

@@ -13,7 +13,7 @@
 #include <sstream>
 #include <string>
 
-#include "frichb/core/output.hpp"
+#include "frichb/core/report/output.hpp"
 
 namespace {
 

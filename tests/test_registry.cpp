@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "frichb/core/registry.hpp"
-#include "frichb/core/schema.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/plugin_host/schema.hpp"
 
 namespace {
 

@@ -22,9 +22,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "frichb/core/registry.hpp"
-#include "frichb/core/run.hpp"
-#include "frichb/core/scene.hpp"
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/scene/scene.hpp"
 #include "test_support.hpp"
 
 namespace {

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "continuation/step_controller.hpp"
+#include "solver/step_controller.hpp"
 
 namespace frichb::core {
 namespace {

@@ -14,9 +14,9 @@
 #include <numbers>
 #include <sstream>
 
-#include "frichb/core/run.hpp"
-#include "frichb/core/scene.hpp"
-#include "frichb/core/timesim.hpp"
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/commands/timesim.hpp"
+#include "frichb/core/scene/scene.hpp"
 #include "test_support.hpp"
 
 namespace {

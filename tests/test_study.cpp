@@ -14,9 +14,9 @@
 #include <regex>
 #include <sstream>
 
-#include "frichb/core/convergence.hpp"
-#include "frichb/core/output.hpp"
-#include "frichb/core/study.hpp"
+#include "frichb/core/commands/convergence.hpp"
+#include "frichb/core/commands/study.hpp"
+#include "frichb/core/report/output.hpp"
 #include "test_support.hpp"
 
 namespace {

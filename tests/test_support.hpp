@@ -17,11 +17,11 @@
 
 #include <numbers>
 
-#include "frichb/core/continuation.hpp"
-#include "frichb/core/harmonic_balance.hpp"
-#include "frichb/core/periodic_trace.hpp"
-#include "frichb/core/registry.hpp"
-#include "frichb/core/schema.hpp"
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/plugin_host/periodic_trace.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/plugin_host/schema.hpp"
+#include "frichb/core/solver/continuation.hpp"
 
 namespace frichb::test {
 

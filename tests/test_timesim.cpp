@@ -7,10 +7,10 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 
-#include "frichb/core/continuation.hpp"
-#include "frichb/core/harmonic_balance.hpp"
-#include "frichb/core/scene.hpp"
-#include "frichb/core/timesim.hpp"
+#include "frichb/core/commands/timesim.hpp"
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/solver/continuation.hpp"
 #include "test_support.hpp"
 
 namespace frichb::core {

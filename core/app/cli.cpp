@@ -8,12 +8,12 @@
 #include <optional>
 #include <sstream>
 
-#include "frichb/core/exit_codes.hpp"
-#include "frichb/core/interrupt.hpp"
-#include "frichb/core/output.hpp"
-#include "frichb/core/registry.hpp"
-#include "frichb/core/scene.hpp"
-#include "frichb/core/version.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/report/output.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/support/exit_codes.hpp"
+#include "frichb/core/support/interrupt.hpp"
+#include "frichb/core/support/version.hpp"
 
 namespace frichb::app {
 namespace {

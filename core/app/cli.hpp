@@ -43,7 +43,7 @@ struct Verb {
 const std::vector<Verb>& verbs();
 
 // Parses the command line, sets up logging and the scene overrides, runs the verb and maps
-// what escapes it to an exit code (core/include/frichb/core/run.hpp's ExitCode).
+// what escapes it to an exit code (core/include/frichb/core/commands/run.hpp's ExitCode).
 int run_command_line(int argc, char** argv);
 
 }  // namespace frichb::app

@@ -5,7 +5,7 @@
 
 #include <memory>
 
-#include "frichb/core/study.hpp"
+#include "frichb/core/commands/study.hpp"
 
 namespace frichb::app {
 

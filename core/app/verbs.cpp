@@ -6,15 +6,15 @@
 #include <sstream>
 
 #include "cli.hpp"
-#include "frichb/core/convergence.hpp"
-#include "frichb/core/loop.hpp"
-#include "frichb/core/modes.hpp"
-#include "frichb/core/output.hpp"
-#include "frichb/core/registry.hpp"
-#include "frichb/core/run.hpp"
-#include "frichb/core/scene.hpp"
-#include "frichb/core/study.hpp"
-#include "frichb/core/timesim.hpp"
+#include "frichb/core/commands/convergence.hpp"
+#include "frichb/core/commands/loop.hpp"
+#include "frichb/core/commands/modes.hpp"
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/commands/study.hpp"
+#include "frichb/core/commands/timesim.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/report/output.hpp"
+#include "frichb/core/scene/scene.hpp"
 #include "mpi_communicator.hpp"
 
 namespace frichb::app {

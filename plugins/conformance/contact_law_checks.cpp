@@ -8,10 +8,10 @@
 #include <random>
 #include <thread>
 
-#include "frichb/core/harmonics.hpp"
-#include "frichb/core/periodic_trace.hpp"
-#include "frichb/core/registry.hpp"
-#include "frichb/core/schema.hpp"
+#include "frichb/core/numerics/harmonics.hpp"
+#include "frichb/core/plugin_host/periodic_trace.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/plugin_host/schema.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace frichb::conformance {

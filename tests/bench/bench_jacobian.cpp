@@ -33,11 +33,11 @@
 #include <sstream>
 #include <string>
 
-#include "frichb/core/continuation.hpp"
-#include "frichb/core/harmonic_balance.hpp"
-#include "frichb/core/registry.hpp"
-#include "frichb/core/run.hpp"
-#include "frichb/core/scene.hpp"
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/solver/continuation.hpp"
 
 namespace {
 

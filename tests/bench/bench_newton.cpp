@@ -8,9 +8,9 @@
 #include <memory>
 #include <numbers>
 
-#include "frichb/core/harmonic_balance.hpp"
-#include "frichb/core/registry.hpp"
-#include "frichb/core/scene.hpp"
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/scene/scene.hpp"
 
 namespace {
 

@@ -24,9 +24,9 @@
 #include <string>
 #include <typeinfo>
 
-#include "frichb/core/registry.hpp"
-#include "frichb/core/scene.hpp"
-#include "frichb/core/study.hpp"
+#include "frichb/core/commands/study.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/scene/scene.hpp"
 
 namespace {
 

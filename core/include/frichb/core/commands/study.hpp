@@ -1,0 +1,104 @@
+// Studies: a scene run over a grid or list of values of any of its numeric scalars.
+//
+//   study:
+//     sweep:
+//       - {path: contacts.shroud.params.normal_load, values: [0, 5, 10, 25]}
+//       - {path: excitation.0.amplitude, from: 1, to: 100, count: 5, spacing: log}
+//       - {path: contacts.shroud.params.gap, values: [1e-4, 0, 0]}
+//       - {path: contacts.shroud.params.normal_load, values: [0, 5, 10], with_previous: true}
+//     combine: grid        # every combination (first sweep slowest); zip: i-th with i-th
+//                          # (with_previous: that sweep is zipped with the one before it
+//                          # and the pair is one axis of the grid)
+//     parallel: auto       # threads per process: auto (every core), serial, or a count
+//
+// A path addresses a key of the scene as written: map keys separated by '.', list entries by
+// their index (`excitation.0.amplitude`, or `excitation[0].amplitude`, which YAML's flow
+// style `{path: ...}` needs quoted), and an entry of `contacts` by its name (`contacts.shroud`
+// is the contact named shroud). The last key may be absent from the scene (its default is then
+// overridden), and may index a number list (`structure.params.masses.1`).
+//
+// Every run is validated before any computes: a value out of its key's range is an error
+// naming the study entry and the run. Runs are independent and deterministic: the same run
+// gives the same files whether it ran alone, on a thread, or on another MPI rank. Outputs:
+//
+//   DIR/study.csv, study.json   the index: parameters, termination, peaks, wall time per run
+//   DIR/overlay.png             response curves of study.node, one line per run
+//   DIR/peak.png                peak amplitude of study.node against the first parameter
+//   DIR/runs/NNNN/              each run's response.csv and summary.json (as `frichb run`)
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/scene/scene.hpp"
+
+namespace frichb::core {
+
+// The processes of a study: one (serial) by default; MPI ranks when the program was started
+// by mpirun (core/app). Every member runs the same study; rank 0 writes the index.
+class StudyCommunicator {
+ public:
+  virtual ~StudyCommunicator() = default;
+  virtual int rank() const { return 0; }
+  virtual int size() const { return 1; }
+  // Rank 0 receives every rank's text in rank order; the other ranks receive nothing.
+  virtual std::vector<std::string> gather(const std::string& text) { return {text}; }
+  // Every rank receives rank 0's text.
+  virtual std::string broadcast(const std::string& text) { return text; }
+};
+
+struct SweepSpec {
+  std::string path;            // as written
+  std::vector<double> values;  // the values, generated when given as from/to/count
+  bool with_previous = false;  // varies together with the previous sweep (same length)
+};
+
+struct StudySpec {
+  std::vector<SweepSpec> sweeps;
+  bool zip = false;  // false: grid (cartesian product, the first sweep varying slowest)
+  int threads = 0;   // 0: one per core
+  std::string node;  // node whose curves are overlaid and peaks plotted
+
+  // The axes of the grid: consecutive sweeps that vary together (all of them with zip; a
+  // sweep and the following ones marked with_previous otherwise), as indices into sweeps.
+  std::vector<std::vector<std::size_t>> axes() const;
+};
+
+// One run of a study: its values (one per sweep) and its scene, bound to plugins.
+struct StudyRun {
+  std::size_t index = 0;
+  std::string id;  // "0000", "0001", ... (the folder under runs/)
+  std::vector<double> values;
+  Scene scene;
+};
+
+// Parses and checks scene.root["study"] (throws SceneError naming file:line:col and key).
+StudySpec load_study(const Scene& scene);
+
+// Builds every run of the study: the scene re-read from its file, each value set, loaded and
+// bound to plugins from `registry`, and each contact law instantiated once (so a value its
+// law refuses is caught here). Throws SceneError naming the study entry and the run.
+std::vector<StudyRun> prepare_study_runs(const Scene& scene, const StudySpec& study,
+                                         const Registry& registry);
+
+struct StudyRequest {
+  std::filesystem::path scene_file;
+  std::filesystem::path output_directory;  // empty: out/<scene stem>-study
+  int threads = -1;                        // -1: the scene's study.parallel
+};
+
+// Runs the study of a scene on `communicator`'s processes (run i on rank i mod size, each
+// rank's share on its threads). Returns an ExitCode: kExitIncomplete when a run ended before
+// the end of its sweep or failed (the index says which and why). Never throws.
+int run_study(const StudyRequest& request, StudyCommunicator& communicator);
+
+// The core section schemas of `study` (for the generated scene reference).
+std::vector<CoreSection> study_schemas();
+
+}  // namespace frichb::core

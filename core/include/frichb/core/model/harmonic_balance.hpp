@@ -1,0 +1,136 @@
+// The harmonic-balance equations in receptance form, reduced to the contacts' relative
+// displacements (thesis eq. 4.2 premultiplied by the contact gather matrix G):
+//
+//   e(U, w) = U - U0(w) + Rc(w) F(U) = 0,   U0 = G R Fext,   Rc = G R G^T,
+//
+// for every kept temporal harmonic n (receptance at n w). U holds, contact after contact,
+// the harmonic coefficients of each used local component (t1, t2, n) of the relative
+// displacement u = frame . (x_B - x_A); F the matching contact-force coefficients from AFT.
+// Unknowns are y = [U; w] (w in rad/s, last). The model is a CurveProblem for the
+// continuation module; evaluate() is not thread-safe (it reuses AFT work buffers). Inside one
+// evaluation the contacts may be traced on several threads (set_contact_threads): each
+// contact has its own tracer, law instance and trace, so the result does not depend on it.
+#pragma once
+
+#include <Eigen/Dense>
+#include <complex>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "frichb/core/model/reduced_structure.hpp"
+#include "frichb/core/plugin_host/periodic_trace.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/solver/continuation.hpp"
+
+namespace frichb::core {
+
+struct ContactModel {
+  std::string name;
+  std::unique_ptr<ContactLawInstance> law;
+  std::unique_ptr<PeriodicTracer> tracer;
+  int offset = 0;  // first row of this contact's components in the stacked components
+};
+
+struct EvaluationStats {
+  long residual_evaluations = 0;
+  long jacobian_evaluations = 0;
+  long contacts_with_fd_jacobian = 0;  // contact traces that fell back to finite differences
+  long non_periodic_traces = 0;
+  std::string last_trace_diagnostic;
+  // Wall time spent in evaluate(), by part (seconds, summed over calls): the contact traces
+  // (AFT, with the contacts' Jacobian blocks when asked), the receptances at the contacts with
+  // the residual's receptance products, and the assembly of I + Rc dF/dU.
+  double contact_seconds = 0.0;
+  double receptance_seconds = 0.0;
+  double assembly_seconds = 0.0;
+};
+
+class HarmonicBalanceModel final : public CurveProblem {
+ public:
+  // Builds the reduced model of a bound scene (plugins loaded, params validated).
+  HarmonicBalanceModel(const Scene& scene, StructureInstance& structure);
+  ~HarmonicBalanceModel() override;
+
+  Eigen::Index equation_count() const override { return unknown_count_; }
+  bool evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
+                std::string* message) const override;
+
+  const HarmonicLayout& layout() const { return layout_; }
+  const std::vector<ContactModel>& contacts() const { return contacts_; }
+  const ReducedStructure& structure() const { return *structure_; }
+  int component_count() const { return components_; }
+  // Contact-free response of the contact unknowns at w (rad/s): U0.
+  Eigen::VectorXd linear_response(double w) const;
+  // Complex amplitude X_n (kept DOFs) of each kept harmonic for the solution y.
+  std::vector<Eigen::VectorXcd> kept_response(const Eigen::VectorXd& y) const;
+  // Index of a structure DOF among the kept DOFs.
+  Eigen::Index kept_index(std::size_t dof) const;
+  // Traces contact c at the solution y (for friction loops).
+  bool trace_contact(std::size_t c, const Eigen::VectorXd& y, ContactTrace& out,
+                     std::string* error) const;
+  const EvaluationStats& stats() const { return stats_; }
+  // u_n = G_n x_n of kept harmonic k (components x kept DOFs; real without cyclic symmetry).
+  const Eigen::MatrixXcd& gather(std::size_t k) const { return gather_[k]; }
+  // Complex amplitude of the external force of kept harmonic k at the kept DOFs.
+  const Eigen::VectorXcd& excitation(std::size_t k) const { return excitation_[k]; }
+  JacobianMode jacobian_mode() const { return mode_; }
+  // Threads that trace the contacts in an evaluation with the Jacobian (default 1; n <= 0:
+  // one per core). Contiguous ranges of contacts go to each; at most one thread per contact.
+  // Residual-only evaluations trace on the calling thread (too little work per contact).
+  void set_contact_threads(int n);
+
+ private:
+  // Traces every contact at y: their force coefficients into `forces`; with_jacobian: each
+  // contact's block dF/dU into traces_[i].jacobian.
+  void gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces, bool with_jacobian,
+                     std::string* message, bool& ok) const;
+
+  struct ContactReceptance;
+  struct Workspace;
+  // Rc_n = P diag(1/z) P^H from ws.inv_z into rc (components x components).
+  void form_modal_receptance(const ContactReceptance& cr, Workspace& ws,
+                             Eigen::Ref<Eigen::MatrixXcd> rc) const;
+
+  HarmonicLayout layout_;
+  HarmonicLayout trace_layout_;  // the contacts' tracing grid (oversampled layout_)
+  JacobianMode mode_;
+  std::unique_ptr<ReducedStructure> structure_;
+  std::vector<std::size_t> kept_dofs_;
+  std::vector<ContactModel> contacts_;
+  // Per kept harmonic: u_n = G_n x_n (components x kept DOFs), with the cyclic phase factors of
+  // sides in neighbouring sectors; real and equal for all n without them.
+  std::vector<Eigen::MatrixXcd> gather_;
+  std::vector<int> harmonic_index_;  // per kept harmonic
+  // Per kept harmonic, the receptance seen by the contacts, precomputed where the modal
+  // damping is diagonal: G R(W) G^H = P diag(1 / z(W)) P^H + G F G^H with P = G Phi (contact
+  // components x modes), and the contact-free response G R(W) f = P (q / z(W)) + G F f with
+  // q = Phi^H f. An evaluation then costs components^2 x modes per harmonic, with no product
+  // over the kept DOFs.
+  struct ContactReceptance {
+    bool modal = false;          // false: non-diagonal modal damping, R(W) is formed and gathered
+    Eigen::MatrixXcd projected;  // P = G Phi
+    Eigen::MatrixXd projected_real;  // P when it is real (no cyclic phase, real modes), else empty
+    Eigen::VectorXcd modal_force;    // q = Phi^H f
+    Eigen::MatrixXcd flexibility;    // G F G^H, or empty
+    Eigen::VectorXcd flexible_motion;  // G F f, or empty
+  };
+  std::vector<ContactReceptance> contact_receptance_;
+  std::vector<Eigen::VectorXcd> excitation_;  // per kept harmonic, over kept DOFs
+  int components_ = 0;
+  int contact_threads_ = 1;
+  Eigen::Index unknown_count_ = 0;
+  mutable EvaluationStats stats_;
+  mutable std::vector<ContactTrace> traces_;
+  // Work buffers of evaluate(), kept between calls so that the hot loop does not allocate.
+  struct Workspace {
+    Eigen::VectorXd forces;
+    Eigen::MatrixXcd contact_receptance, receptance, receptance_derivative, product;
+    Eigen::MatrixXcd force_block, scaled;
+    Eigen::MatrixXd scaled_real, stacked_real;
+    Eigen::VectorXcd inv_z, dinv_z, force, motion, motion_derivative, modal;
+  };
+  mutable Workspace work_;
+};
+
+}  // namespace frichb::core

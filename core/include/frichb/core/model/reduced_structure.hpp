@@ -1,0 +1,51 @@
+// ReducedStructure: receptances R_h(W) = Phi (diag(w_r^2) - W^2 I + i W C)^-1 Phi^H
+// (+ residual flexibility) and dR/dW at the DOFs a scene keeps, for each harmonic index the
+// scene needs, from a structure provider's modal basis (fetched once, at construction).
+// Units: W in rad/s, R in m/N. Layout: R(i, j) = response at kept DOF i per unit force at
+// kept DOF j, in the order of `kept_dofs`. Thread-safe after construction (const methods).
+#pragma once
+
+#include <Eigen/Dense>
+#include <complex>
+#include <map>
+#include <vector>
+
+#include "frichb/core/plugin_host/registry.hpp"
+
+namespace frichb::core {
+
+class ReducedStructure {
+ public:
+  ReducedStructure(StructureInstance& provider, std::vector<std::size_t> kept_dofs,
+                   const std::vector<int>& harmonic_indices);
+
+  const std::vector<std::size_t>& kept_dofs() const { return kept_dofs_; }
+  std::size_t mode_count(int harmonic_index) const;
+  // Natural frequencies (rad/s) of harmonic index h, ascending.
+  const Eigen::VectorXd& natural_frequencies(int harmonic_index) const;
+
+  // Writes R (kept x kept) at circular frequency W and, when requested, dR/dW.
+  void receptance(int harmonic_index, double circular_frequency, Eigen::MatrixXcd& receptance,
+                  Eigen::MatrixXcd* derivative = nullptr) const;
+  // The response R(W) f to the force amplitudes f (kept DOFs, N) without forming R:
+  // Phi (Z^-1 (Phi^H f)) + F f, modes x kept operations instead of kept^2 x modes.
+  Eigen::VectorXcd respond(int harmonic_index, double circular_frequency,
+                           const Eigen::VectorXcd& force) const;
+
+ public:
+  // The modal basis of a harmonic index at the kept DOFs (as the provider gave it).
+  struct Basis {
+    Eigen::VectorXd frequencies;
+    Eigen::MatrixXd damping;  // modal, n_modes x n_modes
+    bool diagonal_damping = true;
+    Eigen::MatrixXcd rows;                  // kept x n_modes
+    Eigen::MatrixXcd residual_flexibility;  // kept x kept (Hermitian), or empty
+  };
+  const Basis& basis(int harmonic_index) const;
+
+ private:
+  std::vector<std::size_t> kept_dofs_;
+  std::map<int, Basis> bases_;
+};
+
+}  // namespace frichb::core

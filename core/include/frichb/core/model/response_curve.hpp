@@ -1,0 +1,121 @@
+// The forced-response curve of a harmonic-balance model, in stages a program calls in turn
+// (frichb run does; so can a study, a Python binding or a program of its own):
+//   find_start_point  - the solution at the sweep's start frequency
+//   trace_response    - the curve over the sweep (trace_curve; a linear scene is sampled)
+//   tabulate_response - amplitudes of the response nodes per point, their refined peaks, the
+//                       turning points and the harmonic-truncation check
+//   solve_friction_loops - the contacts' periodic traces at requested frequencies
+// Units: frequencies in rad/s unless a field says the scene's unit; displacements in m.
+// Failure: the trace's end is a result (ContinuationSummary::termination); the other stages
+// report what they could not do by leaving it out (and logging a warning), never by throwing,
+// except std::bad_alloc. Threading: each call reads the model (whose evaluations are not
+// thread-safe); one model per thread.
+#pragma once
+
+#include <spdlog/spdlog.h>
+
+#include <Eigen/Dense>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/solver/continuation.hpp"
+
+namespace frichb::core {
+
+// The solution at options.lambda_start (y: unknowns, lambda last): Newton from the contact-free
+// response, and when it cannot get from there (a contact far stiffer than the structure, stuck at
+// a tiny fraction of the free motion), from rest, then from the free response scaled by 1e-3 and
+// 1e-6. When none converges, the contact-free response itself (trace_curve then reports the
+// start's failure). How the start was found is logged at `log_level`.
+Eigen::VectorXd find_start_point(const HarmonicBalanceModel& model,
+                                 const ContinuationOptions& options,
+                                 spdlog::level::level_enum log_level = spdlog::level::info);
+
+// The response curve from `start` over the sweep of `options`. A model without contact unknowns
+// is linear: its curve is sampled at continuation.step.max of the scene, shortened near each
+// resonance as the step bands say (there is nothing to continue). `on_point` as trace_curve's.
+ContinuationSummary trace_response(const Scene& scene, const HarmonicBalanceModel& model,
+                                   const ContinuationOptions& options, const Eigen::VectorXd& start,
+                                   const PointCallback& on_point = {});
+
+// A response node (output.response of the scene) and the kept indices of its DOFs.
+struct ResponseNode {
+  std::string name;
+  std::vector<Eigen::Index> kept;
+};
+
+// The peak amplitude of one response node. The highest point of the traced curve is refined
+// by a golden-section search over the frequency between its two neighbours (each probe a
+// fixed-frequency Newton solve), unless the curve turns there or a probe fails.
+struct NodePeak {
+  std::string node;
+  double amplitude_m = 0.0;
+  double omega_rad_s = 0.0;
+  bool refined = false;
+};
+
+// Turning points of the traced curve (sign changes of the tangent's frequency component) in
+// the scene's unit, and the micro-folds among them: turning points within kMicroFoldWidth of
+// the sweep span of the next one along the curve. A penalty contact's sampled force is
+// piecewise smooth (a sample entering contact bends the residual), and near a fold of a
+// lightly damped resonance these bends fold the curve back and forth over a fraction of a
+// hertz; the clusters narrow as samples_per_period grows.
+inline constexpr double kMicroFoldWidth = 1e-3;
+struct TurningPoints {
+  std::vector<double> frequencies;
+  int micro_folds = 0;         // turning points that belong to a cluster
+  double cluster_width = 0.0;  // the clustering distance, in the scene's unit
+  double first_cluster = 0.0;  // where the first cluster is
+};
+
+// Share of a contact force's energy (over the kept harmonics from 1 up) above which its
+// highest kept harmonic is warned about: the force's spectrum is cut where it still matters.
+inline constexpr double kHighestHarmonicShare = 0.02;
+// At the curve's highest point (of the first response node), the largest share of any contact
+// force component's energy that its highest kept harmonic carries. Absent without contacts,
+// points, or with fewer than two harmonics.
+struct HarmonicTruncation {
+  double frequency = 0.0;  // scene's unit
+  int highest_harmonic = 0;
+  double largest_energy_share = 0.0;
+  std::string contact;  // "<name> (<axis>)" of the largest share, empty when none traced
+};
+
+// What is read off the traced curve: one row per point (point, frequency_hz, omega_rad_s, per
+// node its amplitude and its amplitude per kept harmonic, newton_iterations, step, condition -
+// the columns of response.csv, named by `header`), the peaks (one per node; nullopt for a node
+// of a curve without points), the turning points and the harmonic truncation.
+struct ResponseTable {
+  std::vector<ResponseNode> nodes;
+  std::vector<std::string> header;
+  std::vector<std::vector<double>> rows;
+  std::vector<std::optional<NodePeak>> peaks;
+  TurningPoints turning_points;
+  std::optional<HarmonicTruncation> truncation;
+};
+
+ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& model,
+                                const ContinuationOptions& options,
+                                const ContinuationSummary& summary);
+
+// A contact's periodic trace at a requested frequency where the curve crosses it, solved
+// exactly there (a fixed-frequency Newton solve from the curve's chord).
+struct FrictionLoop {
+  std::size_t contact = 0;  // index in model.contacts()
+  double frequency = 0.0;   // as requested, in the scene's unit
+  int crossing = 0;         // 1, 2, ...: which crossing of the curve (a folded curve has several)
+  ContactTrace trace;
+};
+
+// Every crossing of each output.friction_loops_at frequency by the curve, for every contact, in
+// that order. A crossing whose Newton solve fails, a contact whose trace fails, and a frequency
+// the curve does not reach are logged as warnings and left out.
+std::vector<FrictionLoop> solve_friction_loops(const Scene& scene,
+                                               const HarmonicBalanceModel& model,
+                                               const ContinuationOptions& options,
+                                               const ContinuationSummary& summary);
+
+}  // namespace frichb::core

@@ -1,0 +1,88 @@
+// Tracing one contact law over one period of a multiharmonic relative motion (the "time"
+// half of AFT), with the quasi-analytical Jacobian propagated through time in the same pass.
+//
+// Input: the harmonic coefficients of the used local relative-displacement components,
+// laid out component-major: U[a * C + c] (a over the law's used components in the order
+// t1, t2, n; c over the layout's coefficients). Output: the force coefficients in the same
+// layout and, on request, dF/dU ((d*C) x (d*C), column-major Eigen matrix).
+//
+// Periodicity: the period is traced repeatedly from the law's initial state until the state
+// at the start of a pass repeats at its end (relative tolerance) and, when the Jacobian is
+// requested, until the derivative of the state carried through the same passes repeats too:
+// the Jacobian is the exact derivative of the computed periodic forces, warm-up included.
+// A contact that never slips keeps its initial state, so its mean tangential force is kt
+// times the mean relative displacement (docs/theory.md, "full stick convention").
+//
+// The force entering the equations is the law's force minus its force at u = 0 in the
+// initial state (the preload balanced by the static equilibrium the unknowns are measured
+// from); `force` in ContactTrace is the law's raw force.
+#pragma once
+
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+#include "frichb/core/numerics/harmonics.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+
+namespace frichb::core {
+
+enum class JacobianMode { kNone, kAnalytic, kFiniteDifference };
+
+struct TraceOptions {
+  int max_passes = 200;               // bound on passes for the state, then for its derivative
+  double relative_tolerance = 1e-11;  // on the state (and derivative) change over one pass
+};
+
+struct ContactTrace {
+  Eigen::MatrixXd displacement;        // N x d, local relative displacement samples (m)
+  Eigen::MatrixXd force;               // N x d, raw law force samples (N)
+  Eigen::MatrixXd state;               // N x S, the law's state after each sample (last pass)
+  Eigen::VectorXd force_coefficients;  // d*C, of (force - reference force)
+  Eigen::MatrixXd jacobian;            // d*C x d*C when requested
+  int passes = 0;                      // passes until the state (and its derivative) repeated
+  int derivative_passes = 0;           // of those, passes that carried the derivative
+  bool periodic = true;                // false: max_passes reached (the diagnostic says so)
+  bool used_finite_differences = false;
+  std::string diagnostic;
+};
+
+// The energy dissipated per cycle by a traced contact: the closed integral of f . du over its
+// samples (trapezoidal, over every axis the law uses), in J.
+double dissipated_energy(const ContactTrace& trace);
+
+class PeriodicTracer {
+ public:
+  PeriodicTracer(const ContactLawInstance& law, const HarmonicLayout& layout,
+                 TraceOptions options = {});
+
+  // Used local components (subset of {0: t1, 1: t2, 2: n}), ascending.
+  const std::vector<int>& components() const { return components_; }
+  int dimension() const { return static_cast<int>(components_.size()); }
+  int unknown_count() const { return dimension() * layout_.coefficient_count(); }
+  const HarmonicLayout& layout() const { return layout_; }
+  const Eigen::Vector3d& reference_force() const { return reference_force_; }
+
+  // Returns false with `error` when the law fails. kAnalytic on a law without tangents falls
+  // back to finite differences (out.used_finite_differences).
+  bool trace(const Eigen::VectorXd& u_coefficients, JacobianMode mode, ContactTrace& out,
+             std::string* error);
+
+ private:
+  bool run_passes(ContactTrace& out, bool with_derivative, std::string* error);
+  bool run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
+                  Eigen::MatrixXd& force, Eigen::MatrixXd& states,
+                  std::vector<Eigen::MatrixXd>* dforce, std::string* error) const;
+  void transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce);
+
+  const ContactLawInstance& law_;
+  HarmonicLayout layout_;
+  TraceOptions options_;
+  Aft aft_;
+  std::vector<int> components_;
+  int state_size_;
+  Eigen::MatrixXd basis_;  // N x C
+  Eigen::Vector3d reference_force_ = Eigen::Vector3d::Zero();
+};
+
+}  // namespace frichb::core

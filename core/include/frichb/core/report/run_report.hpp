@@ -1,0 +1,55 @@
+// The report of a response-curve run: response.csv, the friction loops (loops/*.csv, their
+// force harmonics, plots), response.png and summary.json, from the stages' results
+// (model/response_curve.hpp). One place decides what each file holds, for frichb run and for
+// every verb that runs scenes (study members, convergence runs) through it.
+//
+// Units: summary.json and the CSV columns say theirs (frequency in the scene's unit where a key
+// has no suffix; _hz, _rad_s, _m, _N, _J otherwise). Failure: writes throw OutputError
+// (report/output.hpp); nothing else is thrown. Threading: reads its inputs; one report per
+// output folder.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "frichb/core/model/continuation_setup.hpp"
+#include "frichb/core/model/response_curve.hpp"
+#include "frichb/core/report/output.hpp"
+
+namespace frichb::core {
+
+// A Newton matrix whose condition estimate exceeds this has lost 10 of 16 digits: warned.
+inline constexpr double kIllConditioned = 1e10;
+
+// Everything a run's report reads. References: the caller keeps them alive during the calls.
+struct RunRecord {
+  const Scene& scene;
+  const HarmonicBalanceModel& model;
+  const ContinuationSetup& setup;
+  const ContinuationSummary& summary;
+  const ResponseTable& table;
+  const std::vector<FrictionLoop>& loops;
+};
+
+// What a user can change when the curve ends early, by reason ("" when it reached the end).
+std::string suggestion(const ContinuationSummary& summary, const Scene& scene);
+
+// Writes response.csv, every friction loop (loops/<contact>_<frequency><unit>_<crossing>.csv
+// and _harmonics.csv) and, when `plots`, their gnuplot scripts and PNGs and response.png into
+// `out`. Returns the friction_loops entries of summary.json (file names relative to the
+// output folder, energy per cycle, force harmonic amplitudes).
+nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool plots);
+
+// Logs the warnings a run's results call for: micro-folds, an ill-conditioned Newton matrix,
+// contact traces that did not become periodic, contact traces by finite differences.
+void warn_about_results(const RunRecord& run);
+
+// The summary.json document of a run: termination and suggestion, curve statistics, the
+// profile, resonance bands, peaks, scaling, plugins, the validated scene, `friction_loops`
+// (from write_curve_files), `timing` (wall_time_s), and `study_context` under "study" when
+// not null. Command-line overrides are recorded with their types.
+nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_loops,
+                           const nlohmann::json& timing, const nlohmann::json& study_context);
+
+}  // namespace frichb::core

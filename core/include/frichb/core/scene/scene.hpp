@@ -1,0 +1,198 @@
+// Scenes: the YAML a user writes (docs/scene-reference.md), parsed and validated.
+//
+// load_scene() checks the scene's own structure against the core's section schemas (every
+// key known, every value typed and in range) and returns a Scene whose plugin `params` are
+// still raw YAML. bind_plugins() then loads only the plugins the scene names and validates
+// their params against each plugin's schema. Both steps run before any computation; every
+// failure is a SceneError (file:line:column: key.path: message) or PluginError.
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/plugin_host/schema.hpp"
+
+namespace frichb::core {
+
+enum class FrequencyUnit { kHz, kRadPerSecond };
+
+// A named group of structure DOFs (a scalar DOF, or a node's 2-3 translation DOFs).
+struct NodeSpec {
+  std::string name;
+  std::vector<std::size_t> dofs;
+  // Where the name was defined, for error messages: the file (the scene, or the DOF map file
+  // `structure.dofs` points to) and the YAML value of its indices there.
+  std::string defined_in;
+  YAML::Node definition;
+};
+
+struct ExcitationSpec {
+  std::string node;
+  std::vector<double> direction;  // unit vector over the node's components
+  double amplitude = 0.0;         // N
+  int harmonic = 1;               // temporal harmonic number
+  double phase = 0.0;             // rad; force = amplitude cos(n w t + phase)
+};
+
+struct ContactSpec {
+  std::string name;
+  std::string law;
+  std::string side_a, side_b;      // node names, or "ground"
+  int sector_a = 0, sector_b = 0;  // sector offsets from the reference sector (cyclic scenes)
+  // Unit frame vectors over the sides' node components; empty when not given.
+  std::vector<double> tangent1, tangent2, normal;
+  YAML::Node params;
+  ParamValues values;  // set by bind_plugins()
+  std::shared_ptr<const LoadedPlugin> plugin;
+};
+
+struct StructureSpec {
+  std::string provider;
+  YAML::Node params;
+  std::vector<NodeSpec> nodes;  // in scene order
+  ParamValues values;           // set by bind_plugins()
+  std::shared_ptr<const LoadedPlugin> plugin;
+  const NodeSpec* find(const std::string& name) const;
+};
+
+struct HarmonicBalanceSpec {
+  std::vector<int> harmonics;
+  int samples_per_period = 128;
+  bool analytic_jacobian = true;
+  int max_trace_passes = 200;
+  int trace_oversampling = 1;  // contacts traced on trace_oversampling * samples_per_period
+};
+
+struct ContinuationSpec {
+  FrequencyUnit unit = FrequencyUnit::kHz;
+  double from = 0, to = 0;                                  // in `unit`
+  double initial_step = 1, min_step = 1e-4, max_step = 10;  // arclength, in `unit`
+  int target_newton_iterations = 4;
+  int max_newton_iterations = 25;
+  int max_points = 2000;
+  double tolerance = 1e-9;
+  bool turning_point_control = true;
+  double steep_branch_alpha = 30;
+  double max_wall_seconds = 600;
+  double displacement_scale = 0;        // m; 0: automatic
+  int reuse_factorisation_from = 1000;  // unknowns; chord corrector from there on, 0: never
+  // Factor from `unit` to rad/s.
+  double to_rad_per_s() const;
+};
+
+// A tuned cyclic disk: nb sectors under engine order m (sectors = 1: no cyclic symmetry).
+struct CyclicSpec {
+  int sectors = 1;
+  int engine_order = 0;
+  bool enabled() const { return sectors > 1; }
+  // Harmonic index h = mod(n m, nb) of temporal harmonic n (0 without cyclic symmetry).
+  int harmonic_index(int n) const { return enabled() ? (n * engine_order) % sectors : 0; }
+  // Nodal diameter excited by harmonic index h: h for h <= nb/2 (backward travelling wave),
+  // nb - h above (forward travelling wave); h = 0 and h = nb/2 are standing (thesis §2.2).
+  int nodal_diameter(int h) const { return 2 * h <= sectors ? h : sectors - h; }
+  // '-' backward, '+' forward, ' ' standing (the thesis's Table 5.1 notation).
+  char wave_direction(int h) const {
+    if (h == 0 || 2 * h == sectors) return ' ';
+    return 2 * h < sectors ? '-' : '+';
+  }
+};
+
+struct OutputSpec {
+  std::vector<std::string> response;      // node names
+  std::vector<double> friction_loops_at;  // in the continuation unit
+  bool plots = true;
+};
+
+struct Scene {
+  std::filesystem::path file;
+  std::string name, description;
+  std::vector<std::filesystem::path> plugin_paths;  // resolved against the scene's folder
+  StructureSpec structure;
+  std::vector<ExcitationSpec> excitation;
+  std::vector<ContactSpec> contacts;
+  HarmonicBalanceSpec harmonic_balance;
+  CyclicSpec cyclic;
+  ContinuationSpec continuation;
+  OutputSpec output;
+  YAML::Node root;
+  nlohmann::json core_values;  // every core key with its default filled in
+};
+
+// Parses and validates the scene's own structure. Throws SceneError.
+Scene load_scene(const std::filesystem::path& file);
+// The same on a document already parsed from `file` (marks give lines and columns in it).
+// The scene keeps a handle to `document`: give each Scene its own document.
+Scene load_scene(const YAML::Node& document, const std::filesystem::path& file);
+// Parses `file` as YAML. Throws SceneError (missing file, a folder, malformed YAML).
+YAML::Node load_scene_yaml(const std::filesystem::path& file);
+
+// Scene-key paths, as study sweeps and `--set` address numeric scalars: map keys joined by
+// '.', a contact (any list entry with a `name:`) by its name, a list entry by its index as a
+// key or in brackets: `contacts.shroud.params.mu`, `excitation.0.amplitude`,
+// `harmonic_balance.max_harmonic`, `a.b[2]`. The last key of a map may be absent (a default
+// the scene did not write). Implemented in scene_path.cpp.
+//
+// Sets the scalar at `path` in `document` to `value` (an integral value is written as an
+// integer, any other with 17 significant digits). Throws std::invalid_argument naming the
+// part of the path that does not resolve, or saying that it addresses a map or a list.
+void set_scene_value(YAML::Node document, const std::string& path, double value);
+// The same checks without writing (`document` is left untouched).
+void check_scene_path(const YAML::Node& document, const std::string& path);
+// A value as set_scene_value writes it.
+std::string format_scene_value(double x);
+
+// Command-line overrides of scene keys (`frichb run SCENE --set PATH=VALUE`): a scene-key
+// path (above) and a value in YAML's flow syntax, typed by the schema of the key it sets like a
+// value written in the file: a number, a boolean, a word, or a list (`[330, 400]`). A scalar
+// value sets a scalar (or a key the scene did not write); a list value also replaces a list.
+// Set once by the program before any scene is read (not thread-safe against concurrent
+// loads); every scene document read by load_scene_document() then has them applied, so
+// that a study's runs and a convergence study's settings carry them too.
+struct SceneOverride {
+  std::string path;
+  std::string value;  // YAML flow text
+};
+// Reads `PATH=VALUE`. Throws std::invalid_argument saying what is wrong with it (no '=', an
+// empty side, a malformed path, a value that is not YAML, a map, or a number out of range).
+SceneOverride parse_scene_override(const std::string& text);
+// The value as JSON (numbers, booleans, text and lists), as summary.json records it.
+nlohmann::json scene_override_json(const SceneOverride& o);
+// Applies one override to `document`. Throws std::invalid_argument as set_scene_value.
+void set_scene_override(YAML::Node document, const SceneOverride& o);
+void set_scene_overrides(std::vector<SceneOverride> overrides);
+const std::vector<SceneOverride>& scene_overrides();
+// load_scene_yaml with the overrides applied. Throws SceneError naming the file and the
+// override (`--set PATH`) whose path does not resolve.
+YAML::Node load_scene_document(const std::filesystem::path& file);
+
+// Loads the plugins the scene names (and only those) and validates their params.
+// Throws SceneError (bad params, with file:line:column) or PluginError (unknown plugin...).
+void bind_plugins(Scene& scene, const Registry& registry);
+
+// load_scene + bind_plugins on the default plugin search path (and the scene's plugin_paths),
+// for the verbs of the command line: any input error is logged (file:line:column where known)
+// and false returned, for the caller to exit with kExitInvalidInput. `registry` keeps the
+// loaded plugins alive.
+bool load_bound_scene(const std::filesystem::path& file, Scene& scene,
+                      std::unique_ptr<Registry>& registry);
+
+// The validated scene, defaults filled in, for summary.json.
+nlohmann::json scene_to_json(const Scene& scene);
+
+// The core's section schemas, for the generated scene reference.
+struct CoreSection {
+  std::string path;  // e.g. "continuation.frequency"
+  std::vector<frichb_param_spec> schema;
+  std::string note;  // keys validated by hand, in prose
+};
+std::vector<CoreSection> core_schemas();
+
+}  // namespace frichb::core

@@ -1,0 +1,307 @@
+#include "frichb/core/commands/convergence.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <numbers>
+#include <set>
+#include <sstream>
+
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/commands/timesim.hpp"
+#include "frichb/core/report/output.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/support/interrupt.hpp"
+#include "frichb/core/support/version.hpp"
+
+namespace frichb::core {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Setting {
+  int max_harmonic = 0, samples = 0, oversampling = 1;
+  std::vector<int> harmonics;
+  std::string id;
+};
+
+struct Row {
+  Setting setting;
+  RunOutcome outcome;
+  long unknowns = 0;
+  double amplitude = NAN, frequency = NAN;  // peak of the study node, m and Hz
+};
+
+// The kept harmonics for a largest harmonic H, following the scene's pattern: odd only when
+// the scene keeps only odd ones; from 0 when the scene keeps 0; otherwise from 1.
+std::vector<int> harmonics_like(const std::vector<int>& scene, int max_harmonic) {
+  const bool odd_only = std::all_of(scene.begin(), scene.end(), [](int n) { return n % 2 == 1; });
+  const bool with_zero = std::find(scene.begin(), scene.end(), 0) != scene.end();
+  std::vector<int> kept;
+  for (int n = with_zero ? 0 : 1; n <= max_harmonic; ++n)
+    if (!odd_only || n % 2 == 1) kept.push_back(n);
+  return kept;
+}
+
+std::string number(double x, int precision = 6) {
+  std::ostringstream os;
+  os << std::setprecision(precision) << x;
+  return os.str();
+}
+
+std::string cell(double x) {
+  return std::isfinite(x) ? number(x, 12) : std::string();
+}
+
+double relative_error(double value, double reference) {
+  if (!std::isfinite(value) || !std::isfinite(reference) || reference == 0) return NAN;
+  return std::abs(value - reference) / std::abs(reference);
+}
+
+}  // namespace
+
+int run_convergence(const ConvergenceRequest& request) {
+  Scene base;
+  std::unique_ptr<Registry> registry;
+  if (!load_bound_scene(request.scene_file, base, registry)) return kExitInvalidInput;
+  if (request.harmonics.empty() || request.samples.empty() || request.oversampling.empty()) {
+    spdlog::error("convergence: give at least one harmonic count, sample count and oversampling");
+    return kExitInvalidInput;
+  }
+  if (base.output.response.empty()) {
+    spdlog::error("{}: convergence needs a response node (output.response)",
+                  request.scene_file.string());
+    return kExitInvalidInput;
+  }
+  const std::string node = base.output.response.front();
+  std::set<int> excited;
+  for (const auto& e : base.excitation) excited.insert(e.harmonic);
+
+  // Settings, coarse to fine; the last is the reference.
+  std::vector<Setting> settings;
+  const int h_max = *std::max_element(request.harmonics.begin(), request.harmonics.end());
+  const int n_max = *std::max_element(request.samples.begin(), request.samples.end());
+  const int o_max = *std::max_element(request.oversampling.begin(), request.oversampling.end());
+  for (int o : std::set<int>(request.oversampling.begin(), request.oversampling.end()))
+    for (int h : std::set<int>(request.harmonics.begin(), request.harmonics.end()))
+      for (int n : std::set<int>(request.samples.begin(), request.samples.end())) {
+        if (h < 1 || n < 2 * static_cast<long long>(h) + 1 || o < 1 || o > 64) continue;
+        Setting s{h, n, o, harmonics_like(base.harmonic_balance.harmonics, h), ""};
+        if (!std::all_of(excited.begin(), excited.end(), [&](int e) {
+              return std::find(s.harmonics.begin(), s.harmonics.end(), e) != s.harmonics.end();
+            }))
+          continue;
+        s.id = "H" + std::to_string(h) + "_N" + std::to_string(n) + "_o" + std::to_string(o);
+        settings.push_back(std::move(s));
+      }
+  auto is_reference = [&](const Setting& s) {
+    return s.max_harmonic == h_max && s.samples == n_max && s.oversampling == o_max;
+  };
+  std::stable_partition(settings.begin(), settings.end(),
+                        [&](const Setting& s) { return !is_reference(s); });
+  if (settings.empty() || !is_reference(settings.back())) {
+    spdlog::error(
+        "convergence: the finest setting (H = {}, N = {}, oversampling {}) is not valid: N must "
+        "be >= 2H + 1 and every excited harmonic kept",
+        h_max, n_max, o_max);
+    return kExitInvalidInput;
+  }
+
+  fs::path out_dir = request.output_directory;
+  if (out_dir.empty()) out_dir = fs::path("out") / (base.file.stem().string() + "-convergence");
+  try {
+    StagedOutput out(out_dir, {"convergence.csv", "convergence.json", "convergence.md",
+                               "convergence.gp", "convergence.png", "runs"});
+    spdlog::info("convergence of {}: {} settings, reference H = {}, N = {}, oversampling {} -> {}",
+                 base.file.string(), settings.size(), h_max, n_max, o_max, out_dir.string());
+
+    // Each setting: the scene re-read, its harmonic-balance keys replaced, run serially.
+    std::vector<Row> rows;
+    int incomplete = 0;
+    for (std::size_t i = 0; i < settings.size(); ++i) {
+      if (interrupted()) {
+        spdlog::error("{}: interrupted by signal {} after {} of {} settings; no output written",
+                      base.file.string(), interrupt_signal(), i, settings.size());
+        return interrupted_exit_code();
+      }
+      const Setting& s = settings[i];
+      Row row{s, {}, 0, NAN, NAN};
+      try {
+        YAML::Node document = load_scene_document(base.file);
+        YAML::Node hb = document["harmonic_balance"];
+        hb.remove("max_harmonic");
+        hb["harmonics"] = s.harmonics;
+        hb["samples_per_period"] = s.samples;
+        hb["trace_oversampling"] = s.oversampling;
+        Scene scene = load_scene(document, base.file);
+        bind_plugins(scene, *registry);
+        RunOptions options;
+        options.quiet = true;
+        options.plots = 0;
+        options.study_context = {{"convergence_setting", s.id}};
+        row.outcome = run_bound_scene(scene, out.path("runs") / s.id, options);
+      } catch (const std::exception& e) {  // this setting only (e.g. a key out of range)
+        row.outcome.exit_code = kExitInvalidInput;
+        row.outcome.termination = "invalid_input";
+        row.outcome.message = e.what();
+        spdlog::warn("{}: {}", s.id, e.what());
+      }
+      for (const auto& p : row.outcome.peaks)
+        if (p.node == node) {
+          row.amplitude = p.amplitude_m;
+          row.frequency = p.omega_rad_s / (2 * std::numbers::pi);
+        }
+      if (row.outcome.wrote_output) {
+        std::ifstream in(out.path("runs") / s.id / "summary.json");
+        row.unknowns = nlohmann::json::parse(in).value("unknowns", 0L);
+      }
+      if (row.outcome.exit_code != kExitOk) ++incomplete;
+      spdlog::info("[{}/{}] {}: {} unknowns, peak {} m at {} Hz, {:.3f} s ({})", i + 1,
+                   settings.size(), s.id, row.unknowns, number(row.amplitude),
+                   number(row.frequency, 8), row.outcome.wall_seconds, row.outcome.termination);
+      rows.push_back(std::move(row));
+    }
+    const Row& reference = rows.back();
+    if (reference.outcome.exit_code != kExitOk)
+      spdlog::warn(
+          "the reference setting {} did not reach the end of its sweep ({}): its peak, and so "
+          "every error, is only as good as the part of the curve it traced",
+          reference.setting.id, reference.outcome.termination);
+
+    // Time-integration reference at the finest setting's peak frequency.
+    nlohmann::json timesim = nullptr;
+    double timesim_amplitude = NAN;
+    if (request.time_integration && !base.cyclic.enabled() && std::isfinite(reference.frequency)) {
+      try {
+        TimesimOptions options;
+        options.frequency_hz = reference.frequency;
+        options.steps_per_period = request.timesim_steps_per_period;
+        const TimesimResult result = simulate_in_time(base, options);
+        for (const auto& n : result.nodes)
+          if (n.node == node) timesim_amplitude = n.amplitude_m;
+        timesim = {{"frequency_hz", reference.frequency},
+                   {"amplitude_m", timesim_amplitude},
+                   {"periodic", result.periodic},
+                   {"periods", result.periods},
+                   {"steps_per_period", options.steps_per_period},
+                   {"wall_s", result.wall_seconds}};
+        if (!result.periodic) timesim_amplitude = NAN;
+        spdlog::info("time integration at {} Hz: amplitude {} m ({} periods, {:.1f} s)",
+                     number(reference.frequency, 8), number(timesim_amplitude), result.periods,
+                     result.wall_seconds);
+      } catch (const std::exception& e) {
+        spdlog::warn("time-integration reference skipped: {}", e.what());
+      }
+    }
+
+    std::ostringstream csv, md;
+    csv << "setting,max_harmonic,samples_per_period,trace_oversampling,unknowns,termination,"
+           "peak_amplitude_m,peak_frequency_hz,amplitude_error,frequency_error,"
+           "amplitude_error_vs_timesim,wall_s\n";
+    md << "| H | N | oversampling | unknowns | peak amplitude [m] | peak frequency [Hz] | "
+          "amplitude error | frequency error | error vs time integration | wall time [s] | "
+          "termination |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    nlohmann::json table = nlohmann::json::array();
+    for (const Row& r : rows) {
+      const bool ref = &r == &reference;
+      const double ea = ref ? 0.0 : relative_error(r.amplitude, reference.amplitude);
+      const double ef = ref ? 0.0 : relative_error(r.frequency, reference.frequency);
+      const double et = relative_error(r.amplitude, timesim_amplitude);
+      csv << r.setting.id << "," << r.setting.max_harmonic << "," << r.setting.samples << ","
+          << r.setting.oversampling << "," << r.unknowns << "," << r.outcome.termination << ","
+          << cell(r.amplitude) << "," << cell(r.frequency) << "," << cell(ea) << "," << cell(ef)
+          << "," << cell(et) << "," << cell(r.outcome.wall_seconds) << "\n";
+      auto sci = [](double x) { return std::isfinite(x) ? number(x, 3) : std::string("-"); };
+      md << "| " << r.setting.max_harmonic << " | " << r.setting.samples << " | "
+         << r.setting.oversampling << " | " << r.unknowns << " | " << number(r.amplitude, 6)
+         << " | " << number(r.frequency, 7) << " | " << (ref ? "reference" : sci(ea)) << " | "
+         << (ref ? "reference" : sci(ef)) << " | " << sci(et) << " | "
+         << number(r.outcome.wall_seconds, 3) << " | " << r.outcome.termination << " |\n";
+      nlohmann::json j = {{"setting", r.setting.id},
+                          {"harmonics", r.setting.harmonics},
+                          {"samples_per_period", r.setting.samples},
+                          {"trace_oversampling", r.setting.oversampling},
+                          {"unknowns", r.unknowns},
+                          {"termination", r.outcome.termination},
+                          {"message", r.outcome.message},
+                          {"wall_s", r.outcome.wall_seconds}};
+      if (std::isfinite(r.amplitude)) {
+        j["peak_amplitude_m"] = r.amplitude;
+        j["peak_frequency_hz"] = r.frequency;
+      }
+      if (std::isfinite(ea)) j["amplitude_error"] = ea;
+      if (std::isfinite(ef)) j["frequency_error"] = ef;
+      if (std::isfinite(et)) j["amplitude_error_vs_timesim"] = et;
+      table.push_back(j);
+    }
+    write_text(out.path("convergence.csv"), csv.str());
+    write_text(out.path("convergence.md"), md.str());
+    write_json(out.path("convergence.json"),
+               {{"frichb_version", version()},
+                {"scene", {{"file", base.file.string()}, {"name", base.name}}},
+                {"node", node},
+                {"reference", reference.setting.id},
+                {"time_integration", timesim},
+                {"settings", table},
+                {"incomplete_settings", incomplete},
+                {"note",
+                 "errors are relative to the reference setting (the finest), and to the "
+                 "time-integration amplitude at the reference's peak frequency; wall times "
+                 "are of serial runs on this machine"}});
+    if (base.output.plots) {
+      // Error against wall time, log-log; one series per oversampling factor.
+      std::ostringstream gp;
+      gp << "# gnuplot script written by frichb convergence; `gnuplot convergence.gp`\n"
+         << "set terminal pngcairo size 1200,520 noenhanced\nset output 'convergence.png'\n"
+         << "set datafile separator ','\nset logscale xy\nset grid\nset key bottom left\n"
+         << "set xlabel 'wall time of the run [s]'\nset multiplot layout 1,2 title "
+         << gnuplot_string((base.name.empty() ? base.file.stem().string() : base.name) +
+                           ": error against run time (reference " + reference.setting.id + ")")
+         << "\n";
+      const char* columns[] = {"amplitude_error", "frequency_error"};
+      const char* titles[] = {"peak amplitude error (relative)", "peak frequency error (relative)"};
+      for (int k = 0; k < 2; ++k) {
+        gp << "set ylabel '" << titles[k] << "'\nplot ";
+        bool first = true;
+        for (int o : std::set<int>(request.oversampling.begin(), request.oversampling.end())) {
+          gp << (first ? "" : ", \\\n     ") << "'convergence.csv' using (column(4) == " << o
+             << " && column('" << columns[k] << "') > 0 ? column('wall_s') : 1/0):(column('"
+             << columns[k] << "')) with points pt 7 ps 1.2 title 'oversampling " << o << "'";
+          first = false;
+        }
+        if (k == 0 && std::isfinite(timesim_amplitude))
+          gp << ", \\\n     'convergence.csv' using (column('wall_s')):(column("
+                "'amplitude_error_vs_timesim') > 0 ? column('amplitude_error_vs_timesim') : "
+                "1/0) with points pt 6 ps 1.2 title 'vs time integration'";
+        gp << "\n";
+      }
+      gp << "unset multiplot\n";
+      write_text(out.path("convergence.gp"), gp.str());
+      run_gnuplot(out.path("convergence.gp"));
+    }
+    if (interrupted()) {  // a signal while gnuplot ran: nothing is committed
+      spdlog::error("interrupted by signal {}; no output written", interrupt_signal());
+      return interrupted_exit_code();
+    }
+    out.commit();
+    spdlog::info("wrote {} ({} settings, {} ended early)", out_dir.string(), rows.size(),
+                 incomplete);
+    return incomplete ? kExitIncomplete : kExitOk;
+  } catch (const SceneError& e) {
+    spdlog::error("{}", e.what());
+    return kExitInvalidInput;
+  } catch (const OutputError& e) {
+    spdlog::error("{}: writing the outputs: {}", request.scene_file.string(), e.what());
+    return e.user_error() ? kExitInvalidInput : kExitOutput;
+  } catch (const std::exception& e) {
+    spdlog::error("{}: {}", request.scene_file.string(), e.what());
+    return kExitInternal;
+  }
+}
+
+}  // namespace frichb::core

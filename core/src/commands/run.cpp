@@ -1,0 +1,283 @@
+// One run of a scene: its stages composed (run.hpp).
+#include "frichb/core/commands/run.hpp"
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <optional>
+#include <sstream>
+
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/report/output.hpp"
+#include "frichb/core/report/run_report.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/support/interrupt.hpp"
+
+namespace frichb::core {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::string unit_name(FrequencyUnit u) {
+  return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
+}
+
+std::string format_number(double x, int precision = 6) {
+  std::ostringstream os;
+  os.precision(precision);
+  os << x;
+  return os.str();
+}
+
+// Total physical memory of the machine in bytes, or 0 when unknown.
+double physical_memory_bytes() {
+  const long pages = sysconf(_SC_PHYS_PAGES);
+  const long page = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
+}
+
+// Bytes the continuation holds per Newton matrix entry: the Jacobian, its LU factors and the
+// bordered Keller matrix, (n + 1)^2 doubles each.
+constexpr double kNewtonMatrixBytesPerEntry = 3.0 * sizeof(double);
+
+// Progress of the trace in the log: every 5 % of the sweep, and the start point.
+class TraceProgress {
+ public:
+  TraceProgress(const Scene& scene, Eigen::Index n, spdlog::level::level_enum level)
+      : scene_(scene), n_(n), level_(level) {}
+  bool operator()(const ContinuationPoint& p, std::size_t index) {
+    if (interrupted()) return false;
+    const auto& C = scene_.continuation;
+    const double f = p.y(n_) / C.to_rad_per_s();
+    const double done = std::clamp((f - C.from) / (C.to - C.from), 0.0, 1.0);
+    if (done - last_report_ >= 0.05 || index == 0) {
+      last_report_ = done;
+      spdlog::log(level_, "  [{:3.0f}%] point {:5d}  {:.6g} {}  Newton {}  step {:.3g}", 100 * done,
+                  index, f, unit_name(C.unit), p.newton_iterations, p.step);
+    }
+    return true;
+  }
+
+ private:
+  const Scene& scene_;
+  Eigen::Index n_;
+  spdlog::level::level_enum level_;
+  double last_report_ = -1.0;
+};
+
+}  // namespace
+
+PreparedRun prepare_run(const Scene& scene, int contact_threads) {
+  PreparedRun start;
+  const YamlContext ctx{scene.file.string()};
+  YAML::Node root = scene.root;  // non-const: a missing key then gives an undefined node
+  {
+    // The time-frequency tables of the AFT hold samples x coefficients doubles: checked before
+    // they are allocated.
+    const auto& hb = scene.harmonic_balance;
+    const double samples = static_cast<double>(hb.samples_per_period) * hb.trace_oversampling;
+    const double coefficients = 2.0 * static_cast<double>(hb.harmonics.size());
+    const double needed = samples * coefficients * sizeof(double);
+    const double available = physical_memory_bytes();
+    if (available > 0 && needed > 0.5 * available)
+      ctx.fail(root["harmonic_balance"] ? root["harmonic_balance"] : root, "harmonic_balance",
+               "the model does not fit in this machine's memory: " +
+                   std::to_string(hb.harmonics.size()) + " harmonics at " +
+                   format_number(samples, 8) + " samples per period need " +
+                   format_number(needed / (1 << 30), 3) +
+                   " GiB of time-frequency tables; keep fewer harmonics, samples_per_period or "
+                   "contacts");
+  }
+  try {
+    start.structure =
+        std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
+    start.model = std::make_unique<HarmonicBalanceModel>(scene, *start.structure);
+    start.model->set_contact_threads(contact_threads);
+  } catch (const PluginError& e) {
+    fail_plugin_refusal(ctx, root["structure"], "structure.params",
+                        scene.structure.plugin->schema(), e.what());
+  } catch (const std::bad_alloc&) {
+    ctx.fail(root["harmonic_balance"] ? root["harmonic_balance"] : root, "harmonic_balance",
+             "the model does not fit in this machine's memory (an allocation failed while "
+             "building it): keep fewer harmonics, samples_per_period or contacts");
+  }
+  auto& model = start.model;
+  const Eigen::Index n = model->equation_count();
+  {
+    const double needed =
+        kNewtonMatrixBytesPerEntry * static_cast<double>(n + 1) * static_cast<double>(n + 1);
+    const double available = physical_memory_bytes();
+    if (available > 0 && needed > 0.8 * available)
+      ctx.fail(root["contacts"] ? root["contacts"] : root, "contacts",
+               "the scene has " + std::to_string(n) + " unknowns: its Newton matrices need " +
+                   format_number(needed / (1 << 30), 3) +
+                   " GiB, more than 80 % of this "
+                   "machine's " +
+                   format_number(available / (1 << 30), 3) +
+                   " GiB; keep fewer harmonics or contacts");
+  }
+
+  // A static harmonic needs a grounded structure: a rigid-body mode has no static receptance.
+  const auto& kept = model->layout().harmonics();
+  if (std::find(kept.begin(), kept.end(), 0) != kept.end()) {
+    const Eigen::VectorXd& w0 = model->structure().natural_frequencies(0);
+    if (w0.size() && w0.minCoeff() <= 1e-8 * std::max(1.0, w0.maxCoeff()))
+      ctx.fail(root["structure"], "structure",
+               "the structure has a rigid-body mode (natural frequency " +
+                   format_number(w0.minCoeff() / (2 * std::numbers::pi)) +
+                   " Hz) and harmonic 0 is kept: its static response is unbounded; ground the "
+                   "structure or drop harmonic 0");
+  }
+
+  start.setup = derive_continuation(scene, *model);
+  return start;
+}
+
+void check_run_start(const Scene& scene) {
+  prepare_run(scene, 1);
+}
+
+int run_scene(const RunRequest& request) {
+  Scene scene;
+  std::unique_ptr<Registry> registry;
+  if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
+  if (request.validate_only) {
+    // Everything `run` checks before its first Newton iteration.
+    try {
+      check_run_start(scene);
+    } catch (const SceneError& e) {
+      spdlog::error("{}", e.what());
+      return kExitInvalidInput;
+    } catch (const std::exception& e) {
+      spdlog::error("{}: {}", scene.file.string(), e.what());
+      return kExitInternal;
+    }
+    std::string contacts;
+    for (const auto& c : scene.contacts)
+      contacts += (contacts.empty() ? "" : ", ") + c.name + " (" + c.plugin->name() + " " +
+                  c.plugin->descriptor().version + ")";
+    spdlog::info("{}: valid; structure '{}' {}; contacts: {}", request.scene_file.string(),
+                 scene.structure.plugin->name(), scene.structure.plugin->descriptor().version,
+                 contacts.empty() ? "none" : contacts);
+    // Loading a plugin runs its code: the files the run loads, each once.
+    std::vector<std::string> files = {scene.structure.plugin->file().string()};
+    for (const auto& c : scene.contacts)
+      if (std::find(files.begin(), files.end(), c.plugin->file().string()) == files.end())
+        files.push_back(c.plugin->file().string());
+    for (const auto& f : files) spdlog::info("  loads {}", f);
+    return kExitOk;
+  }
+  if (scene.root["study"])
+    spdlog::info(
+        "{} has a study: section; `frichb run` traces the scene as written, "
+        "`frichb study` runs the sweep",
+        request.scene_file.string());
+  fs::path out_dir = request.output_directory;
+  if (out_dir.empty()) out_dir = fs::path("out") / scene.file.stem();
+  return run_bound_scene(scene, out_dir).exit_code;
+}
+
+RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
+                           const RunOptions& run_options) {
+  const auto t_start = Clock::now();
+  const auto routine = run_options.quiet ? spdlog::level::debug : spdlog::level::info;
+  RunOutcome outcome;
+  auto fail = [&](int code, const char* termination, const std::string& message) {
+    outcome.exit_code = code;
+    outcome.termination = termination;
+    outcome.message = message;
+    outcome.wall_seconds = seconds_since(t_start);
+    spdlog::error("{}", message);
+    return outcome;
+  };
+  auto interrupted_while = [&](const std::string& when) {
+    return fail(interrupted_exit_code(), "interrupted",
+                scene.file.string() + ": interrupted by signal " +
+                    std::to_string(interrupt_signal()) + " " + when + "; no output written");
+  };
+  nlohmann::json timing;
+  try {
+    // The output folder is taken first: a path that cannot hold the results, or a folder
+    // another run is writing, stops the run before any work.
+    std::optional<StagedOutput> out;
+    try {
+      out.emplace(out_dir, std::vector<std::string>{"response.csv", "response.gp", "response.png",
+                                                    "summary.json", "loops"});
+    } catch (const OutputError& e) {
+      return fail(e.user_error() ? kExitInvalidInput : kExitOutput, "output_error", e.what());
+    }
+    PreparedRun prepared;
+    try {
+      prepared = prepare_run(scene, run_options.contact_threads);
+    } catch (const SceneError& e) {
+      return fail(kExitInvalidInput, "invalid_input", e.what());
+    }
+    timing["setup_s"] = seconds_since(t_start);
+    const HarmonicBalanceModel& model = *prepared.model;
+    const ContinuationOptions& options = prepared.setup.options;
+    const auto& C = scene.continuation;
+    const Eigen::Index n = model.equation_count();
+    spdlog::log(routine,
+                "scene '{}': {} contact(s), {} unknowns ({} harmonics, {} samples), {} {} -> {} {}",
+                scene.name.empty() ? scene.file.stem().string() : scene.name,
+                model.contacts().size(), n, model.layout().harmonics().size(),
+                model.layout().samples(), C.from, unit_name(C.unit), C.to, unit_name(C.unit));
+
+    const Eigen::VectorXd y0 = find_start_point(model, options, routine);
+    const auto t_cont = Clock::now();
+    const ContinuationSummary summary =
+        trace_response(scene, model, options, y0, TraceProgress(scene, n, routine));
+    timing["continuation_s"] = seconds_since(t_cont);
+    if (interrupted())
+      return interrupted_while("at point " + std::to_string(summary.points.size()));
+    if (summary.reached_end())
+      spdlog::log(routine,
+                  "reached {} {} with {} points ({} rejected steps, {} turning points) in {:.3f} s",
+                  C.to, unit_name(C.unit), summary.points.size(), summary.rejected_steps,
+                  summary.turning_points, summary.wall_seconds);
+    else
+      spdlog::error("{}: the response curve ended early: {} ({}); {}", scene.file.string(),
+                    to_string(summary.termination), summary.message, suggestion(summary, scene));
+
+    const auto t_post = Clock::now();
+    const ResponseTable table = tabulate_response(scene, model, options, summary);
+    for (const auto& peak : table.peaks)
+      if (peak) outcome.peaks.push_back(*peak);
+    const std::vector<FrictionLoop> loops = solve_friction_loops(scene, model, options, summary);
+    const RunRecord record{scene, model, prepared.setup, summary, table, loops};
+    const bool plots = run_options.plots < 0 ? scene.output.plots : run_options.plots != 0;
+    const nlohmann::json loop_entries = write_curve_files(*out, record, plots);
+    timing["post_and_output_s"] = seconds_since(t_post);
+    timing["total_s"] = seconds_since(t_start);
+    warn_about_results(record);
+    const nlohmann::json doc = run_summary(record, loop_entries, timing, run_options.study_context);
+    if (interrupted()) return interrupted_while("while writing");
+    write_json(out->path("summary.json"), doc);
+    out->commit();
+    outcome.wrote_output = true;
+    outcome.exit_code = summary.reached_end() ? kExitOk : kExitIncomplete;
+    outcome.termination = to_string(summary.termination);
+    outcome.message = summary.message;
+    outcome.points = summary.points.size();
+    outcome.wall_seconds = seconds_since(t_start);
+    spdlog::log(routine, "wrote {} ({} points; total {:.3f} s)", out_dir.string(),
+                table.rows.size(), outcome.wall_seconds);
+    return outcome;
+  } catch (const OutputError& e) {
+    return fail(e.user_error() ? kExitInvalidInput : kExitOutput, "output_error",
+                scene.file.string() + ": writing the outputs: " + e.what());
+  } catch (const std::exception& e) {
+    return fail(kExitInternal, "internal_error", scene.file.string() + ": " + e.what());
+  }
+}
+
+}  // namespace frichb::core

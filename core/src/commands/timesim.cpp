@@ -1,0 +1,219 @@
+#include "frichb/core/commands/timesim.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/report/output.hpp"
+#include "frichb/core/support/exit_codes.hpp"
+#include "frichb/core/support/version.hpp"
+
+namespace frichb::core {
+
+namespace fs = std::filesystem;
+
+TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options) {
+  const auto started = std::chrono::steady_clock::now();
+  const std::string file = scene.file.string();
+  if (scene.cyclic.enabled())
+    throw SceneError(file, 0, 0, "cyclic",
+                     "timesim integrates one structure in time; a cyclic scene is not supported");
+  if (!(std::isfinite(options.frequency_hz) && options.frequency_hz > 0))
+    throw std::invalid_argument("timesim: frequency_hz must be finite and > 0, not " +
+                                std::to_string(options.frequency_hz));
+  if (options.steps_per_period < 1 || options.max_periods < 1)
+    throw std::invalid_argument("timesim: steps_per_period and max_periods must be >= 1");
+  if (!scene.structure.plugin)
+    throw std::invalid_argument("timesim: the scene's plugins are not bound (bind_plugins)");
+  for (const auto& c : scene.contacts)
+    if (!c.plugin)
+      throw std::invalid_argument("timesim: the scene's plugins are not bound (bind_plugins)");
+
+  StructureInstance structure(scene.structure.plugin, scene.structure.values);
+  const HarmonicBalanceModel model(scene, structure);
+  const auto& basis = model.structure().basis(0);
+  if (basis.rows.imag().cwiseAbs().maxCoeff() > 0)
+    throw std::runtime_error("the provider's modes are complex: not a plain structure");
+  const Eigen::MatrixXd phi = basis.rows.real();  // kept x modes
+  const Eigen::MatrixXd& damping = basis.damping;
+  const Eigen::VectorXd stiffness = basis.frequencies.array().square();
+  const Eigen::MatrixXd gather = model.gather(0).real();  // components x kept
+  const auto& harmonics = model.layout().harmonics();
+  const double w = 2 * std::numbers::pi * options.frequency_hz;
+  const int n_steps = options.steps_per_period;
+  const double dt = 2 * std::numbers::pi / w / n_steps;
+
+  // Contact states, one law step per time step.
+  struct Contact {
+    const ContactLawInstance* law;
+    std::vector<int> components;
+    Eigen::Vector3d reference;
+    int offset;
+    Eigen::VectorXd state, next;
+    Eigen::Vector3d u_prev = Eigen::Vector3d::Zero();
+  };
+  std::vector<Contact> contacts;
+  for (const auto& c : model.contacts()) {
+    Contact k{c.law.get(), c.tracer->components(), c.tracer->reference_force(), c.offset, {}, {}};
+    k.state.resize(c.law->traits().state_size);
+    k.next.resize(k.state.size());
+    c.law->initial_state(k.state.data());
+    contacts.push_back(std::move(k));
+  }
+  const Eigen::Index n_comp = gather.rows();
+  auto contact_forces = [&](const Eigen::VectorXd& x, Eigen::VectorXd& f) {
+    const Eigen::VectorXd u = gather * x;
+    f.setZero(n_comp);
+    std::string error;
+    for (auto& c : contacts) {
+      Eigen::Vector3d now = Eigen::Vector3d::Zero(), force;
+      for (std::size_t a = 0; a < c.components.size(); ++a)
+        now(c.components[a]) = u(c.offset + static_cast<Eigen::Index>(a));
+      if (!c.law->step(c.state.data(), c.u_prev.data(), now.data(), force.data(), c.next.data(),
+                       nullptr, &error))
+        throw std::runtime_error(error);
+      c.state.swap(c.next);
+      c.u_prev = now;
+      for (std::size_t a = 0; a < c.components.size(); ++a)
+        f(c.offset + static_cast<Eigen::Index>(a)) =
+            force(c.components[a]) - c.reference(c.components[a]);
+    }
+  };
+  auto external = [&](double t) {
+    Eigen::VectorXd f = Eigen::VectorXd::Zero(phi.rows());
+    for (std::size_t k = 0; k < harmonics.size(); ++k)
+      f += (model.excitation(k) * std::polar(1.0, harmonics[k] * w * t)).real();
+    return f;
+  };
+  const Eigen::Index m = phi.cols();
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(m), qd = q, fc;
+  double t = 0;
+  contact_forces(phi * q, fc);
+  auto acceleration = [&](const Eigen::VectorXd& qq, const Eigen::VectorXd& vv, double time) {
+    return Eigen::VectorXd(phi.transpose() * (external(time) - gather.transpose() * fc) -
+                           damping * vv - stiffness.cwiseProduct(qq));
+  };
+  Eigen::VectorXd a = acceleration(q, qd, t);
+  Eigen::MatrixXd period(n_steps, phi.rows()), last(n_steps, phi.rows());
+  TimesimResult result;
+  int settled = 0;
+  while (result.periods < options.max_periods && !result.periodic) {
+    for (int s = 0; s < n_steps; ++s) {
+      q += dt * qd + 0.5 * dt * dt * a;
+      t += dt;
+      contact_forces(phi * q, fc);
+      const Eigen::VectorXd a_next = acceleration(q, qd + dt * a, t);
+      qd += 0.5 * dt * (a + a_next);
+      a = a_next;
+      period.row(s) = (phi * q).transpose();
+    }
+    ++result.periods;
+    if (!period.allFinite()) throw std::runtime_error("the integration diverged (NaN or Inf)");
+    const double change = (period - last).cwiseAbs().maxCoeff();
+    const double scale = std::max(period.cwiseAbs().maxCoeff(), 1e-300);
+    settled = change <= 1e-8 * scale ? settled + 1 : 0;
+    result.periodic = settled >= 3;
+    last = period;
+  }
+
+  // Post-processing of the last period at the response nodes.
+  result.harmonics = harmonics;
+  result.time_s.resize(static_cast<std::size_t>(n_steps));
+  for (int s = 0; s < n_steps; ++s) result.time_s[static_cast<std::size_t>(s)] = (s + 1) * dt;
+  for (const auto& name : scene.output.response) {
+    const auto* node = scene.structure.find(name);
+    if (!node)
+      throw SceneError(file, 0, 0, "output.response",
+                       "'" + name + "' is not a key of structure.dofs");
+    TimesimNodeResult r;
+    r.node = name;
+    Eigen::VectorXd norm2 = Eigen::VectorXd::Zero(n_steps);
+    r.harmonic_amplitudes_m.assign(harmonics.size(), 0.0);
+    for (std::size_t d = 0; d < node->dofs.size(); ++d) {
+      const Eigen::Index col = model.kept_index(node->dofs[d]);
+      const auto x = period.col(col);
+      r.samples_m.emplace_back(x.begin(), x.end());
+      norm2 += x.cwiseAbs2();
+      r.half_peak_to_peak_m = std::max(r.half_peak_to_peak_m, 0.5 * (x.maxCoeff() - x.minCoeff()));
+      for (std::size_t k = 0; k < harmonics.size(); ++k) {
+        std::complex<double> sum = 0;
+        for (int s = 0; s < n_steps; ++s)
+          sum += x(s) * std::polar(1.0, -2 * std::numbers::pi * harmonics[k] * (s + 1) / n_steps);
+        const double amp = std::abs(sum) / n_steps * (harmonics[k] == 0 ? 1.0 : 2.0);
+        r.harmonic_amplitudes_m[k] = std::hypot(r.harmonic_amplitudes_m[k], amp);
+      }
+    }
+    r.amplitude_m = std::sqrt(norm2.maxCoeff());
+    result.nodes.push_back(std::move(r));
+  }
+  result.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return result;
+}
+
+int run_timesim(const TimesimRequest& request) {
+  const std::string file = request.scene_file.string();
+  Scene scene;
+  std::unique_ptr<Registry> registry;
+  if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
+  try {
+    TimesimOptions options;
+    options.frequency_hz = request.frequency_hz;
+    options.steps_per_period = request.steps_per_period;
+    options.max_periods = request.max_periods;
+    const TimesimResult result = simulate_in_time(scene, options);
+
+    fs::path out_dir = request.output_directory;
+    if (out_dir.empty())
+      out_dir = fs::path("out") / (request.scene_file.stem().string() + "-timesim");
+    StagedOutput out(out_dir, {"timesim.csv", "summary.json"});
+    std::vector<std::string> header = {"time_s"};
+    nlohmann::json nodes = nlohmann::json::object();
+    for (const auto& r : result.nodes) {
+      const std::size_t n_dofs = r.samples_m.size();
+      for (std::size_t d = 0; d < n_dofs; ++d)
+        header.push_back(r.node + (n_dofs > 1 ? "_" + std::to_string(d) : "") + "_m");
+      nlohmann::json h = nlohmann::json::object();
+      for (std::size_t k = 0; k < result.harmonics.size(); ++k)
+        h[std::to_string(result.harmonics[k])] = r.harmonic_amplitudes_m[k];
+      nodes[r.node] = {{"amplitude_m", r.amplitude_m},
+                       {"half_peak_to_peak_m", r.half_peak_to_peak_m},
+                       {"harmonic_amplitudes_m", h}};
+    }
+    std::vector<std::vector<double>> rows;
+    for (std::size_t s = 0; s < result.time_s.size(); ++s) {
+      std::vector<double> row = {result.time_s[s]};
+      for (const auto& r : result.nodes)
+        for (const auto& x : r.samples_m) row.push_back(x[s]);
+      rows.push_back(std::move(row));
+    }
+    write_csv(out.path("timesim.csv"), header, rows);
+    write_json(out.path("summary.json"), {{"frichb_version", version()},
+                                          {"scene", file},
+                                          {"frequency_hz", request.frequency_hz},
+                                          {"steps_per_period", request.steps_per_period},
+                                          {"periods", result.periods},
+                                          {"periodic", result.periodic},
+                                          {"response", nodes}});
+    out.commit();
+    spdlog::info("{}: {} periods at {} Hz ({}), wrote {}", file, result.periods,
+                 request.frequency_hz, result.periodic ? "periodic" : "NOT periodic yet",
+                 out_dir.string());
+    return result.periodic ? kExitOk : kExitIncomplete;
+  } catch (const SceneError& e) {
+    spdlog::error("{}", e.what());
+    return kExitInvalidInput;
+  } catch (const OutputError& e) {
+    spdlog::error("{}: writing the outputs: {}", file, e.what());
+    return e.user_error() ? kExitInvalidInput : kExitOutput;
+  } catch (const std::exception& e) {
+    spdlog::error("{}: {}", file, e.what());
+    return kExitInternal;
+  }
+}
+
+}  // namespace frichb::core

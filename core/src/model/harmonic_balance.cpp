@@ -1,0 +1,494 @@
+#include "frichb/core/model/harmonic_balance.hpp"
+
+#include "frichb/core/numerics/dense_products.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <numbers>
+#include <stdexcept>
+#include <thread>
+
+namespace frichb::core {
+
+namespace {
+
+std::vector<std::size_t> collect_kept_dofs(const Scene& scene) {
+  std::vector<std::size_t> kept;
+  auto add_node = [&](const std::string& name) {
+    if (name == "ground") return;
+    for (std::size_t d : scene.structure.find(name)->dofs)
+      if (std::find(kept.begin(), kept.end(), d) == kept.end()) kept.push_back(d);
+  };
+  for (const auto& c : scene.contacts) {
+    add_node(c.side_a);
+    add_node(c.side_b);
+  }
+  for (const auto& e : scene.excitation) add_node(e.node);
+  for (const auto& r : scene.output.response) add_node(r);
+  return kept;
+}
+
+}  // namespace
+
+HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance& structure)
+    : layout_(scene.harmonic_balance.harmonics, scene.harmonic_balance.samples_per_period),
+      trace_layout_(
+          scene.harmonic_balance.harmonics,
+          scene.harmonic_balance.samples_per_period * scene.harmonic_balance.trace_oversampling),
+      mode_(scene.harmonic_balance.analytic_jacobian ? JacobianMode::kAnalytic
+                                                     : JacobianMode::kFiniteDifference) {
+  kept_dofs_ = collect_kept_dofs(scene);
+  const std::size_t n_dofs = structure.dof_count();
+  YAML::Node root = scene.root;  // non-const: a missing key then gives an undefined node
+  const YamlContext ctx{scene.file.string()};
+  for (const auto& node : scene.structure.nodes)
+    for (std::size_t d : node.dofs)
+      if (d >= n_dofs)
+        YamlContext{node.defined_in.empty() ? scene.file.string() : node.defined_in}.fail(
+            node.definition, "structure.dofs." + node.name,
+            "DOF " + std::to_string(d) + " does not exist: provider '" + scene.structure.provider +
+                "' has " + std::to_string(n_dofs) + " DOFs (0.." + std::to_string(n_dofs - 1) +
+                ")");
+  // Harmonic index of each kept temporal harmonic; only the indices they excite are built.
+  const int sectors = static_cast<int>(structure.sector_count());
+  if (sectors != scene.cyclic.sectors) {
+    const std::string why =
+        scene.cyclic.enabled()
+            ? "the scene has cyclic.sectors = " + std::to_string(scene.cyclic.sectors) +
+                  " but provider '" + scene.structure.provider + "' models " +
+                  (sectors > 1 ? std::to_string(sectors) + " sectors" : "no cyclic symmetry")
+            : "provider '" + scene.structure.provider + "' models one sector of " +
+                  std::to_string(sectors) + ": add `cyclic: {sectors: " + std::to_string(sectors) +
+                  ", engine_order: m}`";
+    ctx.fail(scene.cyclic.enabled() ? root["cyclic"] : root["structure"], "cyclic", why);
+  }
+  std::vector<int> indices;
+  for (int n : layout_.harmonics()) {
+    harmonic_index_.push_back(scene.cyclic.harmonic_index(n));
+    if (std::find(indices.begin(), indices.end(), harmonic_index_.back()) == indices.end())
+      indices.push_back(harmonic_index_.back());
+  }
+  structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, indices);
+  const auto kept = static_cast<Eigen::Index>(kept_dofs_.size());
+  // Gather weights of the sides in the reference sector (offset 0) and in its neighbours
+  // (offsets -1, +1), combined per harmonic with the cyclic phase factors below.
+  std::vector<Eigen::MatrixXd> by_offset;
+
+  TraceOptions trace_options;
+  trace_options.max_passes = scene.harmonic_balance.max_trace_passes;
+  for (const auto& spec : scene.contacts) {
+    ContactModel c;
+    c.name = spec.name;
+    try {
+      c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
+    } catch (const PluginError& e) {
+      const std::size_t index = static_cast<std::size_t>(&spec - scene.contacts.data());
+      fail_plugin_refusal(ctx, root["contacts"][index],
+                          "contacts[" + std::to_string(index) + "].params", spec.plugin->schema(),
+                          e.what());
+    }
+    c.tracer = std::make_unique<PeriodicTracer>(*c.law, trace_layout_, trace_options);
+    const auto& comps = c.tracer->components();
+    const auto d = static_cast<Eigen::Index>(comps.size());
+    std::vector<Eigen::MatrixXd> weights(3, Eigen::MatrixXd::Zero(d, kept));
+    for (std::size_t a = 0; a < comps.size(); ++a) {
+      const std::vector<double>& dir =
+          comps[a] == 0 ? spec.tangent1 : (comps[a] == 1 ? spec.tangent2 : spec.normal);
+      if (dir.empty()) {
+        static const char* names[] = {"tangent1", "tangent2", "normal"};
+        const std::size_t index = static_cast<std::size_t>(&spec - scene.contacts.data());
+        ctx.fail(root["contacts"][index], "contacts[" + std::to_string(index) + "].frame",
+                 "law '" + spec.law + "' with these params uses the " + names[comps[a]] +
+                     " direction: give frame." + names[comps[a]]);
+      }
+      auto add_side = [&](const std::string& side, int sector, double sign) {
+        if (side == "ground") return;
+        const auto& dofs = scene.structure.find(side)->dofs;
+        const int slot = sector + 1;  // offsets -1, 0, +1 -> slots 0, 1, 2
+        auto& w = weights[static_cast<std::size_t>(slot)];
+        for (std::size_t k = 0; k < dofs.size(); ++k)
+          w(static_cast<Eigen::Index>(a), kept_index(dofs[k])) += sign * dir[k];
+      };
+      add_side(spec.side_a, spec.sector_a, -1.0);
+      add_side(spec.side_b, spec.sector_b, +1.0);
+    }
+    c.offset = components_;
+    components_ += static_cast<int>(comps.size());
+    by_offset.resize(3);
+    for (std::size_t o = 0; o < 3; ++o) {
+      Eigen::MatrixXd grown(by_offset[o].rows() + d, kept);
+      grown << by_offset[o], weights[o];
+      by_offset[o] = grown;
+    }
+    contacts_.push_back(std::move(c));
+  }
+  // Sector s + o moves like the reference sector delayed by o Delta t: harmonic n of its
+  // displacement is the reference's times e^{-i n m phi o} (thesis eqs. 2.7, 2.16-2.17). The
+  // force on a neighbour's node reaches the reference sector through the conjugate factor,
+  // hence G^H for forces (Newton's third law with cyclic symmetry, thesis eq. 2.13).
+  const double phi = scene.cyclic.enabled() ? 2.0 * std::numbers::pi / scene.cyclic.sectors : 0.0;
+  for (int n : layout_.harmonics()) {
+    Eigen::MatrixXcd g = Eigen::MatrixXcd::Zero(components_, kept);
+    for (int slot = 0; slot < 3 && components_ > 0; ++slot) {
+      const int offset = slot - 1;
+      g += std::polar(1.0, -n * scene.cyclic.engine_order * phi * offset) *
+           by_offset[static_cast<std::size_t>(slot)].cast<std::complex<double>>();
+    }
+    gather_.push_back(std::move(g));
+  }
+  unknown_count_ = static_cast<Eigen::Index>(components_) * layout_.coefficient_count();
+  // evaluate() writes each row of the Jacobian through the cos and sin indices of the kept
+  // harmonics: they must cover every coefficient exactly once.
+  {
+    std::vector<int> seen(static_cast<std::size_t>(layout_.coefficient_count()), 0);
+    for (std::size_t k = 0; k < layout_.harmonics().size(); ++k) {
+      ++seen[static_cast<std::size_t>(layout_.cos_index(k))];
+      if (layout_.harmonics()[k] > 0) ++seen[static_cast<std::size_t>(layout_.sin_index(k))];
+    }
+    if (std::any_of(seen.begin(), seen.end(), [](int v) { return v != 1; }))
+      throw std::logic_error("HarmonicLayout: cos/sin indices do not cover the coefficients");
+  }
+  traces_.resize(contacts_.size());
+
+  const auto& h = layout_.harmonics();
+  excitation_.assign(h.size(), Eigen::VectorXcd::Zero(kept));
+  for (const auto& e : scene.excitation) {
+    const auto k = static_cast<std::size_t>(std::find(h.begin(), h.end(), e.harmonic) - h.begin());
+    const auto& dofs = scene.structure.find(e.node)->dofs;
+    // amplitude cos(n w t + phase) = Re(amplitude e^{i phase} e^{i n w t})
+    // A static force (n = 0) has no phase but its sign: amplitude cos(phase).
+    const std::complex<double> a = e.harmonic == 0
+                                       ? std::complex<double>(e.amplitude * std::cos(e.phase))
+                                       : std::polar(e.amplitude, e.phase);
+    for (std::size_t d = 0; d < dofs.size(); ++d)
+      excitation_[k](kept_index(dofs[d])) += a * e.direction[d];
+  }
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
+    ContactReceptance cr;
+    cr.modal = b.diagonal_damping;
+    if (cr.modal) {
+      cr.projected = gather_[k] * b.rows;
+      // Without cyclic phase factors and with real modes P is real: Rc_n is then formed by
+      // one real product of twice the rows instead of a complex one (half the flops).
+      if (cr.projected.size() == 0 || cr.projected.imag().cwiseAbs().maxCoeff() == 0.0)
+        cr.projected_real = cr.projected.real();
+      cr.modal_force = b.rows.adjoint() * excitation_[k];
+      if (b.residual_flexibility.size()) {
+        cr.flexibility = gather_[k] * b.residual_flexibility * gather_[k].adjoint();
+        cr.flexible_motion = gather_[k] * (b.residual_flexibility * excitation_[k]);
+      }
+    }
+    contact_receptance_.push_back(std::move(cr));
+  }
+}
+
+HarmonicBalanceModel::~HarmonicBalanceModel() = default;
+
+Eigen::Index HarmonicBalanceModel::kept_index(std::size_t dof) const {
+  auto it = std::find(kept_dofs_.begin(), kept_dofs_.end(), dof);
+  return it == kept_dofs_.end() ? -1 : static_cast<Eigen::Index>(it - kept_dofs_.begin());
+}
+
+void HarmonicBalanceModel::set_contact_threads(int n) {
+  contact_threads_ =
+      n > 0 ? n : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces,
+                                         bool with_jacobian, std::string* message, bool& ok) const {
+  const int c = layout_.coefficient_count();
+  const std::size_t count = contacts_.size();
+  forces.setZero(unknown_count_);
+  ok = true;
+  // Each contact is traced into its own traces_[i], with its own tracer and law instance;
+  // failures and statistics are gathered afterwards, in contact order, on this thread.
+  std::vector<char> traced(count, 0);
+  std::vector<std::string> errors(count);
+  const auto trace_range = [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto& contact = contacts_[i];
+      const Eigen::Index first = static_cast<Eigen::Index>(contact.offset) * c;
+      const Eigen::VectorXd u = y.segment(first, contact.tracer->unknown_count());
+      traced[i] = contact.tracer->trace(u, with_jacobian ? mode_ : JacobianMode::kNone, traces_[i],
+                                        &errors[i]);
+      if (!traced[i]) return;  // this range stops at its first failure
+    }
+  };
+  // Only traces with the Jacobian are worth threads (0.1 to 1 ms per contact, against tens of
+  // microseconds for the forces alone, less than starting a thread).
+  const std::size_t threads =
+      with_jacobian
+          ? std::min<std::size_t>(static_cast<std::size_t>(std::max(1, contact_threads_)), count)
+          : 1;
+  if (threads <= 1) {
+    trace_range(0, count);
+  } else {
+    std::vector<std::exception_ptr> failures(threads);
+    {
+      // Declared before the pool, so that it outlives the threads the pool joins on leaving.
+      const auto range = [&](std::size_t t) { return t * count / threads; };
+      std::vector<std::jthread> pool;
+      for (std::size_t t = 1; t < threads; ++t)
+        pool.emplace_back([&, t] {
+          try {
+            trace_range(range(t), range(t + 1));
+          } catch (...) {
+            failures[t] = std::current_exception();
+          }
+        });
+      try {
+        trace_range(0, range(1));
+      } catch (...) {
+        failures[0] = std::current_exception();
+      }
+    }  // joined
+    for (const auto& failure : failures)
+      if (failure) std::rethrow_exception(failure);
+  }
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto& contact = contacts_[i];
+    if (!traced[i]) {
+      if (message) *message = "contact '" + contact.name + "': " + errors[i];
+      ok = false;
+      return;
+    }
+    const ContactTrace& t = traces_[i];
+    if (t.used_finite_differences) ++stats_.contacts_with_fd_jacobian;
+    if (!t.periodic) {
+      ++stats_.non_periodic_traces;
+      stats_.last_trace_diagnostic = "contact '" + contact.name + "': " + t.diagnostic;
+    }
+    forces.segment(static_cast<Eigen::Index>(contact.offset) * c, contact.tracer->unknown_count()) =
+        t.force_coefficients;
+  }
+}
+
+Eigen::VectorXd HarmonicBalanceModel::linear_response(double w) const {
+  const int c = layout_.coefficient_count();
+  const auto& h = layout_.harmonics();
+  Eigen::VectorXd u0 = Eigen::VectorXd::Zero(unknown_count_);
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    if (excitation_[k].cwiseAbs().maxCoeff() == 0.0) continue;
+    const Eigen::VectorXcd x =
+        gather_[k] * structure_->respond(harmonic_index_[k], h[k] * w, excitation_[k]);
+    for (int a = 0; a < components_; ++a) {
+      u0(a * c + layout_.cos_index(k)) = x(a).real();
+      if (h[k] > 0) u0(a * c + layout_.sin_index(k)) = -x(a).imag();
+    }
+  }
+  return u0;
+}
+
+void HarmonicBalanceModel::form_modal_receptance(const ContactReceptance& cr, Workspace& ws,
+                                                 Eigen::Ref<Eigen::MatrixXcd> rc) const {
+  // Rc = P diag(1/z) P^H by one level-3 product (BLAS when built with OpenBLAS).
+  const Eigen::Index modes = ws.inv_z.size();
+  if (cr.projected_real.size()) {
+    // Real P: [Re Rc; Im Rc] = [P diag(Re 1/z); P diag(Im 1/z)] P^T.
+    ws.scaled_real.resize(2 * components_, modes);
+    ws.scaled_real.topRows(components_).noalias() =
+        cr.projected_real * ws.inv_z.real().asDiagonal();
+    ws.scaled_real.bottomRows(components_).noalias() =
+        cr.projected_real * ws.inv_z.imag().asDiagonal();
+    ws.stacked_real.resize(2 * components_, components_);
+    multiply(1.0, ws.scaled_real, MatrixOperation::kNone, cr.projected_real,
+             MatrixOperation::kTranspose, 0.0, ws.stacked_real);
+    rc.real() = ws.stacked_real.topRows(components_);
+    rc.imag() = ws.stacked_real.bottomRows(components_);
+  } else {
+    ws.scaled.resize(components_, modes);
+    ws.scaled.noalias() = cr.projected * ws.inv_z.asDiagonal();
+    multiply(1.0, ws.scaled, MatrixOperation::kNone, cr.projected, MatrixOperation::kAdjoint, 0.0,
+             rc);
+  }
+}
+
+bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
+                                    Eigen::MatrixXd* jacobian, std::string* message) const {
+  using Clock = std::chrono::steady_clock;
+  const auto elapsed = [](Clock::time_point since) {
+    return std::chrono::duration<double>(Clock::now() - since).count();
+  };
+  const int c = layout_.coefficient_count();
+  const Eigen::Index n = unknown_count_;
+  const double w = y(n);
+  ++stats_.residual_evaluations;
+  if (jacobian) ++stats_.jacobian_evaluations;
+  Workspace& ws = work_;
+  auto t_part = Clock::now();
+  bool ok = true;
+  gather_forces(y, ws.forces, jacobian != nullptr, message, ok);
+  stats_.contact_seconds += elapsed(t_part);
+  if (!ok) return false;
+  const Eigen::VectorXd& forces = ws.forces;
+
+  // Per kept harmonic n, with complex amplitudes X = c - i s (layout of HarmonicLayout):
+  //   e_n = U_n - U0_n + Rc_n F_n = U_n + m_n,  m_n = Rc_n F_n - U0_n = G R (G^H F_n - f_n),
+  // so that the residual needs matrix-vector products only. The Jacobian needs Rc_n itself
+  // (components x components), kept per harmonic for the assembly below.
+  t_part = Clock::now();
+  residual = y.head(n);
+  if (jacobian) {
+    jacobian->resize(n, n + 1);  // the first n columns are all written by the assembly
+    jacobian->col(n).setZero();
+    ws.contact_receptance.resize(static_cast<Eigen::Index>(components_),
+                                 static_cast<Eigen::Index>(components_) *
+                                     static_cast<Eigen::Index>(layout_.harmonics().size()));
+  }
+  const auto& h = layout_.harmonics();
+  const std::complex<double> imaginary_unit(0.0, 1.0);
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    const int hn = h[k];
+    const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
+    const ContactReceptance& cr = contact_receptance_[k];
+    ws.force.resize(components_);
+    for (int a = 0; a < components_; ++a)
+      ws.force(a) = std::complex<double>(forces(a * c + ci), hn > 0 ? -forces(a * c + si) : 0.0);
+    auto rc = ws.contact_receptance.middleCols(static_cast<Eigen::Index>(k) * components_,
+                                               jacobian ? components_ : 0);
+    if (cr.modal) {
+      // z_r = w_r^2 - W^2 + i W c_r at W = hn w; d(1/z_r)/dw = -hn z_r' / z_r^2.
+      const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
+      const double big_w = hn * w;
+      const Eigen::Index m = b.frequencies.size();
+      ws.inv_z.resize(m);
+      ws.dinv_z.resize(m);
+      for (Eigen::Index q = 0; q < m; ++q) {
+        const double wr = b.frequencies(q);
+        const std::complex<double> z =
+            wr * wr - big_w * big_w + imaginary_unit * big_w * b.damping(q, q);
+        ws.inv_z(q) = 1.0 / z;
+        ws.dinv_z(q) =
+            -static_cast<double>(hn) * (-2.0 * big_w + imaginary_unit * b.damping(q, q)) / (z * z);
+      }
+      // Phi^H (G^H F - f) = P^H F - q
+      ws.modal.noalias() = cr.projected.adjoint() * ws.force;
+      ws.modal -= cr.modal_force;
+      ws.motion.noalias() = cr.projected * ws.inv_z.cwiseProduct(ws.modal);
+      if (cr.flexibility.size()) {
+        ws.motion.noalias() += cr.flexibility * ws.force;
+        ws.motion -= cr.flexible_motion;
+      }
+      if (jacobian) {
+        ws.motion_derivative.noalias() = cr.projected * ws.dinv_z.cwiseProduct(ws.modal);
+        form_modal_receptance(cr, ws, rc);
+        if (cr.flexibility.size()) rc += cr.flexibility;
+      }
+    } else {
+      structure_->receptance(harmonic_index_[k], hn * w, ws.receptance,
+                             jacobian ? &ws.receptance_derivative : nullptr);
+      const Eigen::MatrixXcd& g = gather_[k];
+      ws.modal.noalias() = g.adjoint() * ws.force;  // G^H F - f over the kept DOFs
+      ws.modal -= excitation_[k];
+      ws.motion.noalias() = g * (ws.receptance * ws.modal);
+      if (jacobian) {
+        ws.motion_derivative.noalias() =
+            static_cast<double>(hn) * (g * (ws.receptance_derivative * ws.modal));
+        ws.scaled.resize(components_, g.cols());
+        multiply(1.0, g, MatrixOperation::kNone, ws.receptance, MatrixOperation::kNone, 0.0,
+                 ws.scaled);
+        multiply(1.0, ws.scaled, MatrixOperation::kNone, g, MatrixOperation::kAdjoint, 0.0, rc);
+      }
+    }
+    if (!ws.motion.allFinite() || (jacobian && !rc.allFinite())) {
+      if (message)
+        *message = "receptance at harmonic " + std::to_string(hn) + " is singular (" +
+                   (hn == 0 ? "a rigid-body mode: drop harmonic 0 or ground the structure"
+                            : "undamped resonance") +
+                   ")";
+      stats_.receptance_seconds += elapsed(t_part);
+      return false;
+    }
+    for (int a = 0; a < components_; ++a) {
+      residual(a * c + ci) += ws.motion(a).real();
+      if (hn > 0) residual(a * c + si) -= ws.motion(a).imag();
+    }
+    if (!jacobian) continue;
+    for (int a = 0; a < components_; ++a) {
+      (*jacobian)(a * c + ci, n) += ws.motion_derivative(a).real();
+      if (hn > 0) (*jacobian)(a * c + si, n) -= ws.motion_derivative(a).imag();
+    }
+  }
+  stats_.receptance_seconds += elapsed(t_part);
+  if (!residual.allFinite()) {
+    if (message) *message = "the residual is not finite at w = " + std::to_string(w) + " rad/s";
+    return false;
+  }
+  if (!jacobian) return true;
+
+  // J = I + Rc dF/dU. dF/dU is block diagonal (one block T per contact, whose unknowns are
+  // contiguous) and Rc is block diagonal over the harmonics, so the columns of contact i in
+  // the rows of harmonic n are Rc_n[:, i's components] (T's cos rows - i T's sin rows) of
+  // harmonic n: components x d x p complex multiply-adds per harmonic and contact, about
+  // 4 d (H + 1) / (2H + 1) per entry of J, each entry written once.
+  t_part = Clock::now();
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Eigen::Index first = static_cast<Eigen::Index>(contacts_[i].offset) * c;
+    const Eigen::Index p = contacts_[i].tracer->unknown_count();
+    const Eigen::Index d = p / c;
+    const Eigen::MatrixXd& block = traces_[i].jacobian;
+    for (std::size_t k = 0; k < h.size(); ++k) {
+      const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
+      ws.force_block.resize(d, p);
+      for (Eigen::Index b = 0; b < d; ++b) {
+        if (h[k] > 0)
+          ws.force_block.row(b) = block.row(b * c + ci).cast<std::complex<double>>() -
+                                  imaginary_unit * block.row(b * c + si);
+        else
+          ws.force_block.row(b) = block.row(b * c + ci).cast<std::complex<double>>();
+      }
+      ws.product.noalias() =
+          ws.contact_receptance.block(
+              0, static_cast<Eigen::Index>(k) * components_ + contacts_[i].offset, components_, d) *
+          ws.force_block;
+      for (int a = 0; a < components_; ++a) {
+        jacobian->row(a * c + ci).segment(first, p) = ws.product.row(a).real();
+        if (h[k] > 0) jacobian->row(a * c + si).segment(first, p) = -ws.product.row(a).imag();
+      }
+    }
+  }
+  jacobian->leftCols(n).diagonal().array() += 1.0;
+  stats_.assembly_seconds += elapsed(t_part);
+  if (!jacobian->allFinite()) {
+    if (message) *message = "the Jacobian is not finite at w = " + std::to_string(w) + " rad/s";
+    return false;
+  }
+  return true;
+}
+
+std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(const Eigen::VectorXd& y) const {
+  const int c = layout_.coefficient_count();
+  const double w = y(unknown_count_);
+  Eigen::VectorXd forces;
+  bool ok = true;
+  std::string message;
+  gather_forces(y, forces, false, &message, ok);
+  if (!ok) throw std::runtime_error("response recovery: " + message);
+  const auto& h = layout_.harmonics();
+  std::vector<Eigen::VectorXcd> out;
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    Eigen::VectorXcd f_local(components_);
+    for (int a = 0; a < components_; ++a) {
+      const double fc = forces(a * c + layout_.cos_index(k));
+      const double fs = h[k] > 0 ? forces(a * c + layout_.sin_index(k)) : 0.0;
+      f_local(a) = std::complex<double>(fc, -fs);
+    }
+    out.push_back(structure_->respond(harmonic_index_[k], h[k] * w,
+                                      excitation_[k] - gather_[k].adjoint() * f_local));
+  }
+  return out;
+}
+
+bool HarmonicBalanceModel::trace_contact(std::size_t i, const Eigen::VectorXd& y, ContactTrace& out,
+                                         std::string* error) const {
+  const int c = layout_.coefficient_count();
+  const auto& contact = contacts_[i];
+  return contact.tracer->trace(
+      y.segment(static_cast<Eigen::Index>(contact.offset) * c, contact.tracer->unknown_count()),
+      JacobianMode::kNone, out, error);
+}
+
+}  // namespace frichb::core

@@ -1,0 +1,325 @@
+// The forced-response curve in stages (response_curve.hpp).
+#include "frichb/core/model/response_curve.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "frichb/core/model/response.hpp"
+#include "frichb/core/numerics/harmonics.hpp"
+
+namespace frichb::core {
+
+namespace {
+
+std::string unit_name(FrequencyUnit u) {
+  return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
+}
+
+std::string format_number(double x, int precision = 6) {
+  std::ostringstream os;
+  os.precision(precision);
+  os << x;
+  return os.str();
+}
+
+// Golden-section refinement of the highest point `top` of a traced curve over the frequency
+// between its two neighbours. Each probe solves the equations at a fixed frequency from the
+// curve's linear interpolation. Returns (amplitude, omega) or nothing when the curve turns
+// around the top point, the top point is an end of the curve, or a probe fails.
+std::optional<std::pair<double, double>> refine_peak(const HarmonicBalanceModel& model,
+                                                     const std::vector<ContinuationPoint>& points,
+                                                     std::size_t top,
+                                                     const std::vector<Eigen::Index>& kept,
+                                                     AmplitudeSampler& sampler,
+                                                     const ContinuationOptions& options) {
+  if (top == 0 || top + 1 >= points.size() || kept.empty()) return std::nullopt;
+  const Eigen::Index n = model.equation_count();
+  const Eigen::VectorXd& before = points[top - 1].y;
+  const Eigen::VectorXd& at = points[top].y;
+  const Eigen::VectorXd& after = points[top + 1].y;
+  if ((at(n) - before(n)) * (after(n) - at(n)) <= 0) return std::nullopt;  // a fold
+  auto guess = [&](double w) {
+    const Eigen::VectorXd& a = (w - at(n)) * (before(n) - at(n)) > 0 ? before : after;
+    const double s = (w - at(n)) / (a(n) - at(n));
+    Eigen::VectorXd y = (1 - s) * at + s * a;
+    y(n) = w;
+    return y;
+  };
+  bool failed = false;
+  auto amplitude = [&](double w) {
+    Eigen::VectorXd y = guess(w);
+    if (n > 0) {
+      const NewtonResult solved = solve_fixed_parameter(model, y, options);
+      if (!solved.converged) {
+        failed = true;
+        return 0.0;
+      }
+      y = solved.y;
+    }
+    return sampler.peak_amplitude(model.kept_response(y), kept);
+  };
+  const double inv_phi = (std::sqrt(5.0) - 1) / 2;
+  double a = before(n), b = after(n);
+  double c = b - inv_phi * (b - a), d = a + inv_phi * (b - a);
+  double fc = amplitude(c), fd = amplitude(d);
+  for (int i = 0; i < 80 && !failed && std::abs(b - a) > 1e-10 * std::abs(at(n)); ++i) {
+    if (fc > fd) {
+      b = d;
+      d = c;
+      fd = fc;
+      c = b - inv_phi * (b - a);
+      fc = amplitude(c);
+    } else {
+      a = c;
+      c = d;
+      fc = fd;
+      d = a + inv_phi * (b - a);
+      fd = amplitude(d);
+    }
+  }
+  if (failed) return std::nullopt;
+  return fc > fd ? std::make_pair(fc, c) : std::make_pair(fd, d);
+}
+
+TurningPoints find_turning_points(const ContinuationSummary& summary, Eigen::Index n, double unit,
+                                  double span) {
+  TurningPoints report;
+  for (std::size_t i = 1; i < summary.points.size(); ++i)
+    if (summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0)
+      report.frequencies.push_back(summary.points[i].y(n) / unit);
+  report.cluster_width = kMicroFoldWidth * span;
+  const auto& f = report.frequencies;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const bool near_previous = i > 0 && std::abs(f[i] - f[i - 1]) < report.cluster_width;
+    const bool near_next = i + 1 < f.size() && std::abs(f[i + 1] - f[i]) < report.cluster_width;
+    if (!near_previous && !near_next) continue;
+    if (report.micro_folds == 0) report.first_cluster = f[i];
+    ++report.micro_folds;
+  }
+  return report;
+}
+
+// The harmonic truncation at the curve's highest point (of the first response node, column 3
+// of `rows`); warns above kHighestHarmonicShare.
+std::optional<HarmonicTruncation> check_truncation(const Scene& scene,
+                                                   const HarmonicBalanceModel& model,
+                                                   const ContinuationSummary& summary,
+                                                   const std::vector<std::vector<double>>& rows) {
+  const auto& kept = model.layout().harmonics();
+  const int highest = kept.back();
+  if (rows.empty() || model.contacts().empty() || highest < 2) return std::nullopt;
+  std::size_t top = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i)
+    if (rows[i][3] > rows[top][3]) top = i;
+  const Eigen::Index n = model.equation_count();
+  double worst = 0.0;
+  std::string where;
+  for (std::size_t c = 0; c < model.contacts().size(); ++c) {
+    ContactTrace trace;
+    if (!model.trace_contact(c, summary.points[top].y, trace, nullptr)) continue;
+    if (highest > (static_cast<int>(trace.force.rows()) - 1) / 2) continue;
+    const auto& comps = model.contacts()[c].tracer->components();
+    const ForceHarmonics table = force_harmonics(trace.force, comps, highest);
+    for (std::size_t a = 0; a < comps.size(); ++a) {
+      double total = 0.0;
+      for (int h : kept)
+        if (h > 0) total += std::pow(table.amplitude[a][static_cast<std::size_t>(h)], 2);
+      const double top_share =
+          total > 0 ? std::pow(table.amplitude[a][static_cast<std::size_t>(highest)], 2) / total
+                    : 0.0;
+      if (top_share > worst) {
+        worst = top_share;
+        where = model.contacts()[c].name + " (" + kContactAxisNames[comps[a]] + ")";
+      }
+    }
+  }
+  const double unit = scene.continuation.to_rad_per_s();
+  const double at = summary.points[top].y(n) / unit;
+  if (worst > kHighestHarmonicShare)
+    spdlog::warn(
+        "{}: at the curve's highest point ({} {}) harmonic {} carries {:.1f} % of the force "
+        "energy of contact {}: the kept harmonics cut the force's spectrum where it still "
+        "matters; keep more harmonics (harmonic_balance.max_harmonic) and compare the peak",
+        scene.file.string(), format_number(at), unit_name(scene.continuation.unit), highest,
+        100 * worst, where);
+  HarmonicTruncation truncation;
+  truncation.frequency = at;
+  truncation.highest_harmonic = highest;
+  truncation.largest_energy_share = worst;
+  truncation.contact = where;
+  return truncation;
+}
+
+}  // namespace
+
+Eigen::VectorXd find_start_point(const HarmonicBalanceModel& model,
+                                 const ContinuationOptions& options,
+                                 spdlog::level::level_enum log_level) {
+  const Eigen::Index n = model.equation_count();
+  Eigen::VectorXd y0(n + 1);
+  y0.head(n) = model.linear_response(options.lambda_start);
+  y0(n) = options.lambda_start;
+  if (n == 0) return y0;
+  const NewtonResult first = solve_fixed_parameter(model, y0, options);
+  if (first.converged) return first.y;  // trace_curve then starts from the solution itself
+  for (const double shrink : {0.0, 1e-3, 1e-6}) {
+    Eigen::VectorXd guess = y0;
+    guess.head(n) *= shrink;
+    const NewtonResult start = solve_fixed_parameter(model, guess, options);
+    if (start.converged) {
+      spdlog::log(log_level, "start point found from {} the contact-free response",
+                  shrink == 0 ? std::string("zero instead of") : format_number(shrink) + " x");
+      return start.y;
+    }
+  }
+  return y0;
+}
+
+ContinuationSummary trace_response(const Scene& scene, const HarmonicBalanceModel& model,
+                                   const ContinuationOptions& options, const Eigen::VectorXd& start,
+                                   const PointCallback& on_point) {
+  if (model.equation_count() > 0) return trace_curve(model, start, options, on_point);
+  const auto& C = scene.continuation;
+  const double unit = C.to_rad_per_s();
+  const double w_from = options.lambda_start, w_to = options.lambda_end;
+  // The largest step, shortened near each resonance as the continuation's bands do.
+  std::vector<double> ws = {w_from};
+  const double largest = C.max_step * unit, direction = w_to > w_from ? 1.0 : -1.0;
+  while (direction * (w_to - ws.back()) > 1e-12 * std::abs(w_to)) {
+    const double advance = std::min(largest, options.band_advance(ws.back(), direction));
+    ws.push_back(direction * (w_to - ws.back()) <= advance ? w_to
+                                                           : ws.back() + direction * advance);
+  }
+  ContinuationSummary summary;
+  for (std::size_t i = 0; i < ws.size(); ++i) {
+    ContinuationPoint p;
+    p.y = Eigen::VectorXd::Constant(1, ws[i]);
+    p.tangent = Eigen::VectorXd::Constant(1, w_to > w_from ? 1.0 : -1.0);
+    p.step = i ? std::abs(ws[i] - ws[i - 1]) / unit : 0.0;
+    summary.points.push_back(p);
+  }
+  summary.termination = TerminationType::kReachedEnd;
+  summary.message = "linear scene (no contacts): sampled every " + format_number(C.max_step) + " " +
+                    unit_name(C.unit) + ", finer near " +
+                    std::to_string(options.step_bands.size()) + " resonance(s)";
+  return summary;
+}
+
+ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& model,
+                                const ContinuationOptions& options,
+                                const ContinuationSummary& summary) {
+  ResponseTable table;
+  const Eigen::Index n = model.equation_count();
+  for (const auto& name : scene.output.response) {
+    ResponseNode node{name, {}};
+    for (std::size_t d : scene.structure.find(name)->dofs) node.kept.push_back(model.kept_index(d));
+    table.nodes.push_back(node);
+  }
+  const auto& nodes = table.nodes;
+  const auto& harmonics = model.layout().harmonics();
+  AmplitudeSampler sampler(harmonics, std::max(256, 8 * model.layout().samples()));
+  table.header = {"point", "frequency_hz", "omega_rad_s"};
+  for (const auto& node : nodes) {
+    table.header.push_back(node.name + "_amplitude_m");
+    for (int h : harmonics) table.header.push_back(node.name + "_h" + std::to_string(h) + "_m");
+  }
+  table.header.insert(table.header.end(), {"newton_iterations", "step", "condition"});
+  auto& rows = table.rows;
+  std::vector<double> peak_amp(nodes.size(), -1.0), peak_w(nodes.size(), 0.0);
+  for (std::size_t i = 0; i < summary.points.size(); ++i) {
+    const auto& p = summary.points[i];
+    const double w = p.y(n);
+    const auto x = model.kept_response(p.y);
+    std::vector<double> row = {static_cast<double>(i), w / (2 * std::numbers::pi), w};
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      const double amp = sampler.peak_amplitude(x, nodes[k].kept);
+      row.push_back(amp);
+      if (amp > peak_amp[k]) {
+        peak_amp[k] = amp;
+        peak_w[k] = w;
+      }
+      for (double a : AmplitudeSampler::harmonic_amplitudes(x, nodes[k].kept)) row.push_back(a);
+    }
+    row.push_back(p.newton_iterations);
+    row.push_back(p.step);
+    row.push_back(std::isfinite(p.condition) ? p.condition : 0.0);  // 0: not estimated
+    rows.push_back(std::move(row));
+  }
+
+  // The highest point of each node's curve, refined between its neighbours.
+  std::vector<bool> refined(nodes.size(), false);
+  for (std::size_t k = 0; k < nodes.size(); ++k) {
+    std::size_t top = 0;
+    for (std::size_t i = 1; i < rows.size(); ++i)
+      if (rows[i][3 + k * (1 + harmonics.size())] > rows[top][3 + k * (1 + harmonics.size())])
+        top = i;
+    const auto refined_peak =
+        refine_peak(model, summary.points, top, nodes[k].kept, sampler, options);
+    if (refined_peak && refined_peak->first >= peak_amp[k]) {
+      peak_amp[k] = refined_peak->first;
+      peak_w[k] = refined_peak->second;
+      refined[k] = true;
+    }
+  }
+  table.truncation = check_truncation(scene, model, summary, rows);
+  for (std::size_t k = 0; k < nodes.size(); ++k) {
+    if (peak_amp[k] < 0) {  // no point on the curve: no peak
+      table.peaks.emplace_back(std::nullopt);
+      continue;
+    }
+    table.peaks.emplace_back(NodePeak{nodes[k].name, peak_amp[k], peak_w[k], refined[k]});
+  }
+  const double unit = scene.continuation.to_rad_per_s();
+  table.turning_points = find_turning_points(
+      summary, n, unit, std::abs(scene.continuation.to - scene.continuation.from));
+  return table;
+}
+
+std::vector<FrictionLoop> solve_friction_loops(const Scene& scene,
+                                               const HarmonicBalanceModel& model,
+                                               const ContinuationOptions& options,
+                                               const ContinuationSummary& summary) {
+  std::vector<FrictionLoop> loops;
+  const auto& C = scene.continuation;
+  const double unit = C.to_rad_per_s();
+  const Eigen::Index n = model.equation_count();
+  for (double f_req : scene.output.friction_loops_at) {
+    const double w_req = f_req * unit;
+    int crossing = 0;
+    for (std::size_t i = 1; i < summary.points.size(); ++i) {
+      const double wa = summary.points[i - 1].y(n), wb = summary.points[i].y(n);
+      if ((wa - w_req) * (wb - w_req) > 0 || wa == wb) continue;
+      if (wb == w_req && i + 1 < summary.points.size()) continue;  // counted at the next pair
+      const double s = (w_req - wa) / (wb - wa);
+      Eigen::VectorXd guess = (1 - s) * summary.points[i - 1].y + s * summary.points[i].y;
+      guess(n) = w_req;
+      const NewtonResult solved = solve_fixed_parameter(model, guess, options);
+      if (!solved.converged) {
+        spdlog::warn("friction loop at {} {}: Newton did not converge ({})", f_req,
+                     unit_name(C.unit), solved.message);
+        continue;
+      }
+      ++crossing;
+      for (std::size_t c = 0; c < model.contacts().size(); ++c) {
+        FrictionLoop loop;
+        std::string error;
+        if (!model.trace_contact(c, solved.y, loop.trace, &error)) {
+          spdlog::warn("friction loop: {}", error);
+          continue;
+        }
+        loop.contact = c;
+        loop.frequency = f_req;
+        loop.crossing = crossing;
+        loops.push_back(std::move(loop));
+      }
+    }
+    if (crossing == 0)
+      spdlog::warn("friction loop at {} {}: the response curve does not reach it", f_req,
+                   unit_name(C.unit));
+  }
+  return loops;
+}
+
+}  // namespace frichb::core

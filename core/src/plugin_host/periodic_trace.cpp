@@ -1,0 +1,213 @@
+#include "frichb/core/plugin_host/periodic_trace.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+namespace frichb::core {
+
+PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayout& layout,
+                               TraceOptions options)
+    : law_(law), layout_(layout), options_(options), aft_(layout_) {
+  const auto& t = law_.traits();
+  for (int a = 0; a < t.tangential_dimensions; ++a) components_.push_back(a);
+  if (t.uses_normal) components_.push_back(2);
+  state_size_ = t.state_size;
+  const int n = layout_.samples(), c = layout_.coefficient_count();
+  basis_.resize(n, c);
+  for (int j = 0; j < n; ++j)
+    for (int k = 0; k < c; ++k) basis_(j, k) = layout_.basis(j, k);
+  // Force of the unloaded contact in its initial state: the static preload.
+  Eigen::VectorXd s0(state_size_), s1(state_size_);
+  law_.initial_state(s0.data());
+  const double zero[3] = {0, 0, 0};
+  std::string error;
+  if (!law_.step(s0.data(), zero, zero, reference_force_.data(), s1.data(), nullptr, &error))
+    throw PluginError(error);
+}
+
+bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state,
+                                Eigen::MatrixXd* dstate, Eigen::MatrixXd& force,
+                                Eigen::MatrixXd& states, std::vector<Eigen::MatrixXd>* dforce,
+                                std::string* error) const {
+  const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
+  const int s = state_size_;
+  Eigen::VectorXd next(s);
+  // Tangent blocks, row-major as the ABI defines them.
+  using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  RowMat df_dun(3, 3), df_dup(3, 3), df_ds(3, std::max(s, 1)), ds_dun(std::max(s, 1), 3),
+      ds_dup(std::max(s, 1), 3), ds_ds(std::max(s, 1), std::max(s, 1));
+  frichb_step_tangents tangents{df_dun.data(), df_dup.data(), df_ds.data(),
+                                ds_dun.data(), ds_dup.data(), ds_ds.data()};
+  const bool derivative = dstate != nullptr;
+  Eigen::MatrixXd dnext;
+  double u_now[3], u_prev[3], f[3];
+  for (int j = 0; j < n; ++j) {
+    const int jp = (j + n - 1) % n;
+    u_now[0] = u_now[1] = u_now[2] = u_prev[0] = u_prev[1] = u_prev[2] = 0.0;
+    for (int a = 0; a < d; ++a) {
+      u_now[components_[a]] = u(j, a);
+      u_prev[components_[a]] = u(jp, a);
+    }
+    if (derivative) {
+      // A law may write only its nonzero entries: start every step from zero blocks.
+      df_dun.setZero();
+      df_dup.setZero();
+      df_ds.setZero();
+      ds_dun.setZero();
+      ds_dup.setZero();
+      ds_ds.setZero();
+    }
+    if (!law_.step(state.data(), u_prev, u_now, f, next.data(), derivative ? &tangents : nullptr,
+                   error))
+      return false;
+    for (int a = 0; a < d; ++a) force(j, a) = f[components_[a]];
+    states.row(j) = next.transpose();
+    if (derivative) {
+      // Chain rule: u_now depends on U through basis row j, u_prev through row j-1.
+      // lazyProduct: these operands are tiny; the GEMM dispatch of operator* costs more than
+      // the arithmetic.
+      dnext.noalias() = ds_ds.topLeftCorner(s, s).lazyProduct(*dstate);
+      for (int a = 0; a < d; ++a) {
+        auto row = (*dforce)[static_cast<std::size_t>(a)].row(j);
+        row.noalias() = df_ds.row(components_[a]).head(s).lazyProduct(*dstate);
+        for (int b = 0; b < d; ++b) {
+          const int ca = components_[a], cb = components_[b];
+          row.segment(b * c, c) += df_dun(ca, cb) * basis_.row(j) + df_dup(ca, cb) * basis_.row(jp);
+        }
+      }
+      // The state depends on each used displacement component once (not once per force).
+      for (int b = 0; b < d && s > 0; ++b) {
+        const int cb = components_[b];
+        dnext.middleCols(b * c, c) +=
+            ds_dun.col(cb).head(s) * basis_.row(j) + ds_dup.col(cb).head(s) * basis_.row(jp);
+      }
+      dstate->swap(dnext);
+    }
+    state.swap(next);
+  }
+  return true;
+}
+
+bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::string* error) {
+  const int n = layout_.samples(), p = unknown_count(), s = state_size_;
+  Eigen::VectorXd state(s), start(s);
+  law_.initial_state(state.data());
+  out.force.resize(n, dimension());
+  out.state.resize(n, s);
+  const double u_scale = std::max(out.displacement.cwiseAbs().maxCoeff(), 1e-300);
+  const double tol = options_.relative_tolerance;
+  out.passes = 0;
+  out.derivative_passes = 0;
+  out.periodic = true;
+  out.diagnostic.clear();
+  // The derivative is carried through the very passes that produce the value, from the
+  // U-independent initial state: the Jacobian is then the derivative of the computed forces
+  // even where the warm-up itself depends on U (e.g. a slip to a static offset followed by
+  // stick). Passes end when the state and, if carried, its derivative repeat.
+  std::vector<Eigen::MatrixXd> dforce;
+  Eigen::MatrixXd dstate, dstart;
+  if (with_derivative) {
+    dforce.assign(static_cast<std::size_t>(dimension()), Eigen::MatrixXd::Zero(n, p));
+    dstate = Eigen::MatrixXd::Zero(s, p);
+  }
+  for (;;) {
+    start = state;
+    if (with_derivative) dstart = dstate;
+    if (!run_period(out.displacement, state, with_derivative ? &dstate : nullptr, out.force,
+                    out.state, with_derivative ? &dforce : nullptr, error))
+      return false;
+    ++out.passes;
+    const double change = s ? (state - start).cwiseAbs().maxCoeff() : 0.0;
+    const double scale = std::max(u_scale, s ? state.cwiseAbs().maxCoeff() : 0.0);
+    const double dchange = with_derivative && s ? (dstate - dstart).cwiseAbs().maxCoeff() : 0.0;
+    const double dscale = with_derivative && s ? std::max(1.0, dstate.cwiseAbs().maxCoeff()) : 1.0;
+    if (change <= tol * scale && dchange <= tol * dscale) break;
+    if (out.passes >= options_.max_passes) {
+      out.periodic = false;
+      // %g, not std::to_string's fixed six decimals (which print 1e-9 as 0.000000).
+      auto number = [](double x) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.3g", x);
+        return std::string(text);
+      };
+      out.diagnostic =
+          "state did not repeat after " + std::to_string(out.passes) +
+          " passes (last relative change " + number(change / scale) +
+          (with_derivative ? ", of its derivative " + number(dchange / dscale) : std::string()) +
+          ", tolerance " + number(tol) + ")";
+      break;
+    }
+  }
+  if (with_derivative) out.derivative_passes = out.passes;
+  transform_forces(out, with_derivative ? &dforce : nullptr);
+  return true;
+}
+
+void PeriodicTracer::transform_forces(ContactTrace& out,
+                                      const std::vector<Eigen::MatrixXd>* dforce) {
+  const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
+  out.force_coefficients.resize(d * c);
+  Eigen::VectorXd column(n);
+  for (int a = 0; a < d; ++a) {
+    column = out.force.col(a).array() - reference_force_(components_[a]);
+    aft_.to_coefficients(column.data(), out.force_coefficients.data() + a * c);
+  }
+  if (!dforce) return;
+  const int p = unknown_count();
+  out.jacobian.resize(p, p);
+  Eigen::VectorXd coefficients(c);
+  for (int a = 0; a < d; ++a) {
+    const Eigen::MatrixXd& df = (*dforce)[static_cast<std::size_t>(a)];
+    for (int q = 0; q < p; ++q) {
+      aft_.to_coefficients(df.col(q).data(), coefficients.data());
+      out.jacobian.block(a * c, q, c, 1) = coefficients;
+    }
+  }
+}
+
+bool PeriodicTracer::trace(const Eigen::VectorXd& u_coefficients, JacobianMode mode,
+                           ContactTrace& out, std::string* error) {
+  const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
+  out.displacement.resize(n, d);
+  for (int a = 0; a < d; ++a)
+    aft_.to_time(u_coefficients.data() + a * c, out.displacement.col(a).data());
+  out.used_finite_differences = false;
+  const bool analytic = mode == JacobianMode::kAnalytic && law_.traits().provides_tangent != 0;
+  if (mode == JacobianMode::kNone || analytic) return run_passes(out, analytic, error);
+
+  // Finite differences local to this contact: central differences on each coefficient.
+  if (!run_passes(out, false, error)) return false;
+  out.used_finite_differences = true;
+  const int p = unknown_count();
+  out.jacobian.resize(p, p);
+  const double h = 1e-6 * std::max(u_coefficients.cwiseAbs().maxCoeff(), 1e-12);
+  ContactTrace plus, minus;
+  Eigen::VectorXd shifted = u_coefficients;
+  for (int q = 0; q < p; ++q) {
+    for (int sign : {+1, -1}) {
+      shifted(q) = u_coefficients(q) + sign * h;
+      ContactTrace& t = sign > 0 ? plus : minus;
+      t.displacement.resize(n, d);
+      for (int a = 0; a < d; ++a)
+        aft_.to_time(shifted.data() + a * c, t.displacement.col(a).data());
+      if (!run_passes(t, false, error)) return false;
+    }
+    shifted(q) = u_coefficients(q);
+    out.jacobian.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
+  }
+  return true;
+}
+
+double dissipated_energy(const ContactTrace& trace) {
+  const auto samples = trace.displacement.rows();
+  double energy = 0;
+  for (Eigen::Index j = 0; j < samples; ++j) {
+    const Eigen::Index jn = (j + 1) % samples;
+    for (Eigen::Index a = 0; a < trace.force.cols(); ++a)
+      energy += 0.5 * (trace.force(j, a) + trace.force(jn, a)) *
+                (trace.displacement(jn, a) - trace.displacement(j, a));
+  }
+  return energy;
+}
+
+}  // namespace frichb::core

@@ -1,0 +1,390 @@
+// The report of a response-curve run (run_report.hpp).
+#include "frichb/core/report/run_report.hpp"
+
+#include <spdlog/spdlog.h>
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "frichb/core/numerics/dense_lu.hpp"
+#include "frichb/core/numerics/harmonics.hpp"
+#include "frichb/core/support/version.hpp"
+
+namespace frichb::core {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string unit_name(FrequencyUnit u) {
+  return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
+}
+
+std::string format_number(double x, int precision = 6) {
+  std::ostringstream os;
+  os.precision(precision);
+  os << x;
+  return os.str();
+}
+
+// Where the response curve's wall time went, for users sizing a study: the continuation's
+// evaluations and LU factorisations (ContinuationSummary::profile), the parts of all the
+// model's evaluations (EvaluationStats, including the start point and the output pass), and
+// the process's peak resident memory (getrusage; for the whole process, so a study's threads
+// share it).
+nlohmann::json profile_json(const ContinuationSummary& summary, const EvaluationStats& stats) {
+  const SolveProfile& p = summary.profile;
+  const double other = summary.wall_seconds - p.evaluation_seconds - p.factorisation_seconds;
+  rusage usage{};
+  nlohmann::json peak_memory = nullptr;
+  if (getrusage(RUSAGE_SELF, &usage) == 0)
+    peak_memory = static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: kilobytes
+  return {{"continuation",
+           {{"wall_s", summary.wall_seconds},
+            {"evaluations", p.evaluations},
+            {"evaluation_s", p.evaluation_seconds},
+            {"residual_only_evaluations", p.residual_only_evaluations},
+            {"factorisations", p.factorisations},
+            {"factorisation_s", p.factorisation_seconds},
+            {"chord_points", summary.chord_points},
+            {"chord_iterations", summary.chord_iterations},
+            {"chord_fallbacks", summary.chord_fallbacks},
+            {"other_s", std::max(0.0, other)}}},
+          {"model_evaluations",
+           {{"contact_traces_s", stats.contact_seconds},
+            {"receptance_s", stats.receptance_seconds},
+            {"jacobian_assembly_s", stats.assembly_seconds}}},
+          {"dense_solver", dense_solver_description()},
+          {"peak_memory_mib", peak_memory}};
+}
+
+nlohmann::json plugin_json(const LoadedPlugin& p) {
+  const auto& d = p.descriptor();
+  return {{"name", d.name},
+          {"kind", to_string(p.kind())},
+          {"version", d.version},
+          {"abi", std::to_string(d.abi_major) + "." + std::to_string(d.abi_minor)},
+          {"build", d.build_tag},
+          {"file", p.file().string()}};
+}
+
+// The scene's plugins, each once: the structure's, then the contact laws' in scene order.
+nlohmann::json plugins_json(const Scene& scene) {
+  nlohmann::json plugins = nlohmann::json::array();
+  plugins.push_back(plugin_json(*scene.structure.plugin));
+  std::vector<std::string> listed = {scene.structure.plugin->name()};
+  for (const auto& c : scene.contacts)
+    if (std::find(listed.begin(), listed.end(), c.plugin->name()) == listed.end()) {
+      listed.push_back(c.plugin->name());
+      plugins.push_back(plugin_json(*c.plugin));
+    }
+  return plugins;
+}
+
+nlohmann::json resonances_json(const std::vector<LinearResonance>& resonances, double unit) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const LinearResonance& r : resonances) {
+    out.push_back({{"system", system_name(r.system)},
+                   {"harmonic", r.harmonic},
+                   {"harmonic_index", r.harmonic_index},
+                   {"centre", r.centre / unit},
+                   {"half_width", r.half_width / unit},
+                   {"damping_ratio", r.damping_ratio},
+                   {"step", kCentreStepInHalfWidths * r.half_width / unit}});
+  }
+  return out;
+}
+
+nlohmann::json peaks_json(const ResponseTable& table) {
+  nlohmann::json peaks = nlohmann::json::object();
+  for (std::size_t k = 0; k < table.nodes.size(); ++k) {
+    const auto& peak = table.peaks[k];
+    if (!peak) {  // no point on the curve: no peak
+      peaks[table.nodes[k].name] = nullptr;
+      continue;
+    }
+    peaks[table.nodes[k].name] = {{"amplitude_m", peak->amplitude_m},
+                                  {"frequency_hz", peak->omega_rad_s / (2 * std::numbers::pi)},
+                                  {"omega_rad_s", peak->omega_rad_s},
+                                  {"refined", peak->refined}};
+  }
+  return peaks;
+}
+
+nlohmann::json truncation_json(const std::optional<HarmonicTruncation>& truncation) {
+  if (!truncation) return nullptr;
+  return {{"frequency", truncation->frequency},
+          {"highest_harmonic", truncation->highest_harmonic},
+          {"largest_energy_share", truncation->largest_energy_share},
+          {"contact", truncation->contact},
+          {"warning_above", kHighestHarmonicShare}};
+}
+
+// The largest condition estimate of the Newton matrix along the curve, where, and the digits
+// it costs; null when none was estimated.
+nlohmann::json condition_json(const ContinuationSummary& summary, Eigen::Index n, double unit) {
+  if (summary.points.empty() || !(summary.max_condition > 0.0)) return nullptr;
+  const double worst = summary.max_condition;
+  const double at = summary.points[summary.max_condition_point].y(n) / unit;
+  return {{"max", std::isfinite(worst) ? nlohmann::json(worst) : nlohmann::json()},
+          {"frequency", at},
+          {"digits_lost", std::isfinite(worst) ? std::log10(worst) : 16.0}};
+}
+
+nlohmann::json last_point_json(const ContinuationSummary& summary, Eigen::Index n, double unit) {
+  if (summary.points.empty()) return nullptr;
+  const auto& p = summary.points.back();
+  return {{"frequency", p.y(n) / unit},
+          {"omega_rad_s", p.y(n)},
+          {"scaled_residual", p.residual_norm},
+          {"newton_iterations", p.newton_iterations}};
+}
+
+std::string response_plot_script(const Scene& scene, const std::vector<ResponseNode>& nodes) {
+  std::ostringstream gp;
+  gp << "# gnuplot script written by frichb; run `gnuplot response.gp` to remake response.png\n"
+     << "set terminal pngcairo size 1000,640 noenhanced\n"
+     << "set output 'response.png'\n"
+     << "set datafile separator ','\n"
+     << "set title "
+     << gnuplot_string((scene.name.empty() ? scene.file.stem().string() : scene.name) +
+                       ": forced response")
+     << "\n"
+     << "set xlabel 'frequency [" << unit_name(scene.continuation.unit) << "]'\n"
+     << "set ylabel 'amplitude [m]'\nset grid\nset key top right\n";
+  const int xcol = scene.continuation.unit == FrequencyUnit::kHz ? 2 : 3;
+  gp << "plot ";
+  for (std::size_t i = 0; i < nodes.size(); ++i)
+    gp << (i ? ", \\\n     " : "") << "'response.csv' using " << xcol << ":"
+       << "(column(" << gnuplot_string(nodes[i].name + "_amplitude_m")
+       << ")) with linespoints pt 7 ps 0.4 title " << gnuplot_string(nodes[i].name);
+  gp << "\n";
+  return gp.str();
+}
+
+std::string loop_plot_script(const std::string& csv, const std::string& title, int dims) {
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 800,600 noenhanced\n"
+     << "set output " << gnuplot_string(fs::path(csv).replace_extension(".png").filename().string())
+     << "\n"
+     << "set datafile separator ','\nset grid\n"
+     << "set title " << gnuplot_string(title) << "\n"
+     << "set xlabel 'relative displacement u_t1 [m]'\nset ylabel 'friction force T1 [N]'\n"
+     << "plot " << gnuplot_string(fs::path(csv).filename().string()) << " using 2:" << (2 + dims)
+     << " with lines lw 2 title 'loop'\n";
+  return gp.str();
+}
+
+// One friction loop's files: the closed loop (phase, u per axis, f per axis), its force
+// harmonics and, when `plots`, its plot. Returns its summary.json entry.
+nlohmann::json write_loop(StagedOutput& out, const RunRecord& run, const FrictionLoop& loop,
+                          bool plots) {
+  const auto& scene = run.scene;
+  const auto& contact = run.model.contacts()[loop.contact];
+  const auto& comps = contact.tracer->components();
+  const ContactTrace& trace = loop.trace;
+  const std::string unit = unit_name(scene.continuation.unit);
+  std::vector<std::string> header = {"phase"};
+  for (int a : comps) header.push_back(std::string("u_") + kContactAxisNames[a] + "_m");
+  for (int a : comps) header.push_back(std::string("f_") + kContactAxisNames[a] + "_N");
+  std::vector<std::vector<double>> rows;
+  const int samples = static_cast<int>(trace.displacement.rows());
+  for (int j = 0; j <= samples; ++j) {  // closed loop: repeat the first sample
+    const int jj = j % samples;
+    std::vector<double> r = {static_cast<double>(j) / samples};
+    for (Eigen::Index a = 0; a < trace.displacement.cols(); ++a)
+      r.push_back(trace.displacement(jj, a));
+    for (Eigen::Index a = 0; a < trace.force.cols(); ++a) r.push_back(trace.force(jj, a));
+    rows.push_back(std::move(r));
+  }
+  const std::string base = "loops/" + contact.name + "_" + format_number(loop.frequency, 10) +
+                           unit.substr(0, 2) + "_" + std::to_string(loop.crossing);
+  const fs::path csv = out.path(base + ".csv");
+  write_csv(csv, header, rows);
+  // Harmonics of the contact force (thesis Fig. 5.6): at least up to 10, and up to the highest
+  // kept harmonic, as far as the samples resolve them.
+  const int shown =
+      std::min((samples - 1) / 2, std::max(10, scene.harmonic_balance.harmonics.back()));
+  const ForceHarmonics force_table = force_harmonics(trace.force, comps, shown);
+  write_csv(out.path(base + "_harmonics.csv"), force_table.header, force_table.rows);
+  nlohmann::json force_amplitudes = nlohmann::json::object();
+  for (std::size_t a = 0; a < comps.size(); ++a)
+    force_amplitudes[kContactAxisNames[comps[a]]] = force_table.amplitude[a];
+  if (plots) {
+    const fs::path gp = out.path(base + ".gp");
+    write_text(gp,
+               loop_plot_script(csv.string(),
+                                contact.name + " at " + format_number(loop.frequency) + " " + unit,
+                                static_cast<int>(comps.size())));
+    run_gnuplot(gp);
+  }
+  return {{"contact", contact.name},
+          {"frequency", loop.frequency},
+          {"crossing", loop.crossing},
+          {"file", base + ".csv"},
+          {"harmonics_file", base + "_harmonics.csv"},
+          {"force_harmonic_amplitudes_N", force_amplitudes},
+          {"dissipated_energy_per_cycle_J", dissipated_energy(trace)},
+          {"trace_passes", trace.passes}};
+}
+
+}  // namespace
+
+std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
+  const auto& C = scene.continuation;
+  const std::string many_folds =
+      summary.turning_points >= 4
+          ? "; " + std::to_string(summary.turning_points) +
+                " turning points: where they cluster (summary.json micro_folds), raise "
+                "harmonic_balance.samples_per_period"
+          : "";
+  switch (summary.termination) {
+    case TerminationType::kReachedEnd:
+      return "";
+    case TerminationType::kMaxPoints:
+      return "the curve needs more than continuation.max_points = " + std::to_string(C.max_points) +
+             " points (" + std::to_string(summary.turning_points) +
+             " turning points so far): raise max_points, or continuation.step.max to take "
+             "longer steps where the curve is smooth" +
+             many_folds;
+    case TerminationType::kStepTooSmall:
+      return std::string(
+                 "the corrector failed down to continuation.step.min: look at the last point "
+                 "(a contact changing regime, a fold); try more samples_per_period or "
+                 "trace_oversampling (a smoother residual), or a smaller step.min") +
+             (C.turning_point_control ? "" : ", or turning_point_control: true") + many_folds;
+    case TerminationType::kTimeLimit:
+      return "raise continuation.max_wall_seconds, or reduce harmonics or samples_per_period";
+    case TerminationType::kLeftBounds:
+      return "the curve came back a quarter of the window past the start of the sweep: it "
+             "walked its branch backwards after a kink or fold it could not pass forwards (the "
+             "points after that fold retrace the branch), or the branch overhangs the window "
+             "(widen continuation.frequency); try more samples_per_period" +
+             many_folds;
+    case TerminationType::kStartFailed:
+      return "no solution was found at the start frequency: start the sweep further from "
+             "resonance, or lower the excitation";
+    case TerminationType::kEvaluationFailed:
+      return "a contact law or the structure failed at the start point: see the message";
+    case TerminationType::kCancelled:
+      return "cancelled";
+    case TerminationType::kInvalidOptions:
+      return "check the continuation section (steps, tolerance)";
+  }
+  return "";
+}
+
+nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool plots) {
+  write_csv(out.path("response.csv"), run.table.header, run.table.rows);
+  nlohmann::json loops = nlohmann::json::array();
+  for (const FrictionLoop& loop : run.loops) loops.push_back(write_loop(out, run, loop, plots));
+  if (plots && !run.table.rows.empty()) {  // no points: no empty plot
+    const fs::path gp = out.path("response.gp");
+    write_text(gp, response_plot_script(run.scene, run.table.nodes));
+    run_gnuplot(gp);
+  }
+  return loops;
+}
+
+void warn_about_results(const RunRecord& run) {
+  const auto& scene = run.scene;
+  const auto& summary = run.summary;
+  const std::string unit = unit_name(scene.continuation.unit);
+  const TurningPoints& folds = run.table.turning_points;
+  if (folds.micro_folds > 0)
+    spdlog::warn(
+        "{}: {} of the {} turning points come in clusters narrower than {} {} (near {} {}): "
+        "micro-folds of the time grid of a non-smooth contact force, not physics; they "
+        "shrink as harmonic_balance.samples_per_period grows (the outermost folds of a "
+        "cluster are the physical ones)",
+        scene.file.string(), folds.micro_folds, summary.turning_points,
+        format_number(folds.cluster_width), unit, format_number(folds.first_cluster), unit);
+  const double worst = summary.max_condition;
+  if (!summary.points.empty() && worst > 0.0 && !(worst <= kIllConditioned)) {
+    const Eigen::Index n = run.model.equation_count();
+    const double at =
+        summary.points[summary.max_condition_point].y(n) / scene.continuation.to_rad_per_s();
+    spdlog::warn(
+        "{}: the Newton matrix is ill-conditioned at {} {} (condition estimate {:.3g}: "
+        "about {:.0f} of 16 digits lost in a Newton update); check for a rigid-body mode "
+        "or a contact far stiffer than the structure, or set "
+        "continuation.displacement_scale",
+        scene.file.string(), format_number(at), unit, worst, std::min(16.0, std::log10(worst)));
+  }
+  const auto& stats = run.model.stats();
+  if (stats.non_periodic_traces > 0)
+    spdlog::warn(
+        "{}: {} contact traces did not become periodic within "
+        "harmonic_balance.max_trace_passes = {} passes (each costs that many passes; last: "
+        "{}); a contact that sticks and slips in a limit cycle of its own, or a tolerance "
+        "too tight for it: raise max_trace_passes if the curve changes, or raise "
+        "trace_oversampling",
+        scene.file.string(), stats.non_periodic_traces, scene.harmonic_balance.max_trace_passes,
+        stats.last_trace_diagnostic);
+  if (stats.contacts_with_fd_jacobian && run.model.jacobian_mode() == JacobianMode::kAnalytic)
+    spdlog::warn("{} contact traces used finite differences (a law without tangents)",
+                 stats.contacts_with_fd_jacobian);
+}
+
+nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_loops,
+                           const nlohmann::json& timing, const nlohmann::json& study_context) {
+  const auto& scene = run.scene;
+  const auto& model = run.model;
+  const auto& summary = run.summary;
+  const auto& stats = model.stats();
+  const Eigen::Index n = model.equation_count();
+  const double unit = scene.continuation.to_rad_per_s();
+  nlohmann::json doc = {
+      {"frichb_version", version()},
+      {"scene", {{"file", scene.file.string()}, {"name", scene.name}}},
+      {"termination",
+       {{"reason", to_string(summary.termination)},
+        {"reached_end", summary.reached_end()},
+        {"message", summary.message},
+        {"suggestion", suggestion(summary, scene)},
+        {"last_point", last_point_json(summary, n, unit)}}},
+      {"points", summary.points.size()},
+      {"rejected_steps", summary.rejected_steps},
+      {"turning_points", summary.turning_points},
+      {"turning_point_frequencies", run.table.turning_points.frequencies},
+      {"micro_folds", run.table.turning_points.micro_folds},
+      {"newton_condition", condition_json(summary, n, unit)},
+      {"fine_control_restarts", summary.fine_control_restarts},
+      {"steep_branch_caps", summary.steep_branch_caps},
+      {"residual_floor_points", summary.residual_floor_points},
+      {"corners", summary.corners},
+      {"kink_steps", summary.kink_steps},
+      {"reversed_tangents", summary.reversed_tangents},
+      {"newton_iterations", summary.total_newton_iterations},
+      {"residual_evaluations", stats.residual_evaluations},
+      {"jacobian_evaluations", stats.jacobian_evaluations},
+      {"jacobian",
+       {{"mode",
+         model.jacobian_mode() == JacobianMode::kAnalytic ? "analytic" : "finite_difference"},
+        {"contact_traces_with_finite_differences", stats.contacts_with_fd_jacobian}}},
+      {"non_periodic_traces", stats.non_periodic_traces},
+      {"resonance_bands", resonances_json(run.setup.resonances, unit)},
+      {"harmonic_truncation", truncation_json(run.table.truncation)},
+      {"unknowns", n},
+      {"scaling", {{"displacement_m", run.setup.u_unit}, {"residual_m", run.setup.peak}}},
+      {"peak", peaks_json(run.table)},
+      {"friction_loops", friction_loops},
+      {"wall_time_s", timing},
+      {"profile", profile_json(summary, stats)},
+      {"plugins", plugins_json(scene)},
+      {"validated_scene", scene_to_json(scene)}};
+  if (!stats.last_trace_diagnostic.empty())
+    doc["last_trace_diagnostic"] = stats.last_trace_diagnostic;
+  if (!study_context.is_null()) doc["study"] = study_context;
+  if (!scene_overrides().empty()) {
+    nlohmann::json set = nlohmann::json::object();
+    for (const auto& o : scene_overrides()) set[o.path] = scene_override_json(o);
+    doc["command_line_overrides"] = set;
+  }
+  return doc;
+}
+
+}  // namespace frichb::core

@@ -1,0 +1,797 @@
+#include "frichb/core/scene/scene.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <set>
+#include <sstream>
+
+#include "frichb/core/numerics/harmonics.hpp"
+#include "frichb/plugin/sdk.hpp"
+
+namespace frichb::core {
+
+namespace fs = std::filesystem;
+using sdk::Param;
+
+namespace {
+
+// ---- The core's own schemas (single source of truth for validation and the reference) ----
+
+const std::vector<frichb_param_spec>& top_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text("name", "short name of the scene, used in plots").defaults_to_text(""),
+      Param::text("description", "free text").defaults_to_text(""),
+      Param::text_list("plugin_paths",
+                       "extra folders searched for plugins, relative to the scene file")
+          .optional(),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& structure_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text("provider", "structure-provider plugin name (`frichb plugins` lists them)"),
+  };
+  return s;
+}
+const frichb_param_spec* excitation_fields() {
+  static const frichb_param_spec f[] = {
+      Param::text("dof", "name of the excited DOF or node (a key of structure.dofs)"),
+      Param::real("amplitude", "N", "force amplitude").at_least(0),
+      Param::integer("harmonic", "temporal harmonic number n of the force")
+          .defaults_to(1)
+          .at_least(0),
+      Param::real("phase_deg", "deg", "phase: force = amplitude cos(n w t + phase)").defaults_to(0),
+      Param::real_list("direction", "",
+                       "direction over the node's components (nodes with more than one DOF)")
+          .optional(),
+  };
+  return f;
+}
+constexpr std::size_t kExcitationFieldCount = 5;
+const std::vector<frichb_param_spec>& excitation_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::records("excitation", "harmonic point forces", excitation_fields(),
+                     kExcitationFieldCount)
+          .optional()};
+  return s;
+}
+const std::vector<frichb_param_spec>& contact_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text("name", "name of the contact, used in outputs"),
+      Param::text("law", "contact-law plugin name (`frichb plugins` lists them)"),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& side_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text("node", "node name (a key of structure.dofs) or 'ground'"),
+      Param::integer("sector", "sector offset from the reference sector (cyclic scenes)")
+          .defaults_to(0)
+          .at_least(-1)
+          .at_most(1),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& cyclic_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::integer("sectors", "number of sectors nb of the tuned disk").at_least(2),
+      Param::integer("engine_order", "engine order m of the travelling-wave excitation")
+          .at_least(0),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& frame_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::real_list("tangent1", "", "first tangential direction over the node's components")
+          .optional(),
+      Param::real_list("tangent2", "", "second tangential direction (2D tangential laws)")
+          .optional(),
+      Param::real_list("normal", "",
+                       "normal direction, pointing so that u_n > 0 closes the contact")
+          .optional(),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& harmonic_balance_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::real_list("harmonics", "", "kept temporal harmonics, e.g. [0, 1, 3, 5]")
+          .at_least(0)
+          .optional(),
+      Param::integer("max_harmonic", "keep harmonics 0..max_harmonic (instead of `harmonics`)")
+          .defaults_to(-1)
+          .at_least(-1),
+      Param::integer("samples_per_period", "time samples N of the AFT; N >= 2 max_harmonic + 1")
+          .defaults_to(128)
+          .at_least(2)
+          .at_most(1 << 19),
+      Param::text("jacobian", "contact Jacobian: quasi-analytical, or finite differences")
+          .defaults_to_text("analytic")
+          .choices("analytic|finite_difference"),
+      Param::integer("trace_oversampling",
+                     "trace the contacts on this many times samples_per_period (a return "
+                     "mapping converges to first order in the time step)")
+          .defaults_to(1)
+          .at_least(1)
+          .at_most(64),
+      Param::integer("max_trace_passes", "bound on passes over the period for periodicity")
+          .defaults_to(200)
+          .at_least(1),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& continuation_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::integer("target_newton_iterations", "N* of the step adaptation ds*sqrt(N*/N)")
+          .defaults_to(4)
+          .at_least(1)
+          .at_most(20),
+      Param::integer("max_newton_iterations", "corrector iterations before a step is retried")
+          .defaults_to(25)
+          .at_least(2),
+      Param::integer("max_points", "bound on converged points").defaults_to(2000).at_least(2),
+      Param::real("tolerance", "", "Newton tolerance on the scaled residual and update")
+          .defaults_to(1e-9)
+          .greater_than(0)
+          .at_most(1e-2),
+      Param::boolean("turning_point_control",
+                     "step back and refine tenfold where the frequency tangent changes sign")
+          .defaults_to(1),
+      Param::real("steep_branch_alpha", "", "steep-branch cap threshold alpha (thesis: 20-40)")
+          .defaults_to(30)
+          .greater_than(1),
+      Param::real("max_wall_seconds", "s", "wall-clock bound of the continuation")
+          .defaults_to(600)
+          .greater_than(0),
+      Param::real("displacement_scale", "m",
+                  "scale of the displacement unknowns in the arclength; 0 = automatic")
+          .defaults_to(0)
+          .at_least(0),
+      Param::integer("reuse_factorisation_from",
+                     "unknowns from which a step is first corrected by chord iterations on the "
+                     "last point's factorisation (full Newton when they stall); 0 = never")
+          .defaults_to(1000)
+          .at_least(0),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& frequency_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::real("from", "Hz or rad/s", "start of the sweep").at_least(0),
+      Param::real("to", "Hz or rad/s", "end of the sweep").at_least(0),
+      Param::text("unit", "unit of from/to, steps and friction_loops_at")
+          .defaults_to_text("Hz")
+          .choices("Hz|rad/s"),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& step_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::real("initial", "Hz or rad/s", "first arclength step").defaults_to(1).greater_than(0),
+      Param::real("min", "Hz or rad/s", "smallest step before giving up")
+          .defaults_to(1e-4)
+          .greater_than(0),
+      Param::real("max", "Hz or rad/s", "largest step").defaults_to(10).greater_than(0),
+  };
+  return s;
+}
+const std::vector<frichb_param_spec>& output_schema() {
+  static const std::vector<frichb_param_spec> s = {
+      Param::text_list("response", "nodes whose amplitude goes to response.csv").optional(),
+      Param::real_list("friction_loops_at", "Hz or rad/s",
+                       "frequencies where friction loops are written")
+          .greater_than(0)
+          .optional(),
+      Param::boolean("plots", "write gnuplot scripts and PNG plots").defaults_to(1),
+  };
+  return s;
+}
+
+sdk::Params view(const std::vector<frichb_param_spec>& schema, const ParamValues& values) {
+  return sdk::Params(schema.data(), schema.size(), values.data());
+}
+
+std::vector<double> unit_vector(const std::vector<double>& v, const YAML::Node& node,
+                                const std::string& path, const YamlContext& ctx,
+                                std::size_t components) {
+  if (v.size() != components)
+    ctx.fail(node, path,
+             "has " + std::to_string(v.size()) + " entries but the node has " +
+                 std::to_string(components) + " components");
+  // Scaled by the largest entry: the squares neither overflow (1e200 gave the zero vector)
+  // nor underflow (1e-200 was "the zero vector").
+  double scale = 0;
+  for (double x : v) scale = std::max(scale, std::abs(x));
+  if (scale == 0) ctx.fail(node, path, "is the zero vector");
+  double sum = 0;
+  for (double x : v) sum += (x / scale) * (x / scale);
+  const double norm = scale * std::sqrt(sum);
+  std::vector<double> out;
+  out.reserve(v.size());
+  for (double x : v) out.push_back(x / norm);
+  return out;
+}
+
+}  // namespace
+
+const NodeSpec* StructureSpec::find(const std::string& name) const {
+  for (const auto& n : nodes)
+    if (n.name == name) return &n;
+  return nullptr;
+}
+
+double ContinuationSpec::to_rad_per_s() const {
+  return unit == FrequencyUnit::kHz ? 2.0 * std::numbers::pi : 1.0;
+}
+
+namespace {
+
+// Names that become file names and CSV columns: letters, digits, '_', '-' and '.', not
+// starting with '.' or '-'.
+bool is_plain_name(const std::string& name) {
+  return !name.empty() && name[0] != '.' && name[0] != '-' &&
+         std::all_of(name.begin(), name.end(), [](char ch) {
+           return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' ||
+                  ch == '.';
+         });
+}
+
+std::string child_path(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+// The end of the quoted scalar that opens at `text[open]` (a ' or "), or npos when the file
+// ends first. yaml-cpp reads an unclosed quote as a string running to the end of the file.
+std::size_t closing_quote(const std::string& text, std::size_t open) {
+  const char quote = text[open];
+  for (std::size_t i = open + 1; i < text.size(); ++i) {
+    if (quote == '"' && text[i] == '\\') {
+      ++i;
+    } else if (text[i] == quote) {
+      if (quote == '\'' && i + 1 < text.size() && text[i + 1] == '\'') {
+        ++i;  // '' is a quote inside a single-quoted scalar
+        continue;
+      }
+      return i;
+    }
+  }
+  return std::string::npos;
+}
+
+// What yaml-cpp accepts silently and a scene must not hold: a key twice in one map (yaml-cpp
+// keeps both and a lookup finds the first) and a quoted scalar that is never closed.
+void check_strict(const YAML::Node& node, const std::string& path, const std::string& text,
+                  const std::string& file, int depth, std::size_t& visited) {
+  // Aliases can make a cycle or a tree that doubles at every level: bounded.
+  constexpr int kMaxDepth = 64;
+  constexpr std::size_t kMaxNodes = 1000000;
+  if (depth > kMaxDepth || ++visited > kMaxNodes)
+    throw SceneError(file, node.Mark().line + 1, node.Mark().column + 1, path,
+                     "the YAML nests deeper than " + std::to_string(kMaxDepth) +
+                         " levels or holds more than a million nodes (aliases that refer to "
+                         "themselves or to each other?)");
+  if (node.IsScalar()) {
+    const YAML::Mark m = node.Mark();
+    if (node.Tag() == "!" && m.pos >= 0 && static_cast<std::size_t>(m.pos) < text.size()) {
+      const auto open = static_cast<std::size_t>(m.pos);
+      if ((text[open] == '"' || text[open] == '\'') &&
+          closing_quote(text, open) == std::string::npos)
+        throw SceneError(file, m.line + 1, m.column + 1, path,
+                         std::string("malformed YAML: the quote ") + text[open] +
+                             " opened here is never closed");
+    }
+    return;
+  }
+  if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i)
+      check_strict(node[i], path + "[" + std::to_string(i) + "]", text, file, depth + 1, visited);
+    return;
+  }
+  if (!node.IsMap()) return;
+  std::map<std::string, YAML::Mark> seen;
+  for (const auto& kv : node) {
+    const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string();
+    if (kv.first.IsScalar()) {
+      const auto [at, inserted] = seen.emplace(key, kv.first.Mark());
+      if (!inserted)
+        throw SceneError(
+            file, kv.first.Mark().line + 1, kv.first.Mark().column + 1, child_path(path, key),
+            "duplicate key '" + key + "': given on line " + std::to_string(at->second.line + 1) +
+                " and again on line " + std::to_string(kv.first.Mark().line + 1) +
+                " (keep one; YAML readers differ on which one wins)");
+    }
+    check_strict(kv.first, path, text, file, depth + 1, visited);
+    check_strict(kv.second, child_path(path, key), text, file, depth + 1, visited);
+  }
+}
+
+}  // namespace
+
+YAML::Node load_scene_yaml(const fs::path& file) {
+  std::string text;
+  {
+    std::error_code ec;
+    if (fs::is_directory(file, ec))
+      throw SceneError(file.string(), 0, 0, "", "is a folder, not a scene file");
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw SceneError(file.string(), 0, 0, "", "cannot open the scene file");
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    text = buffer.str();
+  }
+  std::vector<YAML::Node> documents;
+  try {
+    documents = YAML::LoadAll(text);
+  } catch (const YAML::Exception& e) {
+    throw SceneError(file.string(), e.mark.line + 1, e.mark.column + 1, "",
+                     "malformed YAML: " + e.msg);
+  }
+  if (documents.size() > 1) {
+    // Where the second document starts: its root's mark, or the second `---` line.
+    int line = documents[1].Mark().line;
+    if (line < 0) {
+      std::istringstream lines(text);
+      std::string l;
+      int number = 0, separators = 0;
+      const bool explicit_start = text.starts_with("---");
+      while (std::getline(lines, l)) {
+        if (l.starts_with("---") && ++separators == (explicit_start ? 2 : 1)) {
+          line = number;
+          break;
+        }
+        ++number;
+      }
+    }
+    throw SceneError(file.string(), line + 1, 1, "",
+                     "a second YAML document (after `---`): a scene file holds one document; "
+                     "put each scene in a file of its own");
+  }
+  YAML::Node root = documents.empty() ? YAML::Node() : documents.front();
+  std::size_t visited = 0;
+  check_strict(root, "", text, file.string(), 0, visited);
+  return root;
+}
+
+namespace {
+std::vector<SceneOverride>& override_storage() {
+  static std::vector<SceneOverride> overrides;
+  return overrides;
+}
+}  // namespace
+
+void set_scene_overrides(std::vector<SceneOverride> overrides) {
+  override_storage() = std::move(overrides);
+}
+const std::vector<SceneOverride>& scene_overrides() {
+  return override_storage();
+}
+
+YAML::Node load_scene_document(const fs::path& file) {
+  YAML::Node document = load_scene_yaml(file);
+  for (const auto& o : scene_overrides()) {
+    try {
+      set_scene_override(document, o);
+    } catch (const std::invalid_argument& e) {
+      throw SceneError(file.string(), 0, 0, "--set " + o.path, e.what());
+    }
+  }
+  return document;
+}
+
+Scene load_scene(const fs::path& file) {
+  return load_scene(load_scene_document(file), file);
+}
+
+Scene load_scene(const YAML::Node& document, const fs::path& file) {
+  Scene scene;
+  scene.file = file;
+  scene.root = document;
+  YamlContext ctx{file.string()};
+  // Non-const handles: a const operator[] on a missing key gives an invalid node that throws.
+  YAML::Node root = scene.root;
+  if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
+
+  const std::vector<std::string> sections = {"structure",        "excitation",   "contacts",
+                                             "harmonic_balance", "continuation", "output",
+                                             "cyclic",           "study"};
+  const auto top = validate_params(root, top_schema(), "", ctx, sections);
+  const auto topv = view(top_schema(), top);
+  scene.name = topv.text("name");
+  scene.description = topv.text("description");
+  {
+    const auto listed_paths = topv.texts("plugin_paths");
+    for (std::size_t i = 0; i < listed_paths.size(); ++i) {
+      fs::path path(listed_paths[i]);
+      if (!path.is_absolute()) path = file.parent_path() / path;
+      std::error_code ec;
+      if (!fs::is_directory(path, ec))
+        ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
+                 "folder '" + path.string() +
+                     "' does not exist (a relative path is taken from the scene file's folder)");
+      scene.plugin_paths.push_back(path);
+    }
+  }
+  scene.core_values = top.to_json(top_schema());
+
+  // cyclic symmetry
+  if (YAML::Node cy = root["cyclic"]; cy) {
+    const auto cv = validate_params(cy, cyclic_schema(), "cyclic", ctx);
+    const auto c = view(cyclic_schema(), cv);
+    scene.cyclic.sectors = static_cast<int>(c.integer("sectors"));
+    scene.cyclic.engine_order = static_cast<int>(c.integer("engine_order"));
+    scene.core_values["cyclic"] = cv.to_json(cyclic_schema());
+  }
+
+  // structure
+  YAML::Node s = root["structure"];
+  if (!s) ctx.fail(root, "structure", "missing required section");
+  const auto sv = validate_params(s, structure_schema(), "structure", ctx,
+                                  std::vector<std::string>{"params", "dofs"});
+  scene.structure.provider = view(structure_schema(), sv).text("provider");
+  scene.structure.params = s["params"];
+  YAML::Node dofs = s["dofs"];
+  // `dofs` is the map itself or the path of a YAML file holding it (relative to the scene's
+  // folder), e.g. the DOF names a model pipeline writes next to its matrices.
+  YamlContext dofs_ctx = ctx;
+  if (dofs && dofs.IsScalar()) {
+    fs::path map_file(dofs.Scalar());
+    if (!map_file.is_absolute()) map_file = file.parent_path() / map_file;
+    std::error_code ec;
+    if (!fs::is_regular_file(map_file, ec))
+      ctx.fail(dofs, "structure.dofs",
+               "DOF map file '" + map_file.string() +
+                   "' not found (a relative path is taken from the scene file's folder)");
+    dofs = load_scene_yaml(map_file);
+    dofs_ctx = YamlContext{map_file.string()};
+  }
+  if (!dofs || !dofs.IsMap() || dofs.size() == 0)
+    dofs_ctx.fail(dofs ? dofs : s, "structure.dofs",
+                  "expected a map naming DOFs, e.g. {blade: 0, damper: [3, 4, 5]}, or the path "
+                  "of a YAML file holding one");
+  for (const auto& kv : dofs) {
+    NodeSpec node;
+    if (!kv.first.IsScalar())
+      dofs_ctx.fail(kv.first, "structure.dofs", "a DOF name must be plain text");
+    node.name = kv.first.Scalar();
+    node.defined_in = dofs_ctx.file;
+    node.definition = kv.second;
+    const std::string path = "structure.dofs." + node.name;
+    if (node.name == "ground") dofs_ctx.fail(kv.first, path, "'ground' is reserved");
+    if (!is_plain_name(node.name))
+      dofs_ctx.fail(kv.first, path,
+                    "'" + node.name +
+                        "': use letters, digits, '_', '-' and '.' (it names columns of "
+                        "response.csv)");
+    if (scene.structure.find(node.name))
+      dofs_ctx.fail(kv.first, path, "DOF name '" + node.name + "' is used twice");
+    auto read_index = [&](const YAML::Node& n) {
+      double x = -1;
+      if (!n.IsScalar() || !YAML::convert<double>::decode(n, x) || x < 0 || x != std::floor(x) ||
+          x > std::numeric_limits<int>::max())
+        dofs_ctx.fail(n, path, "expected a DOF index (integer >= 0) or a list of them");
+      node.dofs.push_back(static_cast<std::size_t>(x));
+    };
+    if (kv.second.IsSequence()) {
+      if (kv.second.size() == 0 || kv.second.size() > 3)
+        dofs_ctx.fail(kv.second, path, "a node has 1 to 3 DOFs");
+      for (const auto& n : kv.second) read_index(n);
+    } else {
+      read_index(kv.second);
+    }
+    scene.structure.nodes.push_back(std::move(node));
+  }
+  scene.core_values["structure"] = sv.to_json(structure_schema());
+
+  // harmonic balance
+  YAML::Node hbn = root["harmonic_balance"];
+  const auto hb = validate_params(hbn, harmonic_balance_schema(), "harmonic_balance", ctx);
+  const auto hbv = view(harmonic_balance_schema(), hb);
+  const auto listed = hbv.reals("harmonics");
+  const long long max_h = hbv.integer("max_harmonic");
+  if (listed.empty() == (max_h < 0))
+    ctx.fail(hbn ? hbn : root, "harmonic_balance",
+             "give exactly one of `harmonics: [...]` or `max_harmonic: H`");
+  auto& H = scene.harmonic_balance;
+  {
+    std::set<double> seen;
+    for (std::size_t i = 0; i < listed.size(); ++i) {
+      const double x = listed[i];
+      if (x != std::floor(x) || !seen.insert(x).second)
+        ctx.fail(hbn["harmonics"][i], "harmonic_balance.harmonics[" + std::to_string(i) + "]",
+                 "harmonics are distinct integers >= 0");
+    }
+  }
+  H.samples_per_period = static_cast<int>(hbv.integer("samples_per_period"));
+  // Checked before the harmonics are listed as int: a huge max_harmonic or harmonic is refused
+  // here (samples_per_period is bounded by its schema), not converted or enumerated.
+  const double max_kept =
+      max_h >= 0 ? static_cast<double>(max_h) : *std::max_element(listed.begin(), listed.end());
+  if (const auto why = sampling_violation(H.samples_per_period, max_kept); !why.empty())
+    ctx.fail(hbn["samples_per_period"] ? hbn["samples_per_period"] : hbn,
+             "harmonic_balance.samples_per_period", why);
+  if (max_h >= 0) {
+    for (int n = 0; n <= max_h; ++n) H.harmonics.push_back(n);
+  } else {
+    for (double x : listed) H.harmonics.push_back(static_cast<int>(x));
+  }
+  H.analytic_jacobian = hbv.text("jacobian") == "analytic";
+  H.max_trace_passes = static_cast<int>(hbv.integer("max_trace_passes"));
+  H.trace_oversampling = static_cast<int>(hbv.integer("trace_oversampling"));
+  scene.core_values["harmonic_balance"] = hb.to_json(harmonic_balance_schema());
+
+  // excitation
+  YAML::Node exn = root["excitation"];
+  YAML::Node wrapped;
+  wrapped["excitation"] = exn;
+  const auto ex = validate_params(exn ? wrapped : YAML::Node(), excitation_schema(), "", ctx);
+  const auto exv = view(excitation_schema(), ex);
+  for (std::size_t i = 0; i < exv.record_count("excitation"); ++i) {
+    const auto r = exv.record("excitation", i);
+    const std::string path = "excitation[" + std::to_string(i) + "]";
+    ExcitationSpec e;
+    e.node = r.text("dof");
+    const NodeSpec* node = scene.structure.find(e.node);
+    if (!node)
+      ctx.fail(exn[i]["dof"], path + ".dof", "'" + e.node + "' is not a key of structure.dofs");
+    auto dir = r.reals("direction");
+    if (dir.empty() && node->dofs.size() == 1) dir = {1.0};
+    if (dir.empty())
+      ctx.fail(exn[i], path + ".direction",
+               "node '" + e.node + "' has several DOFs: give a direction");
+    e.direction = unit_vector(dir, exn[i]["direction"] ? exn[i]["direction"] : exn[i],
+                              path + ".direction", ctx, node->dofs.size());
+    e.amplitude = r.real("amplitude");
+    e.harmonic = static_cast<int>(r.integer("harmonic"));
+    e.phase = r.real("phase_deg") * std::numbers::pi / 180.0;
+    if (std::find(H.harmonics.begin(), H.harmonics.end(), e.harmonic) == H.harmonics.end())
+      ctx.fail(exn[i], path + ".harmonic",
+               "harmonic " + std::to_string(e.harmonic) +
+                   " is not among harmonic_balance's kept harmonics");
+    scene.excitation.push_back(std::move(e));
+  }
+  scene.core_values["excitation"] = ex.to_json(excitation_schema())["excitation"];
+
+  // contacts
+  YAML::Node cn = root["contacts"];
+  if (cn && !cn.IsNull() && !cn.IsSequence())
+    ctx.fail(cn, "contacts", "expected a list of contacts");
+  std::set<std::string> contact_names;
+  nlohmann::json contacts_json = nlohmann::json::array();
+  for (std::size_t i = 0; cn && cn.IsSequence() && i < cn.size(); ++i) {
+    const std::string path = "contacts[" + std::to_string(i) + "]";
+    YAML::Node c = cn[i];
+    const auto cv = validate_params(c, contact_schema(), path, ctx,
+                                    std::vector<std::string>{"between", "frame", "params"});
+    const auto v = view(contact_schema(), cv);
+    ContactSpec contact;
+    contact.name = v.text("name");
+    contact.law = v.text("law");
+    if (!is_plain_name(contact.name))
+      ctx.fail(c["name"], path + ".name",
+               "'" + contact.name + "': use letters, digits, '_', '-' and '.' (it names files)");
+    if (!contact_names.insert(contact.name).second)
+      ctx.fail(c["name"], path + ".name", "contact name '" + contact.name + "' is used twice");
+    YAML::Node bn = c["between"];
+    if (!bn || !bn.IsSequence() || bn.size() != 2)
+      ctx.fail(bn ? bn : c, path + ".between",
+               "expected [side A, side B]: node names, 'ground', or {node: name, sector: +1}");
+    std::string sides[2];
+    int sectors[2] = {0, 0};
+    nlohmann::json between_json = nlohmann::json::array();
+    for (int k = 0; k < 2; ++k) {
+      const std::string side_path = path + ".between[" + std::to_string(k) + "]";
+      YAML::Node sn = bn[k];
+      if (sn.IsScalar()) {
+        sides[k] = sn.Scalar();
+      } else {
+        const auto side_values = validate_params(sn, side_schema(), side_path, ctx);
+        const auto side = view(side_schema(), side_values);
+        sides[k] = side.text("node");
+        sectors[k] = static_cast<int>(side.integer("sector"));
+        if (sectors[k] != 0 && scene.cyclic.sectors < 2)
+          ctx.fail(sn["sector"], side_path + ".sector",
+                   "a neighbouring sector needs a `cyclic: {sectors, engine_order}` section");
+      }
+      between_json.push_back({{"node", sides[k]}, {"sector", sectors[k]}});
+    }
+    contact.side_a = sides[0];
+    contact.side_b = sides[1];
+    contact.sector_a = sectors[0];
+    contact.sector_b = sectors[1];
+    if (sides[0] == sides[1] && sectors[0] == sectors[1])
+      ctx.fail(bn, path + ".between", "both sides are the same node of the same sector");
+    std::size_t components = 0;
+    for (int k = 0; k < 2; ++k) {
+      const std::string& side = sides[k];
+      if (side == "ground") continue;
+      const NodeSpec* node = scene.structure.find(side);
+      if (!node)
+        ctx.fail(bn[k], path + ".between[" + std::to_string(k) + "]",
+                 "'" + side + "' is neither 'ground' nor a key of structure.dofs");
+      if (components && node->dofs.size() != components)
+        ctx.fail(bn, path + ".between", "the two sides have different DOF counts");
+      components = node->dofs.size();
+    }
+    if (components == 0)
+      ctx.fail(bn, path + ".between", "a contact needs at least one side that is not ground");
+    YAML::Node fn = c["frame"];
+    const auto fv = validate_params(fn, frame_schema(), path + ".frame", ctx);
+    const auto f = view(frame_schema(), fv);
+    auto vec = [&](const char* key) {
+      const auto raw = f.reals(key);
+      if (raw.empty()) return std::vector<double>{};
+      return unit_vector(raw, fn[key], path + ".frame." + key, ctx, components);
+    };
+    contact.tangent1 = vec("tangent1");
+    contact.tangent2 = vec("tangent2");
+    contact.normal = vec("normal");
+    if (contact.tangent1.empty() && components == 1) contact.tangent1 = {1.0};
+    contact.params = c["params"];
+    nlohmann::json cj = cv.to_json(contact_schema());
+    cj["between"] = between_json;
+    cj["frame"] = fv.to_json(frame_schema());
+    contacts_json.push_back(cj);
+    scene.contacts.push_back(std::move(contact));
+  }
+  scene.core_values["contacts"] = contacts_json;
+
+  // continuation
+  YAML::Node con = root["continuation"];
+  if (!con) ctx.fail(root, "continuation", "missing required section (frequency sweep)");
+  const auto cov = validate_params(con, continuation_schema(), "continuation", ctx,
+                                   std::vector<std::string>{"frequency", "step"});
+  const auto co = view(continuation_schema(), cov);
+  if (!con["frequency"]) ctx.fail(con, "continuation.frequency", "missing {from, to, unit}");
+  const auto fr =
+      validate_params(con["frequency"], frequency_schema(), "continuation.frequency", ctx);
+  const auto frv = view(frequency_schema(), fr);
+  const auto st = validate_params(con["step"], step_schema(), "continuation.step", ctx);
+  const auto stv = view(step_schema(), st);
+  auto& C = scene.continuation;
+  C.unit = frv.text("unit") == "Hz" ? FrequencyUnit::kHz : FrequencyUnit::kRadPerSecond;
+  C.from = frv.real("from");
+  C.to = frv.real("to");
+  if (C.from == C.to) ctx.fail(con["frequency"], "continuation.frequency", "from equals to");
+  if (std::min(C.from, C.to) <= 0)
+    ctx.fail(con["frequency"], "continuation.frequency",
+             "the sweep must stay above 0 (the static response is harmonic 0)");
+  C.initial_step = stv.real("initial");
+  C.min_step = stv.real("min");
+  C.max_step = stv.real("max");
+  if (!(C.min_step <= C.initial_step && C.initial_step <= C.max_step))
+    ctx.fail(con["step"] ? con["step"] : con, "continuation.step",
+             "steps must satisfy min <= initial <= max");
+  C.target_newton_iterations = static_cast<int>(co.integer("target_newton_iterations"));
+  C.max_newton_iterations = static_cast<int>(co.integer("max_newton_iterations"));
+  C.max_points = static_cast<int>(co.integer("max_points"));
+  C.tolerance = co.real("tolerance");
+  C.turning_point_control = co.boolean("turning_point_control");
+  C.steep_branch_alpha = co.real("steep_branch_alpha");
+  C.max_wall_seconds = co.real("max_wall_seconds");
+  C.displacement_scale = co.real("displacement_scale");
+  C.reuse_factorisation_from = static_cast<int>(co.integer("reuse_factorisation_from"));
+  nlohmann::json cj = cov.to_json(continuation_schema());
+  cj["frequency"] = fr.to_json(frequency_schema());
+  cj["step"] = st.to_json(step_schema());
+  scene.core_values["continuation"] = cj;
+
+  // output
+  YAML::Node on = root["output"];
+  const auto ov = validate_params(on, output_schema(), "output", ctx);
+  const auto o = view(output_schema(), ov);
+  scene.output.response = o.texts("response");
+  for (std::size_t i = 0; i < scene.output.response.size(); ++i)
+    if (!scene.structure.find(scene.output.response[i]))
+      ctx.fail(on["response"][i], "output.response[" + std::to_string(i) + "]",
+               "'" + scene.output.response[i] + "' is not a key of structure.dofs");
+  if (scene.output.response.empty())
+    for (const auto& n : scene.structure.nodes) scene.output.response.push_back(n.name);
+  scene.output.friction_loops_at = o.reals("friction_loops_at");
+  scene.output.plots = o.boolean("plots");
+  scene.core_values["output"] = ov.to_json(output_schema());
+  return scene;
+}
+
+void bind_plugins(Scene& scene, const Registry& registry) {
+  YamlContext ctx{scene.file.string()};
+  auto fail_plugin = [&](const YAML::Node& node, const std::string& path, const PluginError& e) {
+    ctx.fail(node, path, e.what());
+  };
+  try {
+    check_plugin_allowed(registry.file_of(scene.structure.provider), scene.plugin_paths);
+    scene.structure.plugin = registry.load(scene.structure.provider, FRICHB_KIND_STRUCTURE);
+  } catch (const PluginError& e) {
+    fail_plugin(scene.root["structure"]["provider"], "structure.provider", e);
+  }
+  scene.structure.values = validate_params(scene.structure.params, scene.structure.plugin->schema(),
+                                           "structure.params", ctx);
+  for (std::size_t i = 0; i < scene.contacts.size(); ++i) {
+    auto& c = scene.contacts[i];
+    const std::string path = "contacts[" + std::to_string(i) + "]";
+    try {
+      check_plugin_allowed(registry.file_of(c.law), scene.plugin_paths);
+      c.plugin = registry.load(c.law, FRICHB_KIND_CONTACT_LAW);
+    } catch (const PluginError& e) {
+      fail_plugin(scene.root["contacts"][i]["law"], path + ".law", e);
+    }
+    c.values = validate_params(c.params, c.plugin->schema(), path + ".params", ctx);
+  }
+}
+
+bool load_bound_scene(const fs::path& file, Scene& scene, std::unique_ptr<Registry>& registry) {
+  try {
+    scene = load_scene(file);
+    registry = std::make_unique<Registry>(Registry::default_search_path(scene.plugin_paths));
+    bind_plugins(scene, *registry);
+    return true;
+  } catch (const SceneError& e) {
+    spdlog::error("{}", e.what());
+  } catch (const std::exception& e) {
+    // Anything else while reading input (yaml-cpp conversions, the file system, a plugin that
+    // cannot load) is still bad input, not an internal failure.
+    spdlog::error("{}: {}", file.string(), e.what());
+  }
+  return false;
+}
+
+nlohmann::json scene_to_json(const Scene& scene) {
+  nlohmann::json j = scene.core_values;
+  if (scene.structure.plugin)
+    j["structure"]["params"] = scene.structure.values.to_json(scene.structure.plugin->schema());
+  nlohmann::json dofs = nlohmann::json::object();
+  for (const auto& n : scene.structure.nodes) dofs[n.name] = n.dofs;
+  j["structure"]["dofs"] = dofs;
+  for (std::size_t i = 0; i < scene.contacts.size(); ++i)
+    if (scene.contacts[i].plugin)
+      j["contacts"][i]["params"] =
+          scene.contacts[i].values.to_json(scene.contacts[i].plugin->schema());
+  return j;
+}
+
+std::vector<CoreSection> core_schemas() {
+  return {
+      {"(top level)", top_schema(),
+       "Sections: `structure`, `excitation`, `contacts`, `harmonic_balance`, `continuation` "
+       "(required), `output`, `cyclic`, `study`."},
+      {"structure", structure_schema(),
+       "`params`: the provider's parameters (see Structure providers below). `dofs`: a map "
+       "naming the DOFs the scene refers to (or the path, relative to the scene's folder, of a "
+       "YAML file holding that map), `name: index` for a scalar DOF or "
+       "`name: [i, j, k]` for a node of 2-3 DOFs (indices 0-based in the provider's numbering)."},
+      {"excitation", excitation_schema(),
+       "`excitation` is a top-level list; each entry is one harmonic force "
+       "`amplitude * cos(harmonic * w t + phase)` along `direction`."},
+      {"cyclic", cyclic_schema(),
+       "Optional: a tuned disk of `sectors` identical sectors under an engine-order excitation. "
+       "The structure provider then models one sector (harmonic indices h = mod(n m, nb)), "
+       "and contacts may join a node of the reference sector to one of its neighbour."},
+      {"contacts[]", contact_schema(),
+       "`between`: [side A, side B], each a node name, `ground`, or `{node: name, sector: +1}` "
+       "(sector offset -1, 0 or +1 in cyclic scenes; the map form below). "
+       "`params`: the law's parameters (see Contact laws below). `frame`: the local directions "
+       "(below). The relative displacement is u = frame . (x_B - x_A), B the second side. The "
+       "law's force f (spring-like: +kt u when stuck) enters the equations of motion as "
+       "M x'' + C x' + K x + f_nl = f_ext with f_nl = +f on B and -f on A (thesis eq. 2.13): "
+       "the contact pushes B back by -f."},
+      {"contacts[].between[]", side_schema(), "The map form of a side."},
+      {"contacts[].frame", frame_schema(),
+       "Each vector has one entry per DOF of the sides' nodes and is normalised. A 1-DOF node "
+       "defaults to tangent1 = [1]. A law uses tangent2 when it is 2D tangential and normal "
+       "when its normal load varies."},
+      {"harmonic_balance", harmonic_balance_schema(),
+       "Give `harmonics` or `max_harmonic`. Every excited harmonic must be kept."},
+      {"continuation", continuation_schema(), "Sub-maps `frequency` (required) and `step`."},
+      {"continuation.frequency", frequency_schema(), ""},
+      {"continuation.step", step_schema(),
+       "Arclength steps in the frequency unit; displacements are scaled (see docs/theory.md)."},
+      {"output", output_schema(), "`response` defaults to every node of `structure.dofs`."}};
+}
+
+}  // namespace frichb::core

@@ -1,0 +1,66 @@
+// The continuation's view of a CurveProblem: its unknowns and residual divided by the scales of
+// ContinuationOptions (unknown_scale, residual_scale), evaluations that refuse non-finite
+// output, and the SolveProfile every evaluation and factorisation of one solve is counted in.
+#pragma once
+
+#include <Eigen/Dense>
+#include <chrono>
+#include <string>
+#include <utility>
+
+#include "frichb/core/solver/continuation.hpp"
+
+namespace frichb::core {
+
+// Scale vectors resolved to their full sizes (an empty option means all ones).
+struct Scaling {
+  Eigen::VectorXd unknown;   // n + 1, lambda's last
+  Eigen::VectorXd residual;  // n
+};
+
+// Resolves the scales of `options` for n equations; false (with `why`) on wrong sizes.
+bool make_scaling(const ContinuationOptions& options, Eigen::Index n, Scaling* scaling,
+                  std::string* why);
+
+// "lambda = <value>" with 12 significant digits, for messages.
+std::string format_lambda(double lambda);
+
+// Wall seconds since `start`.
+double seconds_since(std::chrono::steady_clock::time_point start);
+
+// The problem in scaled variables ys = y / scaling.unknown, es = e / scaling.residual. Holds
+// references: `problem` and `profile` must outlive it. `profile` may be null (nothing counted).
+// Not thread-safe (it counts into the profile); one per solve.
+class ScaledProblem {
+ public:
+  ScaledProblem(const CurveProblem& problem, Scaling scaling, SolveProfile* profile)
+      : problem_(problem), scaling_(std::move(scaling)), profile_(profile) {}
+
+  Eigen::Index equations() const { return scaling_.residual.size(); }
+  const Scaling& scaling() const { return scaling_; }
+  SolveProfile* profile() const { return profile_; }
+  Eigen::VectorXd unscale(const Eigen::VectorXd& ys) const {
+    return ys.cwiseProduct(scaling_.unknown);
+  }
+  Eigen::VectorXd scale(const Eigen::VectorXd& y) const {
+    return y.cwiseQuotient(scaling_.unknown);
+  }
+  // The unscaled lambda of scaled unknowns.
+  double lambda_of(const Eigen::VectorXd& ys) const {
+    return ys(equations()) * scaling_.unknown(equations());
+  }
+
+  // The scaled residual `es` (size n) and, when `js` is not null, the scaled n x (n + 1)
+  // Jacobian at scaled unknowns `ys`, written into js's own storage. False, with `message`,
+  // when the problem fails, returns wrong sizes, or returns a non-finite value: NaN never
+  // reaches an accepted point.
+  bool evaluate(const Eigen::VectorXd& ys, Eigen::VectorXd* es, Eigen::MatrixXd* js,
+                std::string* message) const;
+
+ private:
+  const CurveProblem& problem_;
+  Scaling scaling_;
+  SolveProfile* profile_;
+};
+
+}  // namespace frichb::core
