@@ -13,6 +13,7 @@
 #include "frichb/core/model/harmonic_balance.hpp"
 #include "frichb/core/report/output.hpp"
 #include "frichb/core/report/run_report.hpp"
+#include "frichb/core/scene/plugin_checks.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/interrupt.hpp"
 
@@ -100,6 +101,7 @@ PreparedRun prepare_run(const Scene& scene, int contact_threads) {
   try {
     start.structure =
         std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
+    check_scene_against_plugins(scene, *start.structure);
     start.model = std::make_unique<HarmonicBalanceModel>(scene, *start.structure);
     start.model->set_contact_threads(contact_threads);
   } catch (const PluginError& e) {

@@ -9,6 +9,7 @@
 
 #include "frichb/core/model/harmonic_balance.hpp"
 #include "frichb/core/report/output.hpp"
+#include "frichb/core/scene/plugin_checks.hpp"
 #include "frichb/core/support/exit_codes.hpp"
 #include "frichb/core/support/version.hpp"
 
@@ -34,6 +35,7 @@ TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options
       throw std::invalid_argument("timesim: the scene's plugins are not bound (bind_plugins)");
 
   StructureInstance structure(scene.structure.plugin, scene.structure.values);
+  check_scene_against_plugins(scene, structure);
   const HarmonicBalanceModel model(scene, structure);
   const auto& basis = model.structure().basis(0);
   if (basis.rows.imag().cwiseAbs().maxCoeff() > 0)

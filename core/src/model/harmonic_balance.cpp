@@ -39,31 +39,21 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
           scene.harmonic_balance.samples_per_period * scene.harmonic_balance.trace_oversampling),
       mode_(scene.harmonic_balance.analytic_jacobian ? JacobianMode::kAnalytic
                                                      : JacobianMode::kFiniteDifference) {
-  kept_dofs_ = collect_kept_dofs(scene);
+  // The scene's checks against its plugins (check_scene_against_plugins) locate these errors
+  // in the scene; here they are preconditions.
   const std::size_t n_dofs = structure.dof_count();
-  YAML::Node root = scene.root;  // non-const: a missing key then gives an undefined node
-  const YamlContext ctx{scene.file.string()};
   for (const auto& node : scene.structure.nodes)
     for (std::size_t d : node.dofs)
       if (d >= n_dofs)
-        YamlContext{node.defined_in.empty() ? scene.file.string() : node.defined_in}.fail(
-            node.definition, "structure.dofs." + node.name,
-            "DOF " + std::to_string(d) + " does not exist: provider '" + scene.structure.provider +
-                "' has " + std::to_string(n_dofs) + " DOFs (0.." + std::to_string(n_dofs - 1) +
-                ")");
+        throw std::invalid_argument("HarmonicBalanceModel: node '" + node.name + "' names DOF " +
+                                    std::to_string(d) + " of a structure with " +
+                                    std::to_string(n_dofs));
+  if (static_cast<int>(structure.sector_count()) != scene.cyclic.sectors)
+    throw std::invalid_argument(
+        "HarmonicBalanceModel: the structure models " + std::to_string(structure.sector_count()) +
+        " sectors, the scene's cyclic section " + std::to_string(scene.cyclic.sectors));
+  kept_dofs_ = collect_kept_dofs(scene);
   // Harmonic index of each kept temporal harmonic; only the indices they excite are built.
-  const int sectors = static_cast<int>(structure.sector_count());
-  if (sectors != scene.cyclic.sectors) {
-    const std::string why =
-        scene.cyclic.enabled()
-            ? "the scene has cyclic.sectors = " + std::to_string(scene.cyclic.sectors) +
-                  " but provider '" + scene.structure.provider + "' models " +
-                  (sectors > 1 ? std::to_string(sectors) + " sectors" : "no cyclic symmetry")
-            : "provider '" + scene.structure.provider + "' models one sector of " +
-                  std::to_string(sectors) + ": add `cyclic: {sectors: " + std::to_string(sectors) +
-                  ", engine_order: m}`";
-    ctx.fail(scene.cyclic.enabled() ? root["cyclic"] : root["structure"], "cyclic", why);
-  }
   std::vector<int> indices;
   for (int n : layout_.harmonics()) {
     harmonic_index_.push_back(scene.cyclic.harmonic_index(n));
@@ -81,14 +71,7 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   for (const auto& spec : scene.contacts) {
     ContactModel c;
     c.name = spec.name;
-    try {
-      c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
-    } catch (const PluginError& e) {
-      const std::size_t index = static_cast<std::size_t>(&spec - scene.contacts.data());
-      fail_plugin_refusal(ctx, root["contacts"][index],
-                          "contacts[" + std::to_string(index) + "].params", spec.plugin->schema(),
-                          e.what());
-    }
+    c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
     c.tracer = std::make_unique<PeriodicTracer>(*c.law, trace_layout_, trace_options);
     const auto& comps = c.tracer->components();
     const auto d = static_cast<Eigen::Index>(comps.size());
@@ -96,13 +79,10 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     for (std::size_t a = 0; a < comps.size(); ++a) {
       const std::vector<double>& dir =
           comps[a] == 0 ? spec.tangent1 : (comps[a] == 1 ? spec.tangent2 : spec.normal);
-      if (dir.empty()) {
-        static const char* names[] = {"tangent1", "tangent2", "normal"};
-        const std::size_t index = static_cast<std::size_t>(&spec - scene.contacts.data());
-        ctx.fail(root["contacts"][index], "contacts[" + std::to_string(index) + "].frame",
-                 "law '" + spec.law + "' with these params uses the " + names[comps[a]] +
-                     " direction: give frame." + names[comps[a]]);
-      }
+      if (dir.empty())
+        throw std::invalid_argument("HarmonicBalanceModel: contact '" + spec.name +
+                                    "' has no frame." + kContactAxisNames[comps[a]] +
+                                    " direction and its law uses it");
       auto add_side = [&](const std::string& side, int sector, double sign) {
         if (side == "ground") return;
         const auto& dofs = scene.structure.find(side)->dofs;

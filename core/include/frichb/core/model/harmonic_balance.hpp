@@ -48,7 +48,12 @@ struct EvaluationStats {
 
 class HarmonicBalanceModel final : public CurveProblem {
  public:
-  // Builds the reduced model of a bound scene (plugins loaded, params validated).
+  // Builds the reduced model of a bound scene (plugins loaded, params validated) on an
+  // instance of its structure, which must outlive the model. The scene must have passed
+  // check_scene_against_plugins (scene/plugin_checks.hpp), which locates its errors in the
+  // scene file; here a DOF out of range, a sector count that differs from cyclic.sectors or a
+  // missing frame direction throws std::invalid_argument, a law refusing its params PluginError,
+  // and a structure failing to give its modal basis PluginError.
   HarmonicBalanceModel(const Scene& scene, StructureInstance& structure);
   ~HarmonicBalanceModel() override;
 
