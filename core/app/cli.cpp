@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/report/failure.hpp"
 #include "frichb/core/report/output.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/exit_codes.hpp"
@@ -18,10 +19,7 @@
 namespace frichb::app {
 namespace {
 
-using core::kExitInternal;
-using core::kExitInvalidInput;
 using core::kExitOk;
-using core::kExitOutput;
 using core::kExitUsage;
 
 const char* kAbout =
@@ -308,15 +306,8 @@ int run_command_line(int argc, char** argv) {
 
   try {
     return verb->run(call);
-  } catch (const core::PluginError& e) {
-    spdlog::error("{}", e.what());
-    return kExitInvalidInput;
-  } catch (const core::OutputError& e) {
-    spdlog::error("{}", e.what());
-    return e.user_error() ? kExitInvalidInput : kExitOutput;
-  } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
-    return kExitInternal;
+  } catch (...) {
+    return core::report_failure("");
   }
 }
 

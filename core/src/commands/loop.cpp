@@ -9,6 +9,7 @@
 #include "frichb/core/numerics/harmonics.hpp"
 #include "frichb/core/plugin_host/periodic_trace.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/report/failure.hpp"
 #include "frichb/core/report/output.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/exit_codes.hpp"
@@ -94,96 +95,244 @@ std::vector<CoreSection> loop_schemas() {
           {"output", output_schema(), ""}};
 }
 
-int run_loop(const LoopRequest& request) {
-  const std::string file = request.input_file.string();
-  const YamlContext ctx{file};
+namespace {
+
+// A loop input read and validated: the law with its params, the sampling, the motion (its
+// section's values, read into coefficients once the tracer's layout is known) and the output.
+struct LoopInput {
+  std::string file;
+  std::string name;  // the input's name, or the file's stem
+  YAML::Node root;
+  std::shared_ptr<const LoadedPlugin> plugin;
+  ParamValues law_values, motion, sampling, output;
+  int max_harmonic = 0;
+  int samples = 0;
+};
+
+LoopInput read_loop_input(const LoopRequest& request) {
+  LoopInput in;
+  in.file = request.input_file.string();
+  const YamlContext ctx{in.file};
+  {
+    std::error_code ec;
+    if (!fs::is_regular_file(request.input_file, ec))
+      throw SceneError(in.file, 0, 0, "", "cannot open the loop input file");
+    in.root = load_scene_yaml(request.input_file);
+  }
+  YAML::Node& root = in.root;
+  if (!root.IsMap()) ctx.fail(root, "", "a loop input is a YAML map");
+  const auto top =
+      validate_params(root, top_schema(), "", ctx,
+                      std::vector<std::string>{"params", "motion", "sampling", "output"});
+  const auto tv = view(top_schema(), top);
+  std::vector<fs::path> extra;
+  const auto listed_paths = tv.texts("plugin_paths");
+  for (std::size_t i = 0; i < listed_paths.size(); ++i) {
+    fs::path path(listed_paths[i]);
+    if (!path.is_absolute()) path = request.input_file.parent_path() / path;
+    std::error_code missing;
+    if (!fs::is_directory(path, missing))
+      ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
+               "folder '" + path.string() +
+                   "' does not exist (a relative path is taken from the input file's folder)");
+    extra.push_back(path);
+  }
+  const Registry registry(Registry::default_search_path(extra));
   try {
-    YAML::Node root;
-    {
-      std::error_code ec;
-      if (!fs::is_regular_file(request.input_file, ec))
-        throw SceneError(file, 0, 0, "", "cannot open the loop input file");
-      root = load_scene_yaml(request.input_file);
-    }
-    if (!root.IsMap()) ctx.fail(root, "", "a loop input is a YAML map");
-    const auto top =
-        validate_params(root, top_schema(), "", ctx,
-                        std::vector<std::string>{"params", "motion", "sampling", "output"});
-    const auto tv = view(top_schema(), top);
-    std::vector<fs::path> extra;
-    const auto listed_paths = tv.texts("plugin_paths");
-    for (std::size_t i = 0; i < listed_paths.size(); ++i) {
-      fs::path path(listed_paths[i]);
-      if (!path.is_absolute()) path = request.input_file.parent_path() / path;
-      std::error_code missing;
-      if (!fs::is_directory(path, missing))
-        ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
-                 "folder '" + path.string() +
-                     "' does not exist (a relative path is taken from the input file's folder)");
-      extra.push_back(path);
-    }
-    const Registry registry(Registry::default_search_path(extra));
-    std::shared_ptr<const LoadedPlugin> plugin;
-    try {
-      check_plugin_allowed(registry.file_of(tv.text("law")), extra);
-      plugin = registry.load(tv.text("law"), FRICHB_KIND_CONTACT_LAW);
-    } catch (const PluginError& e) {
-      ctx.fail(root["law"], "law", e.what());
-    }
-    const ParamValues law_values = validate_params(root["params"], plugin->schema(), "params", ctx);
-    const auto motion = validate_params(root["motion"], motion_schema(), "motion", ctx);
-    const auto sampling = validate_params(root["sampling"], sampling_schema(), "sampling", ctx);
-    const auto output = validate_params(root["output"], output_schema(), "output", ctx);
-    const auto mv = view(motion_schema(), motion);
-    const auto sv = view(sampling_schema(), sampling);
-    const int max_h = static_cast<int>(sv.integer("max_harmonic"));
-    const int samples = static_cast<int>(sv.integer("samples_per_period"));
-    std::vector<int> harmonics;
-    for (int h = 0; h <= max_h; ++h) harmonics.push_back(h);
-    if (const auto why = sampling_violation(samples, max_h); !why.empty())
-      ctx.fail(root["sampling"], "sampling.samples_per_period", why);
+    check_plugin_allowed(registry.file_of(tv.text("law")), extra);
+    in.plugin = registry.load(tv.text("law"), FRICHB_KIND_CONTACT_LAW);
+  } catch (const PluginError& e) {
+    ctx.fail(root["law"], "law", e.what());
+  }
+  in.law_values = validate_params(root["params"], in.plugin->schema(), "params", ctx);
+  in.motion = validate_params(root["motion"], motion_schema(), "motion", ctx);
+  in.sampling = validate_params(root["sampling"], sampling_schema(), "sampling", ctx);
+  in.output = validate_params(root["output"], output_schema(), "output", ctx);
+  const auto sv = view(sampling_schema(), in.sampling);
+  in.max_harmonic = static_cast<int>(sv.integer("max_harmonic"));
+  in.samples = static_cast<int>(sv.integer("samples_per_period"));
+  if (const auto why = sampling_violation(in.samples, in.max_harmonic); !why.empty())
+    ctx.fail(root["sampling"], "sampling.samples_per_period", why);
+  in.name = tv.text("name").empty() ? request.input_file.stem().string() : tv.text("name");
+  return in;
+}
 
-    ContactLawInstance law(plugin, law_values);
-    const HarmonicLayout layout(harmonics, samples);
-    TraceOptions options;
-    options.max_passes = static_cast<int>(sv.integer("max_passes"));
-    PeriodicTracer tracer(law, layout, options);
-    const auto& comps = tracer.components();
-    const int c = layout.coefficient_count();
-
-    // Motion coefficients of every component the law uses.
-    Eigen::VectorXd u = Eigen::VectorXd::Zero(tracer.unknown_count());
-    for (int k = 0; k < 3; ++k) {
-      const char* name = kContactAxisNames[k];
-      const auto it = std::find(comps.begin(), comps.end(), k);
-      const std::size_t terms = mv.record_count(name);
-      if (it == comps.end()) {
-        if (terms)
-          spdlog::warn("{}: law '{}' does not use motion.{}: ignored", file, plugin->name(), name);
+// The motion's coefficients in the tracer's unknown layout (component-major, each a HarmonicLayout
+// coefficient vector). Terms of an axis the law does not use are ignored with a warning.
+Eigen::VectorXd motion_coefficients(const LoopInput& in, const PeriodicTracer& tracer,
+                                    const HarmonicLayout& layout) {
+  const YamlContext ctx{in.file};
+  YAML::Node root = in.root;
+  const auto mv = view(motion_schema(), in.motion);
+  const auto& comps = tracer.components();
+  const int c = layout.coefficient_count();
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(tracer.unknown_count());
+  for (int k = 0; k < 3; ++k) {
+    const char* name = kContactAxisNames[k];
+    const auto it = std::find(comps.begin(), comps.end(), k);
+    const std::size_t terms = mv.record_count(name);
+    if (it == comps.end()) {
+      if (terms)
+        spdlog::warn("{}: law '{}' does not use motion.{}: ignored", in.file, in.plugin->name(),
+                     name);
+      continue;
+    }
+    const auto a = static_cast<int>(it - comps.begin());
+    for (std::size_t t = 0; t < terms; ++t) {
+      const auto term = mv.record(name, t);
+      const int n = static_cast<int>(term.integer("harmonic"));
+      const double amp = term.real("amplitude");
+      const double p = term.real("phase_deg") * std::numbers::pi / 180.0;
+      const bool sine = term.text("function") == "sin";
+      if (n > in.max_harmonic)
+        ctx.fail(root["motion"][name][t],
+                 std::string("motion.") + name + "[" + std::to_string(t) + "].harmonic",
+                 "harmonic " + std::to_string(n) +
+                     " is above sampling.max_harmonic = " + std::to_string(in.max_harmonic));
+      const auto k_index = static_cast<std::size_t>(n);
+      if (n == 0) {
+        u(a * c + layout.cos_index(0)) += amp;
         continue;
       }
-      const auto a = static_cast<int>(it - comps.begin());
-      for (std::size_t t = 0; t < terms; ++t) {
-        const auto term = mv.record(name, t);
-        const int n = static_cast<int>(term.integer("harmonic"));
-        const double amp = term.real("amplitude");
-        const double p = term.real("phase_deg") * std::numbers::pi / 180.0;
-        const bool sine = term.text("function") == "sin";
-        if (n > max_h)
-          ctx.fail(root["motion"][name][t],
-                   std::string("motion.") + name + "[" + std::to_string(t) + "].harmonic",
-                   "harmonic " + std::to_string(n) +
-                       " is above sampling.max_harmonic = " + std::to_string(max_h));
-        const auto k_index = static_cast<std::size_t>(n);
-        if (n == 0) {
-          u(a * c + layout.cos_index(0)) += amp;
-          continue;
-        }
-        // A sin(n t + p) = A sin p cos + A cos p sin;  A cos(n t + p) = A cos p cos - A sin p sin
-        u(a * c + layout.cos_index(k_index)) += sine ? amp * std::sin(p) : amp * std::cos(p);
-        u(a * c + layout.sin_index(k_index)) += sine ? amp * std::cos(p) : -amp * std::sin(p);
-      }
+      // A sin(n t + p) = A sin p cos + A cos p sin;  A cos(n t + p) = A cos p cos - A sin p sin
+      u(a * c + layout.cos_index(k_index)) += sine ? amp * std::sin(p) : amp * std::cos(p);
+      u(a * c + layout.sin_index(k_index)) += sine ? amp * std::cos(p) : -amp * std::sin(p);
     }
+  }
+  return u;
+}
+
+// What is read off a traced loop: per sample its status (0 stuck, 1 slipping: the state moved,
+// 2 open: a used normal force is zero), the energy per cycle, the force harmonics and, per axis,
+// the harmonics above the significance threshold (relative to the axis's largest from 1 up).
+struct LoopAnalysis {
+  std::vector<int> status;
+  double energy = 0.0;
+  ForceHarmonics harmonics;
+  nlohmann::json significant = nlohmann::json::object();
+  double threshold = 0.0;
+  int slipping = 0, open = 0;
+};
+
+LoopAnalysis analyse_loop(const LoopInput& in, const PeriodicTracer& tracer,
+                          const ContactTrace& trace) {
+  LoopAnalysis r;
+  const int samples = in.samples;
+  const auto& comps = tracer.components();
+  const int d = tracer.dimension();
+  const auto normal = std::find(comps.begin(), comps.end(), 2);
+  r.status.assign(static_cast<std::size_t>(samples), 0);
+  for (int j = 0; j < samples; ++j) {
+    const int jp = (j + samples - 1) % samples;
+    const bool moved =
+        trace.state.cols() > 0 && (trace.state.row(j) - trace.state.row(jp)).cwiseAbs().maxCoeff() >
+                                      1e-12 * std::max(1.0, trace.state.cwiseAbs().maxCoeff());
+    const bool open = normal != comps.end() && trace.force(j, normal - comps.begin()) <= 0.0;
+    r.status[static_cast<std::size_t>(j)] = open ? 2 : (moved ? 1 : 0);
+  }
+  for (int s : r.status) {
+    r.slipping += s == 1;
+    r.open += s == 2;
+  }
+  // Energy dissipated per cycle: the closed integral of f . du (tangential and normal).
+  r.energy = dissipated_energy(trace);
+  r.harmonics = force_harmonics(trace.force, comps, in.max_harmonic);
+  r.threshold = view(sampling_schema(), in.sampling).real("significance");
+  for (int a = 0; a < d; ++a) {
+    const auto& amplitude = r.harmonics.amplitude[static_cast<std::size_t>(a)];
+    const double largest = *std::max_element(amplitude.begin() + 1, amplitude.end());
+    std::vector<int> list;
+    for (int h = 1; h <= in.max_harmonic; ++h)
+      if (amplitude[static_cast<std::size_t>(h)] > r.threshold * largest) list.push_back(h);
+    r.significant[kContactAxisNames[comps[static_cast<std::size_t>(a)]]] = list;
+  }
+  return r;
+}
+
+// loop.png: the first tangential force against its displacement and, beside it, the friction
+// loop in the (T1, T2) plane (a 2D law) or the forces over the period (a law with a normal).
+std::string loop_plot_script(const LoopInput& in, const PeriodicTracer& tracer) {
+  const auto& comps = tracer.components();
+  const int d = tracer.dimension();
+  std::ostringstream gp;
+  gp << "# gnuplot script written by frichb loop\n"
+     << "set terminal pngcairo size " << (d > 1 ? 1400 : 800) << ",600 noenhanced\n"
+     << "set output 'loop.png'\nset datafile separator ','\nset grid\nset key below\n";
+  const bool two_d = comps.size() >= 2 && comps[1] == 1;
+  const std::string title = gnuplot_string(in.name + " (" + in.plugin->name() + ")");
+  gp << (d > 1 ? "set multiplot layout 1,2 title " : "set title ") << title << "\n";
+  gp << "set xlabel 'u_t1 [m]'\nset ylabel 'T1 [N]'\n"
+     << "plot 'loop.csv' using 2:" << 2 + d << " with lines lw 2 title 'T1 vs u_t1'\n";
+  if (two_d) {
+    gp << "set xlabel 'T1 [N]'\nset ylabel 'T2 [N]'\nset size ratio -1\n"
+       << "plot 'loop.csv' using " << 2 + d << ":" << 3 + d
+       << " with lines lw 2 title 'friction loop (T1, T2)'\n";
+  } else if (d > 1) {
+    gp << "set xlabel 'phase [period]'\nset ylabel 'force [N]'\n"
+       << "plot 'loop.csv' using 1:" << 2 + d << " with lines lw 2 title 'T1', "
+       << "'loop.csv' using 1:" << 1 + 2 * d << " with lines lw 2 title 'N'\n";
+  }
+  if (d > 1) gp << "unset multiplot\n";
+  return gp.str();
+}
+
+// loop.csv, harmonics.csv, summary.json and, when asked, the plot, staged into `out`.
+void write_loop_outputs(StagedOutput& out, const LoopInput& in, const PeriodicTracer& tracer,
+                        const ContactTrace& trace, const LoopAnalysis& r) {
+  const auto& comps = tracer.components();
+  const int d = tracer.dimension();
+  const int samples = in.samples;
+  std::vector<std::string> header = {"phase"};
+  for (int k : comps) header.push_back(std::string("u_") + kContactAxisNames[k] + "_m");
+  for (int k : comps) header.push_back(std::string("f_") + kContactAxisNames[k] + "_N");
+  header.push_back("status");
+  std::vector<std::vector<double>> rows;
+  for (int j = 0; j <= samples; ++j) {  // closed loop: the first sample repeated
+    const int jj = j % samples;
+    std::vector<double> row = {static_cast<double>(j) / samples};
+    for (int a = 0; a < d; ++a) row.push_back(trace.displacement(jj, a));
+    for (int a = 0; a < d; ++a) row.push_back(trace.force(jj, a));
+    row.push_back(r.status[static_cast<std::size_t>(jj)]);
+    rows.push_back(std::move(row));
+  }
+  write_csv(out.path("loop.csv"), header, rows);
+  write_csv(out.path("harmonics.csv"), r.harmonics.header, r.harmonics.rows);
+  const nlohmann::json doc = {{"frichb_version", version()},
+                              {"input", in.file},
+                              {"law",
+                               {{"name", in.plugin->name()},
+                                {"version", in.plugin->descriptor().version},
+                                {"file", in.plugin->file().string()},
+                                {"params", in.law_values.to_json(in.plugin->schema())}}},
+                              {"dissipated_energy_per_cycle_J", r.energy},
+                              {"passes", trace.passes},
+                              {"periodic", trace.periodic},
+                              {"fraction_slipping", static_cast<double>(r.slipping) / samples},
+                              {"fraction_open", static_cast<double>(r.open) / samples},
+                              {"significant_force_harmonics", r.significant},
+                              {"significance_threshold", r.threshold}};
+  write_json(out.path("summary.json"), doc);
+  if (view(output_schema(), in.output).boolean("plots")) {
+    write_text(out.path("loop.gp"), loop_plot_script(in, tracer));
+    run_gnuplot(out.path("loop.gp"));
+  }
+}
+
+}  // namespace
+
+int run_loop(const LoopRequest& request) {
+  const std::string file = request.input_file.string();
+  try {
+    const LoopInput in = read_loop_input(request);
+    ContactLawInstance law(in.plugin, in.law_values);
+    std::vector<int> harmonics;
+    for (int h = 0; h <= in.max_harmonic; ++h) harmonics.push_back(h);
+    const HarmonicLayout layout(harmonics, in.samples);
+    TraceOptions options;
+    options.max_passes =
+        static_cast<int>(view(sampling_schema(), in.sampling).integer("max_passes"));
+    PeriodicTracer tracer(law, layout, options);
+    const Eigen::VectorXd u = motion_coefficients(in, tracer, layout);
 
     ContactTrace trace;
     std::string error;
@@ -192,100 +341,12 @@ int run_loop(const LoopRequest& request) {
       return kExitInvalidInput;
     }
     if (!trace.periodic) spdlog::warn("{}: {}", file, trace.diagnostic);
-
-    // Per-sample status: open when a used normal force is zero, slip when the state moved.
-    const int d = tracer.dimension();
-    const auto normal = std::find(comps.begin(), comps.end(), 2);
-    std::vector<int> status(static_cast<std::size_t>(samples), 0);
-    for (int j = 0; j < samples; ++j) {
-      const int jp = (j + samples - 1) % samples;
-      const bool moved = trace.state.cols() > 0 &&
-                         (trace.state.row(j) - trace.state.row(jp)).cwiseAbs().maxCoeff() >
-                             1e-12 * std::max(1.0, trace.state.cwiseAbs().maxCoeff());
-      const bool open = normal != comps.end() && trace.force(j, normal - comps.begin()) <= 0.0;
-      status[static_cast<std::size_t>(j)] = open ? 2 : (moved ? 1 : 0);
-    }
-    // Energy dissipated per cycle: the closed integral of f . du (tangential and normal).
-    const double energy = dissipated_energy(trace);
-    // Force harmonics of the raw law force.
-    const ForceHarmonics harmonics_table = force_harmonics(trace.force, comps, max_h);
-    nlohmann::json significant = nlohmann::json::object();
-    const double threshold = sv.real("significance");
-    for (int a = 0; a < d; ++a) {
-      const auto& amplitude = harmonics_table.amplitude[static_cast<std::size_t>(a)];
-      const double largest = *std::max_element(amplitude.begin() + 1, amplitude.end());
-      std::vector<int> list;
-      for (int h = 1; h <= max_h; ++h)
-        if (amplitude[static_cast<std::size_t>(h)] > threshold * largest) list.push_back(h);
-      significant[kContactAxisNames[comps[static_cast<std::size_t>(a)]]] = list;
-    }
+    const LoopAnalysis analysis = analyse_loop(in, tracer, trace);
 
     fs::path out_dir = request.output_directory;
     if (out_dir.empty()) out_dir = fs::path("out") / request.input_file.stem();
     StagedOutput out(out_dir, {"loop.csv", "harmonics.csv", "summary.json", "loop.gp", "loop.png"});
-    std::vector<std::string> header = {"phase"};
-    for (int k : comps) header.push_back(std::string("u_") + kContactAxisNames[k] + "_m");
-    for (int k : comps) header.push_back(std::string("f_") + kContactAxisNames[k] + "_N");
-    header.push_back("status");
-    std::vector<std::vector<double>> rows;
-    for (int j = 0; j <= samples; ++j) {  // closed loop: the first sample repeated
-      const int jj = j % samples;
-      std::vector<double> r = {static_cast<double>(j) / samples};
-      for (int a = 0; a < d; ++a) r.push_back(trace.displacement(jj, a));
-      for (int a = 0; a < d; ++a) r.push_back(trace.force(jj, a));
-      r.push_back(status[static_cast<std::size_t>(jj)]);
-      rows.push_back(std::move(r));
-    }
-    write_csv(out.path("loop.csv"), header, rows);
-    write_csv(out.path("harmonics.csv"), harmonics_table.header, harmonics_table.rows);
-    int slipping = 0, open = 0;
-    for (int s : status) {
-      slipping += s == 1;
-      open += s == 2;
-    }
-    const std::string name =
-        tv.text("name").empty() ? request.input_file.stem().string() : tv.text("name");
-    const nlohmann::json doc = {{"frichb_version", version()},
-                                {"input", file},
-                                {"law",
-                                 {{"name", plugin->name()},
-                                  {"version", plugin->descriptor().version},
-                                  {"file", plugin->file().string()},
-                                  {"params", law_values.to_json(plugin->schema())}}},
-                                {"dissipated_energy_per_cycle_J", energy},
-                                {"passes", trace.passes},
-                                {"periodic", trace.periodic},
-                                {"fraction_slipping", static_cast<double>(slipping) / samples},
-                                {"fraction_open", static_cast<double>(open) / samples},
-                                {"significant_force_harmonics", significant},
-                                {"significance_threshold", threshold}};
-    write_json(out.path("summary.json"), doc);
-    if (view(output_schema(), output).boolean("plots")) {
-      std::ostringstream gp;
-      gp << "# gnuplot script written by frichb loop\n"
-         << "set terminal pngcairo size " << (d > 1 ? 1400 : 800) << ",600 noenhanced\n"
-         << "set output 'loop.png'\nset datafile separator ','\nset grid\nset key below\n";
-      const bool two_d = comps.size() >= 2 && comps[1] == 1;
-      if (d > 1)
-        gp << "set multiplot layout 1,2 title "
-           << gnuplot_string(name + " (" + plugin->name() + ")") << "\n";
-      else
-        gp << "set title " << gnuplot_string(name + " (" + plugin->name() + ")") << "\n";
-      gp << "set xlabel 'u_t1 [m]'\nset ylabel 'T1 [N]'\n"
-         << "plot 'loop.csv' using 2:" << 2 + d << " with lines lw 2 title 'T1 vs u_t1'\n";
-      if (two_d) {
-        gp << "set xlabel 'T1 [N]'\nset ylabel 'T2 [N]'\nset size ratio -1\n"
-           << "plot 'loop.csv' using " << 2 + d << ":" << 3 + d
-           << " with lines lw 2 title 'friction loop (T1, T2)'\n";
-      } else if (d > 1) {
-        gp << "set xlabel 'phase [period]'\nset ylabel 'force [N]'\n"
-           << "plot 'loop.csv' using 1:" << 2 + d << " with lines lw 2 title 'T1', "
-           << "'loop.csv' using 1:" << 1 + 2 * d << " with lines lw 2 title 'N'\n";
-      }
-      if (d > 1) gp << "unset multiplot\n";
-      write_text(out.path("loop.gp"), gp.str());
-      run_gnuplot(out.path("loop.gp"));
-    }
+    write_loop_outputs(out, in, tracer, trace, analysis);
     if (interrupted()) {  // a signal while gnuplot ran: nothing is committed
       spdlog::error("interrupted by signal {}; no output written", interrupt_signal());
       return interrupted_exit_code();
@@ -294,21 +355,12 @@ int run_loop(const LoopRequest& request) {
     spdlog::info(
         "{}: {} traced in {} passes; energy per cycle {:.6g} J; slipping {:.0f}% and open "
         "{:.0f}% of the period; wrote {}",
-        file, plugin->name(), trace.passes, energy, 100.0 * slipping / samples,
-        100.0 * open / samples, out_dir.string());
+        file, in.plugin->name(), trace.passes, analysis.energy,
+        100.0 * analysis.slipping / in.samples, 100.0 * analysis.open / in.samples,
+        out_dir.string());
     return kExitOk;
-  } catch (const SceneError& e) {
-    spdlog::error("{}", e.what());
-    return kExitInvalidInput;
-  } catch (const PluginError& e) {
-    spdlog::error("{}: {}", file, e.what());
-    return kExitInvalidInput;
-  } catch (const OutputError& e) {
-    spdlog::error("{}: writing the outputs: {}", file, e.what());
-    return e.user_error() ? kExitInvalidInput : kExitOutput;
-  } catch (const std::exception& e) {
-    spdlog::error("{}: {}", file, e.what());
-    return kExitInternal;
+  } catch (...) {
+    return report_failure(file);
   }
 }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/report/failure.hpp"
 #include "frichb/core/report/output.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/exit_codes.hpp"
@@ -129,15 +130,8 @@ int run_modes(const ModesRequest& request) {
     spdlog::info("{}: {} harmonic indices, {} modes; wrote {}", file, sectors, rows.size(),
                  out_dir.string());
     return kExitOk;
-  } catch (const PluginError& e) {
-    spdlog::error("{}: {}", file, e.what());
-    return kExitInvalidInput;
-  } catch (const OutputError& e) {
-    spdlog::error("{}: writing the outputs: {}", file, e.what());
-    return e.user_error() ? kExitInvalidInput : kExitOutput;
-  } catch (const std::exception& e) {
-    spdlog::error("{}: {}", file, e.what());
-    return kExitInternal;
+  } catch (...) {
+    return report_failure(file);
   }
 }
 
