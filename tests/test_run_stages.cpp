@@ -1,0 +1,179 @@
+// The stages of a run called from C++ without the command line, as a Python binding or a
+// program of its own would: prepare_run, find_start_point, trace_response, tabulate_response,
+// solve_friction_loops. Oracles: the closed-form peak of a damped one-DOF oscillator for a
+// linear scene; the files run_bound_scene writes for the quick-start scene (the same stages
+// composed by the program); a scene error located at its key.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/plugin_host/schema.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace frichb::core;
+
+Scene bound_scene(const fs::path& file, const Registry& registry) {
+  Scene scene = load_scene(file);
+  bind_plugins(scene, registry);
+  return scene;
+}
+
+std::vector<std::vector<double>> read_csv_numbers(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::getline(in, line);  // header
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    std::vector<double> row;
+    std::stringstream cells(line);
+    std::string cell;
+    while (std::getline(cells, cell, ',')) row.push_back(std::stod(cell));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// One DOF, m x'' + 2 zeta w_n m x' + k x = F cos(w t), no contact: the curve is sampled and its
+// refined peak is F / (2 zeta k sqrt(1 - zeta^2)) at w_n sqrt(1 - 2 zeta^2).
+TEST(RunStages, LinearSceneMeetsTheClosedFormPeak) {
+  constexpr double kMass = 0.1, kStiffness = 4e5, kZeta = 0.005, kForce = 2.0;
+  frichb::test::TempDir dir;
+  const fs::path file = dir.write("linear.yaml", R"(
+name: linear_oscillator
+structure:
+  provider: lumped
+  params:
+    masses: [0.1]
+    springs:
+      - {between: [ground, 0], k: 4.0e5}
+    modal_damping: [0.005]
+  dofs: {blade: 0}
+excitation:
+  - {dof: blade, amplitude: 2.0, harmonic: 1}
+harmonic_balance: {max_harmonic: 1, samples_per_period: 16}
+continuation:
+  frequency: {from: 250, to: 450, unit: Hz}
+  step: {initial: 1.0, min: 1.0e-5, max: 2.0}
+output: {response: [blade], plots: false}
+)");
+  const Registry registry(Registry::default_search_path({FRICHB_PLUGIN_DIR}));
+  const Scene scene = bound_scene(file, registry);
+  const PreparedRun run = prepare_run(scene, 1);
+  ASSERT_EQ(run.model->equation_count(), 0);
+  const auto& options = run.setup.options;
+  const Eigen::VectorXd start = find_start_point(*run.model, options);
+  const ContinuationSummary summary = trace_response(scene, *run.model, options, start);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  const ResponseTable table = tabulate_response(scene, *run.model, options, summary);
+  ASSERT_EQ(table.peaks.size(), 1u);
+  ASSERT_TRUE(table.peaks[0].has_value());
+  EXPECT_TRUE(table.peaks[0]->refined);
+
+  const double wn = std::sqrt(kStiffness / kMass);
+  const double peak = kForce / (2 * kZeta * kStiffness * std::sqrt(1 - kZeta * kZeta));
+  const double at = wn * std::sqrt(1 - 2 * kZeta * kZeta);
+  // The amplitude is the largest of 256 samples of the period: low by at most
+  // eps = 1 - cos(pi / 256) = 7.5e-5, by an amount that turns with the response's phase. Near
+  // the peak the amplitude falls as 1 - x^2 / 2 (x: distance in half-widths zeta w_n), so the
+  // sampled maximum may sit up to sqrt(2 eps) half-widths = 6.1e-5 w_n away.
+  const double eps = 1 - std::cos(std::numbers::pi / 256);
+  EXPECT_NEAR(table.peaks[0]->amplitude_m / peak, 1.0, eps);
+  EXPECT_NEAR(table.peaks[0]->omega_rad_s / at, 1.0, kZeta * std::sqrt(2 * eps));
+  // The resonance band put a sample within 0.1 half-widths of the peak.
+  const double half_width = kZeta * wn;
+  double nearest = 1e300;
+  for (const auto& p : summary.points) nearest = std::min(nearest, std::abs(p.y(0) - at));
+  EXPECT_LT(nearest, 0.1 * half_width);
+}
+
+// The quick-start scene through the stages gives what `frichb run` writes: the same points,
+// every number of response.csv, the same peaks and one friction loop per requested frequency.
+TEST(RunStages, StagesGiveTheFilesOfTheComposedRun) {
+  const fs::path file = fs::path(FRICHB_SOURCE_DIR) / "configs/quickstart_friction_oscillator.yaml";
+  const Registry registry(Registry::default_search_path({FRICHB_PLUGIN_DIR}));
+  const Scene scene = bound_scene(file, registry);
+
+  const PreparedRun run = prepare_run(scene, 1);
+  const auto& options = run.setup.options;
+  const Eigen::VectorXd start = find_start_point(*run.model, options, spdlog::level::debug);
+  const ContinuationSummary summary = trace_response(scene, *run.model, options, start);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  const ResponseTable table = tabulate_response(scene, *run.model, options, summary);
+  const std::vector<FrictionLoop> loops = solve_friction_loops(scene, *run.model, options, summary);
+
+  frichb::test::TempDir dir;
+  RunOptions quiet;
+  quiet.quiet = true;
+  quiet.plots = 0;
+  const RunOutcome outcome = run_bound_scene(scene, dir.path() / "out", quiet);
+  ASSERT_EQ(outcome.exit_code, kExitOk) << outcome.message;
+  EXPECT_EQ(outcome.points, summary.points.size());
+  const auto rows = read_csv_numbers(dir.path() / "out" / "response.csv");
+  ASSERT_EQ(rows.size(), table.rows.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].size(), table.rows[i].size());
+    for (std::size_t j = 0; j < rows[i].size(); ++j)
+      EXPECT_NEAR(rows[i][j], table.rows[i][j], 1e-10 * std::max(1.0, std::abs(table.rows[i][j])))
+          << "row " << i << " column " << j;
+  }
+  ASSERT_EQ(outcome.peaks.size(), 1u);
+  ASSERT_TRUE(table.peaks[0].has_value());
+  EXPECT_EQ(outcome.peaks[0].amplitude_m, table.peaks[0]->amplitude_m);
+  EXPECT_EQ(outcome.peaks[0].omega_rad_s, table.peaks[0]->omega_rad_s);
+  // 330 and 400 Hz are each crossed once by the curve; one contact.
+  ASSERT_EQ(loops.size(), 2u);
+  for (const FrictionLoop& loop : loops) {
+    EXPECT_EQ(loop.crossing, 1);
+    // A slipping Jenkins element dissipates, a stuck one does not: energy >= 0, and at
+    // 330 Hz (near the slipping peak) > 0.
+    EXPECT_GE(dissipated_energy(loop.trace), 0.0);
+  }
+  EXPECT_GT(dissipated_energy(loops[0].trace), 0.0);
+}
+
+// prepare_run locates an error that needs the structure's instance at the scene's key.
+TEST(RunStages, PrepareLocatesADofTheStructureLacks) {
+  frichb::test::TempDir dir;
+  const fs::path file = dir.write("bad.yaml", R"(
+name: bad_dof
+structure:
+  provider: lumped
+  params:
+    masses: [0.1]
+    springs:
+      - {between: [ground, 0], k: 4.0e5}
+    modal_damping: [0.005]
+  dofs: {blade: 3}
+excitation:
+  - {dof: blade, amplitude: 2.0, harmonic: 1}
+harmonic_balance: {max_harmonic: 1, samples_per_period: 16}
+continuation:
+  frequency: {from: 250, to: 450, unit: Hz}
+output: {response: [blade], plots: false}
+)");
+  const Registry registry(Registry::default_search_path({FRICHB_PLUGIN_DIR}));
+  const Scene scene = bound_scene(file, registry);
+  try {
+    prepare_run(scene, 1);
+    FAIL() << "a DOF beyond the structure's must be refused";
+  } catch (const SceneError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("structure.dofs.blade"), std::string::npos) << what;
+    EXPECT_NE(what.find("DOF 3 does not exist"), std::string::npos) << what;
+    EXPECT_NE(what.find("bad.yaml:10"), std::string::npos) << what;
+  }
+}
+
+}  // namespace
