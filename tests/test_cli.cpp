@@ -803,6 +803,12 @@ TEST_F(Cli, BadCommandLinesExitWithOne) {
   const Result both = frichb("validate " + quoted(kQuickstart) + " -v -q");
   EXPECT_EQ(both.code, 1) << both.output;
   EXPECT_THAT(both.output, HasSubstr("give one of --log-level, -v and -q, once"));
+  // A global option that the verb has no use for is refused, not ignored.
+  const Result needless = frichb("--allow-scene-plugins plugins");
+  EXPECT_EQ(needless.code, 1) << needless.output;
+  EXPECT_THAT(needless.output, HasSubstr("frichb plugins reads none"));
+  const Result used = frichb("--allow-scene-plugins validate " + quoted(kQuickstart));
+  EXPECT_EQ(used.code, 0) << used.output;
   EXPECT_TRUE(fs::is_empty(dir_));
 }
 

@@ -139,12 +139,6 @@ void print_verb_help(const Verb& verb, std::ostream& out) {
          "more).\n";
 }
 
-// A usage error: the message, where help is, exit code 1.
-int usage_error(const std::string& who, const std::string& message, const std::string& help) {
-  std::cerr << who << ": " << message << "\nTry '" << help << "'.\n";
-  return kExitUsage;
-}
-
 // The log level the options ask for (info when none); nullopt after a usage error.
 std::optional<spdlog::level::level_enum> log_level(const po::variables_map& global,
                                                    const po::variables_map& verb,
@@ -250,6 +244,12 @@ int run_command_line(int argc, char** argv) {
     print_verb_help(*verb, std::cout);
     return kExitOk;
   }
+  if (global.count("allow-scene-plugins") && !verb->input_plugins)
+    return usage_error(who,
+                       "--allow-scene-plugins is for the verbs that read a scene or a loop "
+                       "input; " +
+                           who + " reads none",
+                       help_hint);
 
   Invocation call;
   call.verb = verb->name;
@@ -309,6 +309,16 @@ int run_command_line(int argc, char** argv) {
   } catch (...) {
     return core::report_failure("");
   }
+}
+
+int usage_error(const std::string& who, const std::string& message, const std::string& help) {
+  std::cerr << who << ": " << message << "\nTry '" << help << "'.\n";
+  return kExitUsage;
+}
+
+int usage_error(const Invocation& call, const std::string& message) {
+  const std::string who = "frichb " + call.verb;
+  return usage_error(who, message, who + " --help");
 }
 
 }  // namespace frichb::app

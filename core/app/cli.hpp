@@ -46,4 +46,9 @@ const std::vector<Verb>& verbs();
 // what escapes it to an exit code (core/include/frichb/core/commands/run.hpp's ExitCode).
 int run_command_line(int argc, char** argv);
 
+// A usage error: prints "WHO: MESSAGE" and "Try 'HELP'." to stderr and returns kExitUsage (1).
+int usage_error(const std::string& who, const std::string& message, const std::string& help);
+// The same for a verb's value found out of range after parsing ("frichb VERB: ...").
+int usage_error(const Invocation& call, const std::string& message);
+
 }  // namespace frichb::app

@@ -25,13 +25,6 @@ using core::kExitInvalidInput;
 using core::kExitOk;
 using core::kExitUsage;
 
-// A usage error found after parsing (a value out of its range): exit code 1.
-int refuse(const Invocation& call, const std::string& message) {
-  std::cerr << "frichb " << call.verb << ": " << message << "\nTry 'frichb " << call.verb
-            << " --help'.\n";
-  return kExitUsage;
-}
-
 // The core sections' and the studies' parameter tables.
 std::vector<core::CoreSection> scene_sections() {
   auto sections = core::core_schemas();
@@ -128,7 +121,8 @@ int study_verb(const Invocation& call) {
   request.output_directory = call.output;
   if (call.options.count("threads")) {
     request.threads = call.options["threads"].as<int>();
-    if (request.threads < 0) return refuse(call, "--threads takes a count >= 0 (0: one per core)");
+    if (request.threads < 0)
+      return usage_error(call, "--threads takes a count >= 0 (0: one per core)");
   }
   if (!launched_by_mpi()) {
     core::StudyCommunicator serial;
@@ -167,15 +161,16 @@ int modes_verb(const Invocation& call) {
       request.rpm_low = -1;
     }
     if (!(request.rpm_low > 0 && request.rpm_high >= request.rpm_low))
-      return refuse(call, "--rpm takes a positive speed R or a range A:B with 0 < A <= B, not '" +
-                              text + "'");
+      return usage_error(
+          call,
+          "--rpm takes a positive speed R or a range A:B with 0 < A <= B, not '" + text + "'");
   }
   return core::run_modes(request);
 }
 
 int timesim_verb(const Invocation& call) {
   if (!call.options.count("at-hz") || !(call.options["at-hz"].as<double>() > 0))
-    return refuse(call, "give the excitation frequency, --at-hz F (F > 0)");
+    return usage_error(call, "give the excitation frequency, --at-hz F (F > 0)");
   core::TimesimRequest request;
   request.scene_file = call.arguments[0];
   request.output_directory = call.output;
@@ -194,9 +189,9 @@ int convergence_verb(const Invocation& call) {
     if (!call.options.count(key)) continue;
     const auto text = call.options[key].as<std::string>();
     if (!parse_counts(text, *list))
-      return refuse(call, std::string("--") + key +
-                              " takes integers from 1 to 100000 separated by commas, not '" + text +
-                              "'");
+      return usage_error(call, std::string("--") + key +
+                                   " takes integers from 1 to 100000 separated by commas, not '" +
+                                   text + "'");
   }
   return core::run_convergence(request);
 }
