@@ -286,6 +286,43 @@ void HarmonicBalanceModel::form_modal_receptance(const ContactReceptance& cr, Wo
   }
 }
 
+void HarmonicBalanceModel::assemble_jacobian(Eigen::MatrixXd& jacobian) const {
+  const int c = layout_.coefficient_count();
+  const auto& h = layout_.harmonics();
+  const std::complex<double> imaginary_unit(0.0, 1.0);
+  Workspace& ws = work_;
+  // J = I + Rc dF/dU. dF/dU is block diagonal (one block T per contact, whose unknowns are
+  // contiguous) and Rc is block diagonal over the harmonics, so the columns of contact i in
+  // the rows of harmonic n are Rc_n[:, i's components] (T's cos rows - i T's sin rows) of
+  // harmonic n: components x d x p complex multiply-adds per harmonic and contact, about
+  // 4 d (H + 1) / (2H + 1) per entry of J, each entry written once.
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const Eigen::Index first = static_cast<Eigen::Index>(contacts_[i].offset) * c;
+    const Eigen::Index p = contacts_[i].tracer->unknown_count();
+    const Eigen::Index d = p / c;
+    const Eigen::MatrixXd& block = traces_[i].jacobian;
+    for (std::size_t k = 0; k < h.size(); ++k) {
+      const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
+      ws.force_block.resize(d, p);
+      for (Eigen::Index b = 0; b < d; ++b) {
+        if (h[k] > 0)
+          ws.force_block.row(b) = block.row(b * c + ci).cast<std::complex<double>>() -
+                                  imaginary_unit * block.row(b * c + si);
+        else
+          ws.force_block.row(b) = block.row(b * c + ci).cast<std::complex<double>>();
+      }
+      ws.product.noalias() =
+          ws.contact_receptance.block(
+              0, static_cast<Eigen::Index>(k) * components_ + contacts_[i].offset, components_, d) *
+          ws.force_block;
+      for (int a = 0; a < components_; ++a) {
+        jacobian.row(a * c + ci).segment(first, p) = ws.product.row(a).real();
+        if (h[k] > 0) jacobian.row(a * c + si).segment(first, p) = -ws.product.row(a).imag();
+      }
+    }
+  }
+}
+
 bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
                                     Eigen::MatrixXd* jacobian, std::string* message) const {
   using Clock = std::chrono::steady_clock;
@@ -399,37 +436,8 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
   }
   if (!jacobian) return true;
 
-  // J = I + Rc dF/dU. dF/dU is block diagonal (one block T per contact, whose unknowns are
-  // contiguous) and Rc is block diagonal over the harmonics, so the columns of contact i in
-  // the rows of harmonic n are Rc_n[:, i's components] (T's cos rows - i T's sin rows) of
-  // harmonic n: components x d x p complex multiply-adds per harmonic and contact, about
-  // 4 d (H + 1) / (2H + 1) per entry of J, each entry written once.
   t_part = Clock::now();
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const Eigen::Index first = static_cast<Eigen::Index>(contacts_[i].offset) * c;
-    const Eigen::Index p = contacts_[i].tracer->unknown_count();
-    const Eigen::Index d = p / c;
-    const Eigen::MatrixXd& block = traces_[i].jacobian;
-    for (std::size_t k = 0; k < h.size(); ++k) {
-      const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
-      ws.force_block.resize(d, p);
-      for (Eigen::Index b = 0; b < d; ++b) {
-        if (h[k] > 0)
-          ws.force_block.row(b) = block.row(b * c + ci).cast<std::complex<double>>() -
-                                  imaginary_unit * block.row(b * c + si);
-        else
-          ws.force_block.row(b) = block.row(b * c + ci).cast<std::complex<double>>();
-      }
-      ws.product.noalias() =
-          ws.contact_receptance.block(
-              0, static_cast<Eigen::Index>(k) * components_ + contacts_[i].offset, components_, d) *
-          ws.force_block;
-      for (int a = 0; a < components_; ++a) {
-        jacobian->row(a * c + ci).segment(first, p) = ws.product.row(a).real();
-        if (h[k] > 0) jacobian->row(a * c + si).segment(first, p) = -ws.product.row(a).imag();
-      }
-    }
-  }
+  assemble_jacobian(*jacobian);
   jacobian->leftCols(n).diagonal().array() += 1.0;
   stats_.assembly_seconds += elapsed(t_part);
   if (!jacobian->allFinite()) {

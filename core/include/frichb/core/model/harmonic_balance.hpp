@@ -96,6 +96,9 @@ class HarmonicBalanceModel final : public CurveProblem {
   // Rc_n = P diag(1/z) P^H from ws.inv_z into rc (components x components).
   void form_modal_receptance(const ContactReceptance& cr, Workspace& ws,
                              Eigen::Ref<Eigen::MatrixXcd> rc) const;
+  // The first n columns of J = I + Rc dF/dU from the contacts' blocks (traces_) and the
+  // contact receptances of every harmonic (work_.contact_receptance).
+  void assemble_jacobian(Eigen::MatrixXd& jacobian) const;
 
   HarmonicLayout layout_;
   HarmonicLayout trace_layout_;  // the contacts' tracing grid (oversampled layout_)
