@@ -389,15 +389,16 @@ Scene load_scene(const fs::path& file) {
   return load_scene(load_scene_document(file), file);
 }
 
-Scene load_scene(const YAML::Node& document, const fs::path& file) {
-  Scene scene;
-  scene.file = file;
-  scene.root = document;
-  YamlContext ctx{file.string()};
-  // Non-const handles: a const operator[] on a missing key gives an invalid node that throws.
-  YAML::Node root = scene.root;
-  if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
+namespace {
 
+// The readers below take the scene's root as a non-const handle: a const operator[] on a
+// missing key gives an invalid node that throws. Each reads one section into `scene`, checks
+// it and records its values, defaults filled in, in scene.core_values.
+
+// The top-level keys (name, description, plugin_paths); every other top-level key must be one
+// of the sections.
+void read_top_level(Scene& scene, YAML::Node root, const YamlContext& ctx) {
+  if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
   const std::vector<std::string> sections = {"structure",        "excitation",   "contacts",
                                              "harmonic_balance", "continuation", "output",
                                              "cyclic",           "study"};
@@ -405,44 +406,73 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   const auto topv = view(top_schema(), top);
   scene.name = topv.text("name");
   scene.description = topv.text("description");
-  {
-    const auto listed_paths = topv.texts("plugin_paths");
-    for (std::size_t i = 0; i < listed_paths.size(); ++i) {
-      fs::path path(listed_paths[i]);
-      if (!path.is_absolute()) path = file.parent_path() / path;
-      std::error_code ec;
-      if (!fs::is_directory(path, ec))
-        ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
-                 "folder '" + path.string() +
-                     "' does not exist (a relative path is taken from the scene file's folder)");
-      scene.plugin_paths.push_back(path);
-    }
+  const auto listed_paths = topv.texts("plugin_paths");
+  for (std::size_t i = 0; i < listed_paths.size(); ++i) {
+    fs::path path(listed_paths[i]);
+    if (!path.is_absolute()) path = scene.file.parent_path() / path;
+    std::error_code ec;
+    if (!fs::is_directory(path, ec))
+      ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
+               "folder '" + path.string() +
+                   "' does not exist (a relative path is taken from the scene file's folder)");
+    scene.plugin_paths.push_back(path);
   }
   scene.core_values = top.to_json(top_schema());
+}
 
-  // cyclic symmetry
-  if (YAML::Node cy = root["cyclic"]; cy) {
-    const auto cv = validate_params(cy, cyclic_schema(), "cyclic", ctx);
-    const auto c = view(cyclic_schema(), cv);
-    scene.cyclic.sectors = static_cast<int>(c.integer("sectors"));
-    scene.cyclic.engine_order = static_cast<int>(c.integer("engine_order"));
-    scene.core_values["cyclic"] = cv.to_json(cyclic_schema());
+// cyclic: {sectors, engine_order}, when given.
+void read_cyclic(Scene& scene, YAML::Node root, const YamlContext& ctx) {
+  YAML::Node cy = root["cyclic"];
+  if (!cy) return;
+  const auto cv = validate_params(cy, cyclic_schema(), "cyclic", ctx);
+  const auto c = view(cyclic_schema(), cv);
+  scene.cyclic.sectors = static_cast<int>(c.integer("sectors"));
+  scene.cyclic.engine_order = static_cast<int>(c.integer("engine_order"));
+  scene.core_values["cyclic"] = cv.to_json(cyclic_schema());
+}
+
+// One entry `name: index` or `name: [i, j, k]` of the DOF map, checked against the nodes
+// already read. `dofs_ctx` names the file the map is in.
+NodeSpec read_dof_node(const StructureSpec& structure, const YAML::Node& key,
+                       const YAML::Node& value, const YamlContext& dofs_ctx) {
+  NodeSpec node;
+  if (!key.IsScalar()) dofs_ctx.fail(key, "structure.dofs", "a DOF name must be plain text");
+  node.name = key.Scalar();
+  node.defined_in = dofs_ctx.file;
+  node.definition = value;
+  const std::string path = "structure.dofs." + node.name;
+  if (node.name == "ground") dofs_ctx.fail(key, path, "'ground' is reserved");
+  if (!is_plain_name(node.name))
+    dofs_ctx.fail(key, path,
+                  "'" + node.name +
+                      "': use letters, digits, '_', '-' and '.' (it names columns of "
+                      "response.csv)");
+  if (structure.find(node.name))
+    dofs_ctx.fail(key, path, "DOF name '" + node.name + "' is used twice");
+  auto read_index = [&](const YAML::Node& n) {
+    double x = -1;
+    if (!n.IsScalar() || !YAML::convert<double>::decode(n, x) || x < 0 || x != std::floor(x) ||
+        x > std::numeric_limits<int>::max())
+      dofs_ctx.fail(n, path, "expected a DOF index (integer >= 0) or a list of them");
+    node.dofs.push_back(static_cast<std::size_t>(x));
+  };
+  if (value.IsSequence()) {
+    if (value.size() == 0 || value.size() > 3) dofs_ctx.fail(value, path, "a node has 1 to 3 DOFs");
+    for (const auto& n : value) read_index(n);
+  } else {
+    read_index(value);
   }
+  return node;
+}
 
-  // structure
-  YAML::Node s = root["structure"];
-  if (!s) ctx.fail(root, "structure", "missing required section");
-  const auto sv = validate_params(s, structure_schema(), "structure", ctx,
-                                  std::vector<std::string>{"params", "dofs"});
-  scene.structure.provider = view(structure_schema(), sv).text("provider");
-  scene.structure.params = s["params"];
+// structure.dofs: the map itself or the path of a YAML file holding it (relative to the
+// scene's folder), e.g. the DOF names a model pipeline writes next to its matrices.
+void read_dof_map(Scene& scene, YAML::Node s, const YamlContext& ctx) {
   YAML::Node dofs = s["dofs"];
-  // `dofs` is the map itself or the path of a YAML file holding it (relative to the scene's
-  // folder), e.g. the DOF names a model pipeline writes next to its matrices.
   YamlContext dofs_ctx = ctx;
   if (dofs && dofs.IsScalar()) {
     fs::path map_file(dofs.Scalar());
-    if (!map_file.is_absolute()) map_file = file.parent_path() / map_file;
+    if (!map_file.is_absolute()) map_file = scene.file.parent_path() / map_file;
     std::error_code ec;
     if (!fs::is_regular_file(map_file, ec))
       ctx.fail(dofs, "structure.dofs",
@@ -455,41 +485,24 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
     dofs_ctx.fail(dofs ? dofs : s, "structure.dofs",
                   "expected a map naming DOFs, e.g. {blade: 0, damper: [3, 4, 5]}, or the path "
                   "of a YAML file holding one");
-  for (const auto& kv : dofs) {
-    NodeSpec node;
-    if (!kv.first.IsScalar())
-      dofs_ctx.fail(kv.first, "structure.dofs", "a DOF name must be plain text");
-    node.name = kv.first.Scalar();
-    node.defined_in = dofs_ctx.file;
-    node.definition = kv.second;
-    const std::string path = "structure.dofs." + node.name;
-    if (node.name == "ground") dofs_ctx.fail(kv.first, path, "'ground' is reserved");
-    if (!is_plain_name(node.name))
-      dofs_ctx.fail(kv.first, path,
-                    "'" + node.name +
-                        "': use letters, digits, '_', '-' and '.' (it names columns of "
-                        "response.csv)");
-    if (scene.structure.find(node.name))
-      dofs_ctx.fail(kv.first, path, "DOF name '" + node.name + "' is used twice");
-    auto read_index = [&](const YAML::Node& n) {
-      double x = -1;
-      if (!n.IsScalar() || !YAML::convert<double>::decode(n, x) || x < 0 || x != std::floor(x) ||
-          x > std::numeric_limits<int>::max())
-        dofs_ctx.fail(n, path, "expected a DOF index (integer >= 0) or a list of them");
-      node.dofs.push_back(static_cast<std::size_t>(x));
-    };
-    if (kv.second.IsSequence()) {
-      if (kv.second.size() == 0 || kv.second.size() > 3)
-        dofs_ctx.fail(kv.second, path, "a node has 1 to 3 DOFs");
-      for (const auto& n : kv.second) read_index(n);
-    } else {
-      read_index(kv.second);
-    }
-    scene.structure.nodes.push_back(std::move(node));
-  }
-  scene.core_values["structure"] = sv.to_json(structure_schema());
+  for (const auto& kv : dofs)
+    scene.structure.nodes.push_back(read_dof_node(scene.structure, kv.first, kv.second, dofs_ctx));
+}
 
-  // harmonic balance
+// structure: the provider, its still unvalidated params, and the DOF map.
+void read_structure_section(Scene& scene, YAML::Node root, const YamlContext& ctx) {
+  YAML::Node s = root["structure"];
+  if (!s) ctx.fail(root, "structure", "missing required section");
+  const auto sv = validate_params(s, structure_schema(), "structure", ctx,
+                                  std::vector<std::string>{"params", "dofs"});
+  scene.structure.provider = view(structure_schema(), sv).text("provider");
+  scene.structure.params = s["params"];
+  read_dof_map(scene, s, ctx);
+  scene.core_values["structure"] = sv.to_json(structure_schema());
+}
+
+// harmonic_balance: the kept harmonics (listed, or 0..max_harmonic) and the AFT's sampling.
+void read_harmonic_balance(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   YAML::Node hbn = root["harmonic_balance"];
   const auto hb = validate_params(hbn, harmonic_balance_schema(), "harmonic_balance", ctx);
   const auto hbv = view(harmonic_balance_schema(), hb);
@@ -499,14 +512,12 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
     ctx.fail(hbn ? hbn : root, "harmonic_balance",
              "give exactly one of `harmonics: [...]` or `max_harmonic: H`");
   auto& H = scene.harmonic_balance;
-  {
-    std::set<double> seen;
-    for (std::size_t i = 0; i < listed.size(); ++i) {
-      const double x = listed[i];
-      if (x != std::floor(x) || !seen.insert(x).second)
-        ctx.fail(hbn["harmonics"][i], "harmonic_balance.harmonics[" + std::to_string(i) + "]",
-                 "harmonics are distinct integers >= 0");
-    }
+  std::set<double> seen;
+  for (std::size_t i = 0; i < listed.size(); ++i) {
+    const double x = listed[i];
+    if (x != std::floor(x) || !seen.insert(x).second)
+      ctx.fail(hbn["harmonics"][i], "harmonic_balance.harmonics[" + std::to_string(i) + "]",
+               "harmonics are distinct integers >= 0");
   }
   H.samples_per_period = static_cast<int>(hbv.integer("samples_per_period"));
   // Checked before the harmonics are listed as int: a huge max_harmonic or harmonic is refused
@@ -525,13 +536,17 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   H.max_trace_passes = static_cast<int>(hbv.integer("max_trace_passes"));
   H.trace_oversampling = static_cast<int>(hbv.integer("trace_oversampling"));
   scene.core_values["harmonic_balance"] = hb.to_json(harmonic_balance_schema());
+}
 
-  // excitation
+// excitation: the harmonic point forces, on nodes of the structure and kept harmonics (read
+// after structure and harmonic_balance).
+void read_excitation(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   YAML::Node exn = root["excitation"];
   YAML::Node wrapped;
   wrapped["excitation"] = exn;
   const auto ex = validate_params(exn ? wrapped : YAML::Node(), excitation_schema(), "", ctx);
   const auto exv = view(excitation_schema(), ex);
+  const auto& kept = scene.harmonic_balance.harmonics;
   for (std::size_t i = 0; i < exv.record_count("excitation"); ++i) {
     const auto r = exv.record("excitation", i);
     const std::string path = "excitation[" + std::to_string(i) + "]";
@@ -541,7 +556,7 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
     if (!node)
       ctx.fail(exn[i]["dof"], path + ".dof", "'" + e.node + "' is not a key of structure.dofs");
     auto dir = r.reals("direction");
-    if (dir.empty() && node->dofs.size() == 1) dir = {1.0};
+    if (dir.empty() && node->dofs.size() == 1) dir.push_back(1.0);
     if (dir.empty())
       ctx.fail(exn[i], path + ".direction",
                "node '" + e.node + "' has several DOFs: give a direction");
@@ -550,15 +565,113 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
     e.amplitude = r.real("amplitude");
     e.harmonic = static_cast<int>(r.integer("harmonic"));
     e.phase = r.real("phase_deg") * std::numbers::pi / 180.0;
-    if (std::find(H.harmonics.begin(), H.harmonics.end(), e.harmonic) == H.harmonics.end())
+    if (std::find(kept.begin(), kept.end(), e.harmonic) == kept.end())
       ctx.fail(exn[i], path + ".harmonic",
                "harmonic " + std::to_string(e.harmonic) +
                    " is not among harmonic_balance's kept harmonics");
     scene.excitation.push_back(std::move(e));
   }
   scene.core_values["excitation"] = ex.to_json(excitation_schema())["excitation"];
+}
 
-  // contacts
+// A contact's `between: [side A, side B]` into contact.side_a/b and sector_a/b; returns the
+// sides as JSON ({node, sector} each).
+nlohmann::json read_contact_sides(const Scene& scene, YAML::Node c, const std::string& path,
+                                  const YamlContext& ctx, ContactSpec& contact) {
+  YAML::Node bn = c["between"];
+  if (!bn || !bn.IsSequence() || bn.size() != 2)
+    ctx.fail(bn ? bn : c, path + ".between",
+             "expected [side A, side B]: node names, 'ground', or {node: name, sector: +1}");
+  std::string sides[2];
+  int sectors[2] = {0, 0};
+  nlohmann::json between_json = nlohmann::json::array();
+  for (int k = 0; k < 2; ++k) {
+    const std::string side_path = path + ".between[" + std::to_string(k) + "]";
+    YAML::Node sn = bn[k];
+    if (sn.IsScalar()) {
+      sides[k] = sn.Scalar();
+    } else {
+      const auto side_values = validate_params(sn, side_schema(), side_path, ctx);
+      const auto side = view(side_schema(), side_values);
+      sides[k] = side.text("node");
+      sectors[k] = static_cast<int>(side.integer("sector"));
+      if (sectors[k] != 0 && scene.cyclic.sectors < 2)
+        ctx.fail(sn["sector"], side_path + ".sector",
+                 "a neighbouring sector needs a `cyclic: {sectors, engine_order}` section");
+    }
+    between_json.push_back({{"node", sides[k]}, {"sector", sectors[k]}});
+  }
+  contact.side_a = sides[0];
+  contact.side_b = sides[1];
+  contact.sector_a = sectors[0];
+  contact.sector_b = sectors[1];
+  if (sides[0] == sides[1] && sectors[0] == sectors[1])
+    ctx.fail(bn, path + ".between", "both sides are the same node of the same sector");
+  return between_json;
+}
+
+// The DOF count of the contact's nodes (the sides that are not ground, which must agree).
+std::size_t contact_components(const Scene& scene, YAML::Node c, const std::string& path,
+                               const YamlContext& ctx, const ContactSpec& contact) {
+  YAML::Node bn = c["between"];
+  const std::string* sides[2] = {&contact.side_a, &contact.side_b};
+  std::size_t components = 0;
+  for (int k = 0; k < 2; ++k) {
+    const std::string& side = *sides[k];
+    if (side == "ground") continue;
+    const NodeSpec* node = scene.structure.find(side);
+    if (!node)
+      ctx.fail(bn[k], path + ".between[" + std::to_string(k) + "]",
+               "'" + side + "' is neither 'ground' nor a key of structure.dofs");
+    if (components && node->dofs.size() != components)
+      ctx.fail(bn, path + ".between", "the two sides have different DOF counts");
+    components = node->dofs.size();
+  }
+  if (components == 0)
+    ctx.fail(bn, path + ".between", "a contact needs at least one side that is not ground");
+  return components;
+}
+
+// One entry of `contacts`; its values, defaults filled in, are appended to `contacts_json`.
+ContactSpec read_contact(const Scene& scene, YAML::Node c, const std::string& path,
+                         const YamlContext& ctx, std::set<std::string>& contact_names,
+                         nlohmann::json& contacts_json) {
+  const auto cv = validate_params(c, contact_schema(), path, ctx,
+                                  std::vector<std::string>{"between", "frame", "params"});
+  const auto v = view(contact_schema(), cv);
+  ContactSpec contact;
+  contact.name = v.text("name");
+  contact.law = v.text("law");
+  if (!is_plain_name(contact.name))
+    ctx.fail(c["name"], path + ".name",
+             "'" + contact.name + "': use letters, digits, '_', '-' and '.' (it names files)");
+  if (!contact_names.insert(contact.name).second)
+    ctx.fail(c["name"], path + ".name", "contact name '" + contact.name + "' is used twice");
+  const nlohmann::json between_json = read_contact_sides(scene, c, path, ctx, contact);
+  const std::size_t components = contact_components(scene, c, path, ctx, contact);
+  YAML::Node fn = c["frame"];
+  const auto fv = validate_params(fn, frame_schema(), path + ".frame", ctx);
+  const auto f = view(frame_schema(), fv);
+  auto vec = [&](const char* key) {
+    const auto raw = f.reals(key);
+    if (raw.empty()) return std::vector<double>{};
+    return unit_vector(raw, fn[key], path + ".frame." + key, ctx, components);
+  };
+  contact.tangent1 = vec("tangent1");
+  contact.tangent2 = vec("tangent2");
+  contact.normal = vec("normal");
+  if (contact.tangent1.empty() && components == 1) contact.tangent1 = {1.0};
+  contact.params = c["params"];
+  nlohmann::json cj = cv.to_json(contact_schema());
+  cj["between"] = between_json;
+  cj["frame"] = fv.to_json(frame_schema());
+  contacts_json.push_back(cj);
+  return contact;
+}
+
+// contacts: a list of contacts between nodes of the structure (read after structure and
+// cyclic), with distinct names; their law params are left to bind_plugins().
+void read_contacts(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   YAML::Node cn = root["contacts"];
   if (cn && !cn.IsNull() && !cn.IsSequence())
     ctx.fail(cn, "contacts", "expected a list of contacts");
@@ -566,83 +679,13 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   nlohmann::json contacts_json = nlohmann::json::array();
   for (std::size_t i = 0; cn && cn.IsSequence() && i < cn.size(); ++i) {
     const std::string path = "contacts[" + std::to_string(i) + "]";
-    YAML::Node c = cn[i];
-    const auto cv = validate_params(c, contact_schema(), path, ctx,
-                                    std::vector<std::string>{"between", "frame", "params"});
-    const auto v = view(contact_schema(), cv);
-    ContactSpec contact;
-    contact.name = v.text("name");
-    contact.law = v.text("law");
-    if (!is_plain_name(contact.name))
-      ctx.fail(c["name"], path + ".name",
-               "'" + contact.name + "': use letters, digits, '_', '-' and '.' (it names files)");
-    if (!contact_names.insert(contact.name).second)
-      ctx.fail(c["name"], path + ".name", "contact name '" + contact.name + "' is used twice");
-    YAML::Node bn = c["between"];
-    if (!bn || !bn.IsSequence() || bn.size() != 2)
-      ctx.fail(bn ? bn : c, path + ".between",
-               "expected [side A, side B]: node names, 'ground', or {node: name, sector: +1}");
-    std::string sides[2];
-    int sectors[2] = {0, 0};
-    nlohmann::json between_json = nlohmann::json::array();
-    for (int k = 0; k < 2; ++k) {
-      const std::string side_path = path + ".between[" + std::to_string(k) + "]";
-      YAML::Node sn = bn[k];
-      if (sn.IsScalar()) {
-        sides[k] = sn.Scalar();
-      } else {
-        const auto side_values = validate_params(sn, side_schema(), side_path, ctx);
-        const auto side = view(side_schema(), side_values);
-        sides[k] = side.text("node");
-        sectors[k] = static_cast<int>(side.integer("sector"));
-        if (sectors[k] != 0 && scene.cyclic.sectors < 2)
-          ctx.fail(sn["sector"], side_path + ".sector",
-                   "a neighbouring sector needs a `cyclic: {sectors, engine_order}` section");
-      }
-      between_json.push_back({{"node", sides[k]}, {"sector", sectors[k]}});
-    }
-    contact.side_a = sides[0];
-    contact.side_b = sides[1];
-    contact.sector_a = sectors[0];
-    contact.sector_b = sectors[1];
-    if (sides[0] == sides[1] && sectors[0] == sectors[1])
-      ctx.fail(bn, path + ".between", "both sides are the same node of the same sector");
-    std::size_t components = 0;
-    for (int k = 0; k < 2; ++k) {
-      const std::string& side = sides[k];
-      if (side == "ground") continue;
-      const NodeSpec* node = scene.structure.find(side);
-      if (!node)
-        ctx.fail(bn[k], path + ".between[" + std::to_string(k) + "]",
-                 "'" + side + "' is neither 'ground' nor a key of structure.dofs");
-      if (components && node->dofs.size() != components)
-        ctx.fail(bn, path + ".between", "the two sides have different DOF counts");
-      components = node->dofs.size();
-    }
-    if (components == 0)
-      ctx.fail(bn, path + ".between", "a contact needs at least one side that is not ground");
-    YAML::Node fn = c["frame"];
-    const auto fv = validate_params(fn, frame_schema(), path + ".frame", ctx);
-    const auto f = view(frame_schema(), fv);
-    auto vec = [&](const char* key) {
-      const auto raw = f.reals(key);
-      if (raw.empty()) return std::vector<double>{};
-      return unit_vector(raw, fn[key], path + ".frame." + key, ctx, components);
-    };
-    contact.tangent1 = vec("tangent1");
-    contact.tangent2 = vec("tangent2");
-    contact.normal = vec("normal");
-    if (contact.tangent1.empty() && components == 1) contact.tangent1 = {1.0};
-    contact.params = c["params"];
-    nlohmann::json cj = cv.to_json(contact_schema());
-    cj["between"] = between_json;
-    cj["frame"] = fv.to_json(frame_schema());
-    contacts_json.push_back(cj);
-    scene.contacts.push_back(std::move(contact));
+    scene.contacts.push_back(read_contact(scene, cn[i], path, ctx, contact_names, contacts_json));
   }
   scene.core_values["contacts"] = contacts_json;
+}
 
-  // continuation
+// continuation: the frequency sweep, its steps and the corrector's settings.
+void read_continuation(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   YAML::Node con = root["continuation"];
   if (!con) ctx.fail(root, "continuation", "missing required section (frequency sweep)");
   const auto cov = validate_params(con, continuation_schema(), "continuation", ctx,
@@ -681,8 +724,11 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   cj["frequency"] = fr.to_json(frequency_schema());
   cj["step"] = st.to_json(step_schema());
   scene.core_values["continuation"] = cj;
+}
 
-  // output
+// output: the response nodes (every node of the structure by default), the friction loops'
+// frequencies and the plots switch.
+void read_output(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   YAML::Node on = root["output"];
   const auto ov = validate_params(on, output_schema(), "output", ctx);
   const auto o = view(output_schema(), ov);
@@ -696,6 +742,24 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   scene.output.friction_loops_at = o.reals("friction_loops_at");
   scene.output.plots = o.boolean("plots");
   scene.core_values["output"] = ov.to_json(output_schema());
+}
+
+}  // namespace
+
+Scene load_scene(const YAML::Node& document, const fs::path& file) {
+  Scene scene;
+  scene.file = file;
+  scene.root = document;
+  const YamlContext ctx{file.string()};
+  // In this order: a section is checked against those read before it.
+  read_top_level(scene, scene.root, ctx);
+  read_cyclic(scene, scene.root, ctx);
+  read_structure_section(scene, scene.root, ctx);
+  read_harmonic_balance(scene, scene.root, ctx);
+  read_excitation(scene, scene.root, ctx);
+  read_contacts(scene, scene.root, ctx);
+  read_continuation(scene, scene.root, ctx);
+  read_output(scene, scene.root, ctx);
   return scene;
 }
 
