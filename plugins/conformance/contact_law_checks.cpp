@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -235,6 +236,326 @@ bool trace(PeriodicTracer& tracer, const Eigen::VectorXd& u, ContactTrace& t) {
   return tracer.trace(u, JacobianMode::kNone, t, &error);
 }
 
+// The law under test: its plugin, the given parameters and an instance made from them.
+struct Subject {
+  std::shared_ptr<const LoadedPlugin> plugin;
+  YAML::Node params;
+  Law law;
+  bool has_mu = false, has_kt = false, has_n0 = false;
+  double real(const char* name) const { return real_param(*plugin, law, name); }
+  const ContactLawInstance& instance() const { return *law.instance; }
+};
+
+// Loads the plugin and makes the law; on failure, the report gets the failed check saying
+// why (loads_through_the_registry, is_a_contact_law or given_parameters_validate).
+std::optional<Subject> load_subject(const std::filesystem::path& plugin_file,
+                                    const ContactLawOptions& options, ContactLawReport& report) {
+  auto fail = [&](const std::string& name, const std::string& why) {
+    report.checks.push_back({name, CheckStatus::kFailed, why});
+    return std::nullopt;
+  };
+  Subject subject;
+  try {
+    subject.plugin = core::load_plugin_file(plugin_file);
+  } catch (const std::exception& e) {
+    return fail("loads_through_the_registry", e.what());
+  }
+  const LoadedPlugin& plugin = *subject.plugin;
+  report.plugin_name = plugin.name();
+  if (plugin.kind() != FRICHB_KIND_CONTACT_LAW)
+    return fail("is_a_contact_law",
+                "plugin kind is " + std::string(core::to_string(plugin.kind())));
+  try {
+    subject.params = YAML::Load(options.params_yaml);
+    subject.law = make_law(subject.plugin, subject.params);
+  } catch (const std::exception& e) {
+    return fail("given_parameters_validate", e.what());
+  }
+  subject.has_mu = has_real(plugin, "mu");
+  subject.has_kt = has_real(plugin, "kt");
+  subject.has_n0 = has_real(plugin, "normal_load");
+  return subject;
+}
+
+// Schema manners: every finite bound of a top-level number is enforced by validation.
+CheckResult schema_check(const Subject& subject) {
+  CheckResult c{"schema_refuses_out_of_range_values", CheckStatus::kPassed, ""};
+  int tried = 0, refused = 0;
+  for (const auto& spec : subject.plugin->schema()) {
+    if (spec.type != FRICHB_PARAM_REAL && spec.type != FRICHB_PARAM_INTEGER) continue;
+    for (int side = 0; side < 2; ++side) {
+      const double bound = side == 0 ? spec.min_value : spec.max_value;
+      if (!std::isfinite(bound)) continue;
+      const bool exclusive = side == 0 ? spec.min_exclusive : spec.max_exclusive;
+      const double step = std::max(1.0, std::abs(bound));
+      const double bad = exclusive ? bound : (side == 0 ? bound - step : bound + step);
+      ++tried;
+      try {
+        core::validate_params(with(subject.params, spec.name, bad), subject.plugin->schema(),
+                              "params", core::YamlContext{"<conformance>"});
+      } catch (const core::SceneError& e) {
+        if (std::string(e.what()).find(spec.name) != std::string::npos) ++refused;
+      }
+    }
+  }
+  c.figure = format("%.0f of %.0f out-of-range values refused naming the key", refused, tried);
+  if (refused != tried) c.status = CheckStatus::kFailed;
+  return c;
+}
+
+// The amplitude of the test motion: the option, else 5 mu N / kt (deep slip), else 1e-3.
+double test_amplitude(const Subject& subject, const ContactLawOptions& options) {
+  if (options.amplitude <= 0) {
+    const double mu = subject.has_mu ? subject.real("mu") : 0;
+    const double kt = subject.has_kt ? subject.real("kt") : 0;
+    const double n0 = subject.has_n0 ? subject.real("normal_load") : 0;
+    return (mu * n0 > 0 && kt > 0) ? 5 * mu * n0 / kt : 1e-3;
+  }
+  return options.amplitude;
+}
+
+HarmonicLayout test_layout(const ContactLawOptions& options) {
+  std::vector<int> harmonics;
+  for (int h = 0; h <= options.max_harmonic; ++h) harmonics.push_back(h);
+  return {harmonics, options.samples_per_period};
+}
+
+// The period the physics checks look at: a random motion at the test amplitude and the
+// law's trace over it (`base`), with the figures the checks share.
+struct Period {
+  Period(const Subject& subject, const ContactLawOptions& options)
+      : amplitude(test_amplitude(subject, options)),
+        layout(test_layout(options)),
+        tracer(subject.instance(), layout),
+        u(random_motion(tracer, amplitude, options.seed)) {}
+
+  double amplitude;
+  HarmonicLayout layout;
+  PeriodicTracer tracer;
+  Eigen::VectorXd u;
+  ContactTrace base;
+  int n = 0, d = 0, nc = -1;  // samples, used components, column of the normal (-1: none)
+  double force_scale = 0;     // the largest force of `base`
+  std::vector<Step> steps;    // the steps of `base`
+  bool tangential(int a) const { return tracer.components()[static_cast<std::size_t>(a)] < 2; }
+};
+
+// Traces the period; when the law fails, the report gets a failed traces_a_period.
+std::unique_ptr<Period> trace_period(const Subject& subject, const ContactLawOptions& options,
+                                     ContactLawReport& report) {
+  auto p = std::make_unique<Period>(subject, options);
+  std::string error;
+  if (!p->tracer.trace(p->u, JacobianMode::kNone, p->base, &error)) {
+    report.checks.push_back({"traces_a_period", CheckStatus::kFailed, error});
+    return nullptr;
+  }
+  p->n = p->layout.samples();
+  p->d = p->tracer.dimension();
+  p->nc = normal_column(p->tracer);
+  p->force_scale = std::max(p->base.force.cwiseAbs().maxCoeff(), 1e-300);
+  p->steps = steps_of(p->tracer, p->base, subject.instance());
+  return p;
+}
+
+CheckResult separation_check(const ContactLawInstance& instance, double amplitude) {
+  CheckResult c{"separation_gives_zero_force_and_tangent", CheckStatus::kSkipped,
+                "the law does not use the normal direction"};
+  if (!instance.traits().uses_normal) return c;
+  Step st;
+  st.u_now = Eigen::Vector3d(amplitude, 0.5 * amplitude, -1e3 * amplitude);
+  st.u_prev = Eigen::Vector3d(0.9 * amplitude, 0.4 * amplitude, -1e3 * amplitude);
+  st.state_prev = Eigen::VectorXd::Zero(instance.traits().state_size);
+  instance.initial_state(st.state_prev.data());
+  const StepResult r = evaluate(instance, st, instance.traits().provides_tangent != 0);
+  const double f = r.force.cwiseAbs().maxCoeff();
+  const double t = r.tangent.size() ? r.tangent.topRows(3).cwiseAbs().maxCoeff() : 0.0;
+  c.figure = format("|f| = %.2e, |df/d(u, state)| = %.2e at u_n = -1e3 amplitude", f, t);
+  c.status = r.ok && f == 0.0 && t == 0.0 ? CheckStatus::kPassed : CheckStatus::kFailed;
+  return c;
+}
+
+CheckResult normal_force_check(const Period& p) {
+  CheckResult c{"normal_force_nonnegative", CheckStatus::kSkipped,
+                "the law does not use the normal direction"};
+  if (p.nc < 0) return c;
+  const double lowest = p.base.force.col(p.nc).minCoeff();
+  c.figure = format("min N = %.3e N", lowest);
+  c.status = lowest >= 0 ? CheckStatus::kPassed : CheckStatus::kFailed;
+  return c;
+}
+
+// |T| <= mu N on every sample (|T_i| <= mu N with `per_component`), N from the normal force
+// or, for a constant normal load, from `normal_load`.
+CheckResult coulomb_check(const Subject& subject, const Period& p, bool per_component) {
+  CheckResult c{"coulomb_bound", CheckStatus::kSkipped, "no parameter `mu`"};
+  if (!subject.has_mu) return c;
+  if (p.nc < 0 && !subject.has_n0) {
+    c.figure = "constant normal load without a `normal_load` parameter";
+    return c;
+  }
+  const double mu = subject.real("mu");
+  double worst = 0;  // largest |T| / (mu N) with tolerance
+  bool ok = true;
+  for (int j = 0; j < p.n; ++j) {
+    const double normal = p.nc >= 0 ? p.base.force(j, p.nc) : subject.real("normal_load");
+    double t = tangential_norm(p.base, p.tracer, j);
+    if (per_component) {
+      t = 0;
+      for (int a = 0; a < p.d; ++a)
+        if (p.tangential(a)) t = std::max(t, std::abs(p.base.force(j, a)));
+    }
+    const double limit = mu * normal;
+    if (t > limit * (1 + 1e-9) + 1e-12 * p.force_scale) ok = false;
+    if (limit > 0) worst = std::max(worst, t / limit);
+  }
+  c.figure = format(
+      per_component ? "max |T_i| / (mu N) = %.6f (per component)" : "max |T| / (mu N) = %.6f",
+      worst);
+  c.status = ok ? CheckStatus::kPassed : CheckStatus::kFailed;
+  return c;
+}
+
+CheckResult dissipation_check(const Period& p) {
+  CheckResult c{"dissipation_nonnegative", CheckStatus::kPassed, ""};
+  double energy = 0;
+  for (int j = 0; j < p.n; ++j) {
+    const int jn = (j + 1) % p.n;
+    for (int a = 0; a < p.d; ++a)
+      energy += 0.5 * (p.base.force(j, a) + p.base.force(jn, a)) *
+                (p.base.displacement(jn, a) - p.base.displacement(j, a));
+  }
+  c.figure = format("energy per cycle %.4e J", energy);
+  if (energy < -1e-9 * p.force_scale * p.amplitude) c.status = CheckStatus::kFailed;
+  return c;
+}
+
+CheckResult periodicity_check(const Period& p) {
+  CheckResult c{"periodicity", p.base.periodic ? CheckStatus::kPassed : CheckStatus::kFailed,
+                format("state repeated after %.0f passes", p.base.passes)};
+  if (!p.base.periodic) c.figure = p.base.diagnostic;
+  return c;
+}
+
+CheckResult zero_friction_check(const Subject& subject, const Period& p) {
+  CheckResult c{"zero_friction_gives_no_tangential_force", CheckStatus::kSkipped,
+                "no parameter `mu`"};
+  if (!subject.has_mu) return c;
+  const auto frictionless = make_law_with(subject.plugin, subject.params, "mu", 0.0);
+  ContactTrace t;
+  if (!frictionless) {
+    c.figure = "the schema does not allow mu = 0";
+  } else if (PeriodicTracer t0(*frictionless->instance, p.layout); trace(t0, p.u, t)) {
+    double largest = 0;
+    for (int j = 0; j < p.n; ++j) largest = std::max(largest, tangential_norm(t, p.tracer, j));
+    c.figure = format("max |T| = %.2e N", largest);
+    c.status = largest <= 1e-14 * p.force_scale ? CheckStatus::kPassed : CheckStatus::kFailed;
+  } else {
+    c.status = CheckStatus::kFailed;
+    c.figure = "trace failed";
+  }
+  return c;
+}
+
+// A normal load of 1e12 force scales keeps the contact stuck: T = kt u on every sample.
+CheckResult full_stick_check(const Subject& subject, const Period& p) {
+  CheckResult c{"full_stick_is_the_linear_spring", CheckStatus::kSkipped,
+                "needs parameters `kt` and `normal_load`"};
+  if (!subject.has_kt || !subject.has_n0) return c;
+  const auto stuck = make_law_with(subject.plugin, subject.params, "normal_load",
+                                   1e12 * std::max(1.0, p.force_scale));
+  ContactTrace t;
+  const double kt = subject.real("kt");
+  if (!stuck) {
+    c.figure = "the schema does not allow a normal_load of 1e12 force scales";
+  } else if (PeriodicTracer ts(*stuck->instance, p.layout); trace(ts, p.u, t)) {
+    double err = 0;
+    for (int j = 0; j < p.n; ++j)
+      for (int a = 0; a < p.d; ++a)
+        if (p.tangential(a))
+          err = std::max(err, std::abs(t.force(j, a) - kt * t.displacement(j, a)));
+    const double rel = err / (kt * p.amplitude);
+    c.figure = format("max |T - kt u| / (kt amplitude) = %.2e", rel);
+    c.status = rel <= 1e-9 ? CheckStatus::kPassed : CheckStatus::kFailed;
+  } else {
+    c.status = CheckStatus::kFailed;
+    c.figure = "trace failed";
+  }
+  return c;
+}
+
+// Negating the tangential motion negates the tangential force.
+CheckResult odd_symmetry_check(Period& p) {
+  CheckResult c{"odd_symmetry", CheckStatus::kPassed, ""};
+  Eigen::VectorXd mirrored = p.u;
+  const int cc = p.layout.coefficient_count();
+  for (int a = 0; a < p.d; ++a)
+    if (p.tangential(a)) mirrored.segment(a * cc, cc) *= -1;
+  ContactTrace t;
+  double err = 0;
+  if (trace(p.tracer, mirrored, t)) {
+    for (int a = 0; a < p.d; ++a) {
+      const double sign = p.tangential(a) ? -1.0 : 1.0;
+      err = std::max(err, (t.force.col(a) - sign * p.base.force.col(a)).cwiseAbs().maxCoeff());
+    }
+    c.figure = format("max deviation %.2e relative", err / p.force_scale);
+    if (err > 1e-10 * p.force_scale) c.status = CheckStatus::kFailed;
+  } else {
+    c.status = CheckStatus::kFailed;
+    c.figure = "trace failed";
+  }
+  return c;
+}
+
+// Rotating the tangential motion of a 2D tangential law rotates its tangential force.
+CheckResult frame_invariance_check(const ContactLawInstance& instance, Period& p,
+                                   bool per_component) {
+  CheckResult c{"frame_invariance", CheckStatus::kSkipped, "1D tangential law"};
+  if (instance.traits().tangential_dimensions != 2) return c;
+  const double angle = 0.7, co = std::cos(angle), si = std::sin(angle);
+  const int cc = p.layout.coefficient_count();
+  Eigen::VectorXd rotated = p.u;
+  rotated.segment(0, cc) = co * p.u.segment(0, cc) - si * p.u.segment(cc, cc);
+  rotated.segment(cc, cc) = si * p.u.segment(0, cc) + co * p.u.segment(cc, cc);
+  ContactTrace t;
+  if (!trace(p.tracer, rotated, t)) {
+    c.status = CheckStatus::kFailed;
+    c.figure = "trace failed";
+    return c;
+  }
+  double err = 0;
+  for (int j = 0; j < p.n; ++j) {
+    const double t1 = co * p.base.force(j, 0) - si * p.base.force(j, 1);
+    const double t2 = si * p.base.force(j, 0) + co * p.base.force(j, 1);
+    err = std::max({err, std::abs(t.force(j, 0) - t1), std::abs(t.force(j, 1) - t2)});
+  }
+  c.figure = format("rotation by 0.7 rad: max deviation %.2e relative", err / p.force_scale);
+  c.status = err <= 1e-10 * p.force_scale ? CheckStatus::kPassed : CheckStatus::kFailed;
+  if (per_component) {
+    c.status = CheckStatus::kSkipped;
+    c.figure += " (not expected of a per-component law)";
+  }
+  return c;
+}
+
+// The same forces, bitwise, from a repeated trace and from two threads on one instance.
+CheckResult determinism_check(const ContactLawInstance& instance, Period& p) {
+  CheckResult c{"deterministic_across_repeats_and_threads", CheckStatus::kPassed, ""};
+  ContactTrace again;
+  bool same = trace(p.tracer, p.u, again) && again.force == p.base.force;
+  std::vector<ContactTrace> results(2);
+  std::vector<std::thread> threads;
+  for (std::size_t i = 0; i < results.size(); ++i)
+    threads.emplace_back([&, i] {
+      PeriodicTracer own(instance, p.layout);
+      trace(own, p.u, results[i]);
+    });
+  for (auto& th : threads) th.join();
+  for (const auto& r : results) same = same && r.force == p.base.force;
+  c.figure = "1 repeat and 2 threads on one instance, bitwise";
+  if (!same) c.status = CheckStatus::kFailed;
+  return c;
+}
+
 }  // namespace
 
 int ContactLawReport::count(CheckStatus s) const {
@@ -253,269 +574,27 @@ ContactLawReport check_contact_law(const std::filesystem::path& plugin_file,
                                    const ContactLawOptions& options) {
   ContactLawReport report;
   report.file = plugin_file;
-  auto fail = [&](const std::string& name, const std::string& why) {
-    report.checks.push_back({name, CheckStatus::kFailed, why});
-    return report;
-  };
-  std::shared_ptr<const LoadedPlugin> plugin;
-  try {
-    plugin = core::load_plugin_file(plugin_file);
-  } catch (const std::exception& e) {
-    return fail("loads_through_the_registry", e.what());
-  }
-  report.plugin_name = plugin->name();
-  if (plugin->kind() != FRICHB_KIND_CONTACT_LAW)
-    return fail("is_a_contact_law",
-                "plugin kind is " + std::string(core::to_string(plugin->kind())));
-  YAML::Node params;
-  Law law;
-  try {
-    params = YAML::Load(options.params_yaml);
-    law = make_law(plugin, params);
-  } catch (const std::exception& e) {
-    return fail("given_parameters_validate", e.what());
-  }
-
-  // schema manners: every finite bound of a top-level number is enforced by validation.
-  {
-    CheckResult c{"schema_refuses_out_of_range_values", CheckStatus::kPassed, ""};
-    int tried = 0, refused = 0;
-    for (const auto& spec : plugin->schema()) {
-      if (spec.type != FRICHB_PARAM_REAL && spec.type != FRICHB_PARAM_INTEGER) continue;
-      for (int side = 0; side < 2; ++side) {
-        const double bound = side == 0 ? spec.min_value : spec.max_value;
-        if (!std::isfinite(bound)) continue;
-        const bool exclusive = side == 0 ? spec.min_exclusive : spec.max_exclusive;
-        const double step = std::max(1.0, std::abs(bound));
-        const double bad = exclusive ? bound : (side == 0 ? bound - step : bound + step);
-        ++tried;
-        try {
-          core::validate_params(with(params, spec.name, bad), plugin->schema(), "params",
-                                core::YamlContext{"<conformance>"});
-        } catch (const core::SceneError& e) {
-          if (std::string(e.what()).find(spec.name) != std::string::npos) ++refused;
-        }
-      }
-    }
-    c.figure = format("%.0f of %.0f out-of-range values refused naming the key", refused, tried);
-    if (refused != tried) c.status = CheckStatus::kFailed;
-    report.checks.push_back(c);
-  }
-
-  const ContactLawInstance& instance = *law.instance;
-  const bool has_mu = has_real(*plugin, "mu"), has_kt = has_real(*plugin, "kt"),
-             has_n0 = has_real(*plugin, "normal_load");
-  double amplitude = options.amplitude;
-  if (amplitude <= 0) {
-    const double mu = has_mu ? real_param(*plugin, law, "mu") : 0;
-    const double kt = has_kt ? real_param(*plugin, law, "kt") : 0;
-    const double n0 = has_n0 ? real_param(*plugin, law, "normal_load") : 0;
-    amplitude = (mu * n0 > 0 && kt > 0) ? 5 * mu * n0 / kt : 1e-3;
-  }
-  std::vector<int> harmonics;
-  for (int h = 0; h <= options.max_harmonic; ++h) harmonics.push_back(h);
-  const HarmonicLayout layout(harmonics, options.samples_per_period);
-  PeriodicTracer tracer(instance, layout);
-  const Eigen::VectorXd u = random_motion(tracer, amplitude, options.seed);
-  ContactTrace base;
-  {
-    std::string error;
-    if (!tracer.trace(u, JacobianMode::kNone, base, &error)) return fail("traces_a_period", error);
-  }
-  const int n = layout.samples(), d = tracer.dimension(), nc = normal_column(tracer);
-  const double force_scale = std::max(base.force.cwiseAbs().maxCoeff(), 1e-300);
-  const std::vector<Step> steps = steps_of(tracer, base, instance);
-
-  report.checks.push_back(value_only_check(instance, steps));
-  report.checks.push_back(tangent_check(instance, steps, amplitude, options.jacobian_tolerance));
-
-  {  // separation
-    CheckResult c{"separation_gives_zero_force_and_tangent", CheckStatus::kSkipped,
-                  "the law does not use the normal direction"};
-    if (instance.traits().uses_normal) {
-      Step st;
-      st.u_now = Eigen::Vector3d(amplitude, 0.5 * amplitude, -1e3 * amplitude);
-      st.u_prev = Eigen::Vector3d(0.9 * amplitude, 0.4 * amplitude, -1e3 * amplitude);
-      st.state_prev = Eigen::VectorXd::Zero(instance.traits().state_size);
-      instance.initial_state(st.state_prev.data());
-      const StepResult r = evaluate(instance, st, instance.traits().provides_tangent != 0);
-      const double f = r.force.cwiseAbs().maxCoeff();
-      const double t = r.tangent.size() ? r.tangent.topRows(3).cwiseAbs().maxCoeff() : 0.0;
-      c.figure = format("|f| = %.2e, |df/d(u, state)| = %.2e at u_n = -1e3 amplitude", f, t);
-      c.status = r.ok && f == 0.0 && t == 0.0 ? CheckStatus::kPassed : CheckStatus::kFailed;
-    }
-    report.checks.push_back(c);
-  }
-  {  // N >= 0
-    CheckResult c{"normal_force_nonnegative", CheckStatus::kSkipped,
-                  "the law does not use the normal direction"};
-    if (nc >= 0) {
-      const double lowest = base.force.col(nc).minCoeff();
-      c.figure = format("min N = %.3e N", lowest);
-      c.status = lowest >= 0 ? CheckStatus::kPassed : CheckStatus::kFailed;
-    }
-    report.checks.push_back(c);
-  }
-  {  // Coulomb bound
-    CheckResult c{"coulomb_bound", CheckStatus::kSkipped, "no parameter `mu`"};
-    if (has_mu && (nc >= 0 || has_n0)) {
-      const double mu = real_param(*plugin, law, "mu");
-      double worst = 0;  // largest |T| / (mu N) with tolerance
-      bool ok = true;
-      for (int j = 0; j < n; ++j) {
-        const double normal = nc >= 0 ? base.force(j, nc) : real_param(*plugin, law, "normal_load");
-        double t = tangential_norm(base, tracer, j);
-        if (options.per_component_bound) {
-          t = 0;
-          for (int a = 0; a < d; ++a)
-            if (tracer.components()[static_cast<std::size_t>(a)] < 2)
-              t = std::max(t, std::abs(base.force(j, a)));
-        }
-        const double limit = mu * normal;
-        if (t > limit * (1 + 1e-9) + 1e-12 * force_scale) ok = false;
-        if (limit > 0) worst = std::max(worst, t / limit);
-      }
-      c.figure = format(options.per_component_bound ? "max |T_i| / (mu N) = %.6f (per component)"
-                                                    : "max |T| / (mu N) = %.6f",
-                        worst);
-      c.status = ok ? CheckStatus::kPassed : CheckStatus::kFailed;
-    } else if (has_mu) {
-      c.figure = "constant normal load without a `normal_load` parameter";
-    }
-    report.checks.push_back(c);
-  }
-  {  // dissipation
-    CheckResult c{"dissipation_nonnegative", CheckStatus::kPassed, ""};
-    double energy = 0;
-    for (int j = 0; j < n; ++j) {
-      const int jn = (j + 1) % n;
-      for (int a = 0; a < d; ++a)
-        energy += 0.5 * (base.force(j, a) + base.force(jn, a)) *
-                  (base.displacement(jn, a) - base.displacement(j, a));
-    }
-    c.figure = format("energy per cycle %.4e J", energy);
-    if (energy < -1e-9 * force_scale * amplitude) c.status = CheckStatus::kFailed;
-    report.checks.push_back(c);
-  }
-  {  // periodicity
-    CheckResult c{"periodicity", base.periodic ? CheckStatus::kPassed : CheckStatus::kFailed,
-                  format("state repeated after %.0f passes", base.passes)};
-    if (!base.periodic) c.figure = base.diagnostic;
-    report.checks.push_back(c);
-  }
-  {  // mu = 0
-    CheckResult c{"zero_friction_gives_no_tangential_force", CheckStatus::kSkipped,
-                  "no parameter `mu`"};
-    if (has_mu) {
-      const auto frictionless = make_law_with(plugin, params, "mu", 0.0);
-      ContactTrace t;
-      if (!frictionless) {
-        c.figure = "the schema does not allow mu = 0";
-      } else if (PeriodicTracer t0(*frictionless->instance, layout); trace(t0, u, t)) {
-        double largest = 0;
-        for (int j = 0; j < n; ++j) largest = std::max(largest, tangential_norm(t, tracer, j));
-        c.figure = format("max |T| = %.2e N", largest);
-        c.status = largest <= 1e-14 * force_scale ? CheckStatus::kPassed : CheckStatus::kFailed;
-      } else {
-        c.status = CheckStatus::kFailed;
-        c.figure = "trace failed";
-      }
-    }
-    report.checks.push_back(c);
-  }
-  {  // full stick
-    CheckResult c{"full_stick_is_the_linear_spring", CheckStatus::kSkipped,
-                  "needs parameters `kt` and `normal_load`"};
-    if (has_kt && has_n0) {
-      const auto stuck =
-          make_law_with(plugin, params, "normal_load", 1e12 * std::max(1.0, force_scale));
-      ContactTrace t;
-      const double kt = real_param(*plugin, law, "kt");
-      if (!stuck) {
-        c.figure = "the schema does not allow a normal_load of 1e12 force scales";
-      } else if (PeriodicTracer ts(*stuck->instance, layout); trace(ts, u, t)) {
-        double err = 0;
-        for (int j = 0; j < n; ++j)
-          for (int a = 0; a < d; ++a)
-            if (tracer.components()[static_cast<std::size_t>(a)] < 2)
-              err = std::max(err, std::abs(t.force(j, a) - kt * t.displacement(j, a)));
-        const double rel = err / (kt * amplitude);
-        c.figure = format("max |T - kt u| / (kt amplitude) = %.2e", rel);
-        c.status = rel <= 1e-9 ? CheckStatus::kPassed : CheckStatus::kFailed;
-      } else {
-        c.status = CheckStatus::kFailed;
-        c.figure = "trace failed";
-      }
-    }
-    report.checks.push_back(c);
-  }
-  {  // odd symmetry: negating the tangential motion negates the tangential force
-    CheckResult c{"odd_symmetry", CheckStatus::kPassed, ""};
-    Eigen::VectorXd mirrored = u;
-    const int cc = layout.coefficient_count();
-    for (int a = 0; a < d; ++a)
-      if (tracer.components()[static_cast<std::size_t>(a)] < 2) mirrored.segment(a * cc, cc) *= -1;
-    ContactTrace t;
-    double err = 0;
-    if (trace(tracer, mirrored, t)) {
-      for (int a = 0; a < d; ++a) {
-        const double sign = tracer.components()[static_cast<std::size_t>(a)] < 2 ? -1.0 : 1.0;
-        err = std::max(err, (t.force.col(a) - sign * base.force.col(a)).cwiseAbs().maxCoeff());
-      }
-      c.figure = format("max deviation %.2e relative", err / force_scale);
-      if (err > 1e-10 * force_scale) c.status = CheckStatus::kFailed;
-    } else {
-      c.status = CheckStatus::kFailed;
-      c.figure = "trace failed";
-    }
-    report.checks.push_back(c);
-  }
-  {  // frame invariance of 2D tangential laws
-    CheckResult c{"frame_invariance", CheckStatus::kSkipped, "1D tangential law"};
-    if (instance.traits().tangential_dimensions == 2) {
-      const double angle = 0.7, co = std::cos(angle), si = std::sin(angle);
-      const int cc = layout.coefficient_count();
-      Eigen::VectorXd rotated = u;
-      rotated.segment(0, cc) = co * u.segment(0, cc) - si * u.segment(cc, cc);
-      rotated.segment(cc, cc) = si * u.segment(0, cc) + co * u.segment(cc, cc);
-      ContactTrace t;
-      if (trace(tracer, rotated, t)) {
-        double err = 0;
-        for (int j = 0; j < n; ++j) {
-          const double t1 = co * base.force(j, 0) - si * base.force(j, 1);
-          const double t2 = si * base.force(j, 0) + co * base.force(j, 1);
-          err = std::max({err, std::abs(t.force(j, 0) - t1), std::abs(t.force(j, 1) - t2)});
-        }
-        c.figure = format("rotation by 0.7 rad: max deviation %.2e relative", err / force_scale);
-        c.status = err <= 1e-10 * force_scale ? CheckStatus::kPassed : CheckStatus::kFailed;
-        if (options.per_component_bound) {
-          c.status = CheckStatus::kSkipped;
-          c.figure += " (not expected of a per-component law)";
-        }
-      } else {
-        c.status = CheckStatus::kFailed;
-        c.figure = "trace failed";
-      }
-    }
-    report.checks.push_back(c);
-  }
-  {  // determinism across repeats and threads
-    CheckResult c{"deterministic_across_repeats_and_threads", CheckStatus::kPassed, ""};
-    ContactTrace again;
-    bool same = trace(tracer, u, again) && again.force == base.force;
-    std::vector<ContactTrace> results(2);
-    std::vector<std::thread> threads;
-    for (std::size_t i = 0; i < results.size(); ++i)
-      threads.emplace_back([&, i] {
-        PeriodicTracer own(instance, layout);
-        trace(own, u, results[i]);
-      });
-    for (auto& th : threads) th.join();
-    for (const auto& r : results) same = same && r.force == base.force;
-    c.figure = "1 repeat and 2 threads on one instance, bitwise";
-    if (!same) c.status = CheckStatus::kFailed;
-    report.checks.push_back(c);
-  }
+  const std::optional<Subject> subject = load_subject(plugin_file, options, report);
+  if (!subject) return report;
+  report.checks.push_back(schema_check(*subject));
+  const std::unique_ptr<Period> period = trace_period(*subject, options, report);
+  if (!period) return report;
+  Period& p = *period;
+  const ContactLawInstance& instance = subject->instance();
+  const bool per_component = options.per_component_bound;
+  report.checks.push_back(value_only_check(instance, p.steps));
+  report.checks.push_back(
+      tangent_check(instance, p.steps, p.amplitude, options.jacobian_tolerance));
+  report.checks.push_back(separation_check(instance, p.amplitude));
+  report.checks.push_back(normal_force_check(p));
+  report.checks.push_back(coulomb_check(*subject, p, per_component));
+  report.checks.push_back(dissipation_check(p));
+  report.checks.push_back(periodicity_check(p));
+  report.checks.push_back(zero_friction_check(*subject, p));
+  report.checks.push_back(full_stick_check(*subject, p));
+  report.checks.push_back(odd_symmetry_check(p));
+  report.checks.push_back(frame_invariance_check(instance, p, per_component));
+  report.checks.push_back(determinism_check(instance, p));
   return report;
 }
 
