@@ -13,16 +13,15 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "frichb/contact_laws/normal_load.hpp"
+#include "frichb/plugin/normal_load.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace {
 
 using frichb::sdk::Param;
-namespace contact_laws = frichb::contact_laws;
 
 std::vector<frichb_param_spec> uncoupled_schema() {
-  return contact_laws::with_normal_load({
+  return frichb::sdk::with_normal_load({
       Param::real("kt", "N/m", "tangential contact stiffness, the same in t1 and t2")
           .greater_than(0),
       Param::real("mu", "", "friction coefficient").at_least(0),
@@ -105,7 +104,7 @@ class Uncoupled2d final : public frichb::sdk::ContactLaw {
 
  private:
   double kt_, mu_;
-  contact_laws::NormalLoad normal_;
+  frichb::sdk::NormalLoad normal_;
 };
 
 }  // namespace
