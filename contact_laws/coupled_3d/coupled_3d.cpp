@@ -12,12 +12,14 @@
 // Consistent tangents in slip, with n = T*/|T*| and P = I - n n^T:
 //   dT/du_t = (mu N / |T*|) kt P,   dT/dw_prev = -dT/du_t,   dT/du_n = mu (dN/du_n) n,
 //   dw/du_t = I - dT/du_t / kt,     dw/dw_prev = -dT/dw_prev / kt,   dw/du_n = -dT/du_n / kt.
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 #include "frichb/plugin/normal_load.hpp"
 #include "frichb/plugin/sdk.hpp"
+#include "frichb/plugin/tangents.hpp"
 
 namespace {
 
@@ -52,21 +54,22 @@ class Coupled3d final : public frichb::sdk::ContactLaw {
     double t[2] = {0, 0}, w[2] = {0, 0};
     // Partial derivatives of T and w (rows i = t1, t2) with respect to u_t (columns t1, t2),
     // u_n and w_prev (columns w1, w2).
-    double dt_dut[2][2] = {}, dt_dun[2] = {}, dt_dw[2][2] = {};
-    double dw_dut[2][2] = {}, dw_dun[2] = {}, dw_dw[2][2] = {};
+    Eigen::Matrix2d dt_dut = Eigen::Matrix2d::Zero(), dt_dw = Eigen::Matrix2d::Zero();
+    Eigen::Matrix2d dw_dut = Eigen::Matrix2d::Zero(), dw_dw = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d dt_dun = Eigen::Vector2d::Zero(), dw_dun = Eigen::Vector2d::Zero();
     if (open) {
       // Separated: no force, and the slider follows so that contact resumes unloaded.
       for (int i = 0; i < 2; ++i) {
         w[i] = u_now[i];
-        dw_dut[i][i] = 1;
+        dw_dut(i, i) = 1;
       }
     } else if (trial_norm <= limit) {
       for (int i = 0; i < 2; ++i) {
         t[i] = trial[i];
         w[i] = state_prev[i];
-        dt_dut[i][i] = kt_;
-        dt_dw[i][i] = -kt_;
-        dw_dw[i][i] = 1;
+        dt_dut(i, i) = kt_;
+        dt_dw(i, i) = -kt_;
+        dw_dw(i, i) = 1;
       }
     } else {
       // Radial return onto the friction circle; trial_norm > limit >= 0 here.
@@ -75,14 +78,14 @@ class Coupled3d final : public frichb::sdk::ContactLaw {
       for (int i = 0; i < 2; ++i) {
         t[i] = limit * dir[i];
         w[i] = u_now[i] - t[i] / kt_;
-        dt_dun[i] = mu_ * dnormal_dun * dir[i];
-        dw_dun[i] = -dt_dun[i] / kt_;
+        dt_dun(i) = mu_ * dnormal_dun * dir[i];
+        dw_dun(i) = -dt_dun(i) / kt_;
         for (int j = 0; j < 2; ++j) {
           const double projector = (i == j ? 1.0 : 0.0) - dir[i] * dir[j];
-          dt_dut[i][j] = ratio * kt_ * projector;
-          dt_dw[i][j] = -dt_dut[i][j];
-          dw_dut[i][j] = (i == j ? 1.0 : 0.0) - dt_dut[i][j] / kt_;
-          dw_dw[i][j] = -dt_dw[i][j] / kt_;
+          dt_dut(i, j) = ratio * kt_ * projector;
+          dt_dw(i, j) = -dt_dut(i, j);
+          dw_dut(i, j) = (i == j ? 1.0 : 0.0) - dt_dut(i, j) / kt_;
+          dw_dw(i, j) = -dt_dw(i, j) / kt_;
         }
       }
     }
@@ -91,31 +94,18 @@ class Coupled3d final : public frichb::sdk::ContactLaw {
     force_now[2] = variable ? normal : 0.0;
     state_now[0] = w[0];
     state_now[1] = w[1];
-    if (!tangents || !tangents->dforce_du_now) return;
-    double* a = tangents->dforce_du_now;
-    double* su = tangents->dstate_du_now;
-    for (int k = 0; k < 9; ++k) {
-      a[k] = 0;
-      tangents->dforce_du_prev[k] = 0;
-    }
-    for (int k = 0; k < 6; ++k) {
-      su[k] = 0;
-      tangents->dstate_du_prev[k] = 0;
-      tangents->dforce_dstate_prev[k] = 0;
-    }
-    double* fs = tangents->dforce_dstate_prev;  // 3 x 2
-    double* ss = tangents->dstate_dstate_prev;  // 2 x 2
-    for (int i = 0; i < 2; ++i) {
-      for (int j = 0; j < 2; ++j) {
-        a[i * 3 + j] = dt_dut[i][j];
-        fs[i * 2 + j] = dt_dw[i][j];
-        su[i * 3 + j] = dw_dut[i][j];
-        ss[i * 2 + j] = dw_dw[i][j];
-      }
-      a[i * 3 + 2] = dt_dun[i];
-      su[i * 3 + 2] = dw_dun[i];
-    }
-    a[2 * 3 + 2] = variable ? dnormal_dun : 0.0;
+    const frichb::sdk::StepTangents tangent(tangents, 2);
+    if (!tangent.wanted()) return;
+    tangent.zero();
+    auto fu = tangent.dforce_du_now();
+    fu.topLeftCorner<2, 2>() = dt_dut;
+    fu.topRightCorner<2, 1>() = dt_dun;
+    fu(2, 2) = variable ? dnormal_dun : 0.0;
+    tangent.dforce_dstate_prev().topRows<2>() = dt_dw;
+    auto su = tangent.dstate_du_now();
+    su.leftCols<2>() = dw_dut;
+    su.col(2) = dw_dun;
+    tangent.dstate_dstate_prev() = dw_dw;
   }
 
  private:

@@ -13,12 +13,14 @@
 //   slip   |T*| >  mu N : T = mu N T*/|T*|,    w = u_t - T / kt
 //   open   p <= 0      : T = 0, N = 0,         w = u_t   (the slider is released)
 // State: w = (w1, w2), the slider position in the tangential plane, m.
+#include <Eigen/Core>
 #include <array>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
 
 #include "frichb/plugin/sdk.hpp"
+#include "frichb/plugin/tangents.hpp"
 
 namespace {
 
@@ -76,12 +78,13 @@ class Hertz3d final : public frichb::sdk::ContactLaw {
     std::array<double, 2> t{0, 0}, w{0, 0};
     double normal = 0, kn = 0;
     // Partial derivatives: T and w with respect to u_t (2x2), u_n (2), w_prev (2x2).
-    std::array<double, 4> dt_dut{}, dt_dw{}, dw_dut{}, dw_dw{};
-    std::array<double, 2> dt_dun{}, dw_dun{};
+    Eigen::Matrix2d dt_dut = Eigen::Matrix2d::Zero(), dt_dw = Eigen::Matrix2d::Zero();
+    Eigen::Matrix2d dw_dut = Eigen::Matrix2d::Zero(), dw_dw = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d dt_dun = Eigen::Vector2d::Zero(), dw_dun = Eigen::Vector2d::Zero();
 
     if (pen <= 0) {
       w = ut;
-      dw_dut = {1, 0, 0, 1};
+      dw_dut.setIdentity();
     } else {
       const Root r = root(pen);
       const double kt = ct_ * r.s;
@@ -95,10 +98,10 @@ class Hertz3d final : public frichb::sdk::ContactLaw {
       if (norm <= limit) {
         t = trial;
         w = wp;
-        dt_dut = {kt, 0, 0, kt};
-        dt_dw = {-kt, 0, 0, -kt};
-        dt_dun = {dkt * d[0], dkt * d[1]};
-        dw_dw = {1, 0, 0, 1};
+        dt_dut << kt, 0, 0, kt;
+        dt_dw << -kt, 0, 0, -kt;
+        dt_dun << dkt * d[0], dkt * d[1];
+        dw_dw.setIdentity();
       } else {
         // norm > limit >= 0 and kt > 0 here (pen > 0), so |d| > 0.
         const double dn = std::hypot(d[0], d[1]);
@@ -107,15 +110,15 @@ class Hertz3d final : public frichb::sdk::ContactLaw {
         w = {ut[0] - t[0] / kt, ut[1] - t[1] / kt};
         // dT/du_t = mu N (I - e e^T) / |d| = -dT/dw_prev
         const double c = limit / dn;
-        dt_dut = {c * (1 - e[0] * e[0]), -c * e[0] * e[1], -c * e[1] * e[0], c * (1 - e[1] * e[1])};
-        for (int i = 0; i < 4; ++i) dt_dw[i] = -dt_dut[i];
-        dt_dun = {mu_ * kn * e[0], mu_ * kn * e[1]};
+        dt_dut << c * (1 - e[0] * e[0]), -c * e[0] * e[1], -c * e[1] * e[0], c * (1 - e[1] * e[1]);
+        dt_dw = -dt_dut;
+        dt_dun << mu_ * kn * e[0], mu_ * kn * e[1];
         for (int i = 0; i < 2; ++i) {
           for (int j = 0; j < 2; ++j) {
-            dw_dut[i * 2 + j] = (i == j ? 1.0 : 0.0) - dt_dut[i * 2 + j] / kt;
-            dw_dw[i * 2 + j] = -dt_dw[i * 2 + j] / kt;
+            dw_dut(i, j) = (i == j ? 1.0 : 0.0) - dt_dut(i, j) / kt;
+            dw_dw(i, j) = -dt_dw(i, j) / kt;
           }
-          dw_dun[i] = -dt_dun[i] / kt + t[i] * dkt / (kt * kt);
+          dw_dun(i) = -dt_dun(i) / kt + t[i] * dkt / (kt * kt);
         }
       }
     }
@@ -124,28 +127,18 @@ class Hertz3d final : public frichb::sdk::ContactLaw {
     force_now[2] = normal;
     state_now[0] = w[0];
     state_now[1] = w[1];
-    if (!tangents || !tangents->dforce_du_now) return;
-
-    double* fu = tangents->dforce_du_now;
-    double* su = tangents->dstate_du_now;
-    for (int i = 0; i < 9; ++i) {
-      fu[i] = 0;
-      tangents->dforce_du_prev[i] = 0;
-    }
-    for (int i = 0; i < 6; ++i) tangents->dstate_du_prev[i] = 0;
-    for (int i = 0; i < 2; ++i) {
-      for (int j = 0; j < 2; ++j) {
-        fu[i * 3 + j] = dt_dut[i * 2 + j];
-        tangents->dforce_dstate_prev[i * 2 + j] = dt_dw[i * 2 + j];
-        su[i * 3 + j] = dw_dut[i * 2 + j];
-        tangents->dstate_dstate_prev[i * 2 + j] = dw_dw[i * 2 + j];
-      }
-      fu[i * 3 + 2] = dt_dun[i];
-      su[i * 3 + 2] = dw_dun[i];
-    }
-    fu[2 * 3 + 2] = kn;
-    tangents->dforce_dstate_prev[2 * 2 + 0] = 0;
-    tangents->dforce_dstate_prev[2 * 2 + 1] = 0;
+    const frichb::sdk::StepTangents tangent(tangents, 2);
+    if (!tangent.wanted()) return;
+    tangent.zero();
+    auto fu = tangent.dforce_du_now();
+    fu.topLeftCorner<2, 2>() = dt_dut;
+    fu.topRightCorner<2, 1>() = dt_dun;
+    fu(2, 2) = kn;
+    tangent.dforce_dstate_prev().topRows<2>() = dt_dw;
+    auto su = tangent.dstate_du_now();
+    su.leftCols<2>() = dw_dut;
+    su.col(2) = dw_dun;
+    tangent.dstate_dstate_prev() = dw_dw;
   }
 
  private:

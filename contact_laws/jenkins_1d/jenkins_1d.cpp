@@ -12,6 +12,7 @@
 
 #include "frichb/plugin/normal_load.hpp"
 #include "frichb/plugin/sdk.hpp"
+#include "frichb/plugin/tangents.hpp"
 
 namespace {
 
@@ -69,25 +70,18 @@ class Jenkins1d final : public frichb::sdk::ContactLaw {
     force_now[1] = 0;
     force_now[2] = variable ? normal : 0.0;
     state_now[0] = w;
-    if (!tangents || !tangents->dforce_du_now) return;
-    double* a = tangents->dforce_du_now;
-    for (int i = 0; i < 9; ++i) {
-      a[i] = 0;
-      tangents->dforce_du_prev[i] = 0;
-    }
-    a[0 * 3 + 0] = dt_dut;
-    a[0 * 3 + 2] = dt_dun;
-    a[2 * 3 + 2] = variable ? dnormal_dun : 0.0;
-    double* fs = tangents->dforce_dstate_prev;
-    fs[0] = dt_dw;
-    fs[1] = 0;
-    fs[2] = 0;
-    double* su = tangents->dstate_du_now;
-    su[0] = dw_dut;
-    su[1] = 0;
-    su[2] = dw_dun;
-    for (int j = 0; j < 3; ++j) tangents->dstate_du_prev[j] = 0;
-    tangents->dstate_dstate_prev[0] = dw_dw;
+    const frichb::sdk::StepTangents tangent(tangents, 1);
+    if (!tangent.wanted()) return;
+    tangent.zero();
+    auto fu = tangent.dforce_du_now();
+    fu(0, 0) = dt_dut;
+    fu(0, 2) = dt_dun;
+    fu(2, 2) = variable ? dnormal_dun : 0.0;
+    tangent.dforce_dstate_prev()(0, 0) = dt_dw;
+    auto su = tangent.dstate_du_now();
+    su(0, 0) = dw_dut;
+    su(0, 2) = dw_dun;
+    tangent.dstate_dstate_prev()(0, 0) = dw_dw;
   }
 
  private:

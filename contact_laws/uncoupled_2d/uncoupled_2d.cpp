@@ -9,12 +9,14 @@
 //   slip   |T*_i| >  mu N : T_i = mu N sign(T*_i),     w_i = u_ti - T_i / kt
 //   separated N = 0       : T = 0,                     w = u_t   (both sliders released)
 // State: w = (w1, w2), the slider (stick-point) positions in m.
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 #include "frichb/plugin/normal_load.hpp"
 #include "frichb/plugin/sdk.hpp"
+#include "frichb/plugin/tangents.hpp"
 
 namespace {
 
@@ -48,27 +50,29 @@ class Uncoupled2d final : public frichb::sdk::ContactLaw {
     // Per direction i: T_i, w_i and their partial derivatives with respect to u_ti, u_n and
     // w_i,prev (the directions do not interact).
     double t[2] = {0, 0}, w[2] = {0, 0};
-    double dt_dut[2] = {}, dt_dun[2] = {}, dt_dw[2] = {};
-    double dw_dut[2] = {}, dw_dun[2] = {}, dw_dw[2] = {};
+    Eigen::Vector2d dt_dut = Eigen::Vector2d::Zero(), dt_dun = Eigen::Vector2d::Zero(),
+                    dt_dw = Eigen::Vector2d::Zero();
+    Eigen::Vector2d dw_dut = Eigen::Vector2d::Zero(), dw_dun = Eigen::Vector2d::Zero(),
+                    dw_dw = Eigen::Vector2d::Zero();
     for (int i = 0; i < 2; ++i) {
       const double trial = kt_ * (u_now[i] - state_prev[i]);
       if (separated) {
         // Separated: no force, and the slider follows so that contact resumes unloaded.
         w[i] = u_now[i];
-        dw_dut[i] = 1;
+        dw_dut(i) = 1;
       } else if (std::abs(trial) <= limit) {
         t[i] = trial;
         w[i] = state_prev[i];
-        dt_dut[i] = kt_;
-        dt_dw[i] = -kt_;
-        dw_dw[i] = 1;
+        dt_dut(i) = kt_;
+        dt_dw(i) = -kt_;
+        dw_dw(i) = 1;
       } else {
         const double sign = trial > 0 ? 1.0 : -1.0;
         t[i] = sign * limit;
         w[i] = u_now[i] - t[i] / kt_;
-        dt_dun[i] = sign * mu_ * dnormal_dun;
-        dw_dut[i] = 1;
-        dw_dun[i] = -dt_dun[i] / kt_;
+        dt_dun(i) = sign * mu_ * dnormal_dun;
+        dw_dut(i) = 1;
+        dw_dun(i) = -dt_dun(i) / kt_;
       }
     }
     force_now[0] = t[0];
@@ -76,30 +80,19 @@ class Uncoupled2d final : public frichb::sdk::ContactLaw {
     force_now[2] = variable ? normal : 0.0;
     state_now[0] = w[0];
     state_now[1] = w[1];
-    if (!tangents || !tangents->dforce_du_now) return;
-    double* a = tangents->dforce_du_now;
-    double* su = tangents->dstate_du_now;
-    for (int k = 0; k < 9; ++k) {
-      a[k] = 0;
-      tangents->dforce_du_prev[k] = 0;
-    }
-    for (int k = 0; k < 6; ++k) {
-      su[k] = 0;
-      tangents->dstate_du_prev[k] = 0;
-      tangents->dforce_dstate_prev[k] = 0;
-    }
-    double* fs = tangents->dforce_dstate_prev;  // 3 x 2
-    double* ss = tangents->dstate_dstate_prev;  // 2 x 2
-    ss[1] = ss[2] = 0;
-    for (int i = 0; i < 2; ++i) {
-      a[i * 3 + i] = dt_dut[i];
-      a[i * 3 + 2] = dt_dun[i];
-      fs[i * 2 + i] = dt_dw[i];
-      su[i * 3 + i] = dw_dut[i];
-      su[i * 3 + 2] = dw_dun[i];
-      ss[i * 2 + i] = dw_dw[i];
-    }
-    a[2 * 3 + 2] = variable ? dnormal_dun : 0.0;
+    const frichb::sdk::StepTangents tangent(tangents, 2);
+    if (!tangent.wanted()) return;
+    tangent.zero();
+    // Diagonal blocks in (t1, t2): each direction depends on its own u_ti and w_i only.
+    auto fu = tangent.dforce_du_now();
+    fu.topLeftCorner<2, 2>().diagonal() = dt_dut;
+    fu.topRightCorner<2, 1>() = dt_dun;
+    fu(2, 2) = variable ? dnormal_dun : 0.0;
+    tangent.dforce_dstate_prev().topRows<2>().diagonal() = dt_dw;
+    auto su = tangent.dstate_du_now();
+    su.leftCols<2>().diagonal() = dw_dut;
+    su.col(2) = dw_dun;
+    tangent.dstate_dstate_prev().diagonal() = dw_dw;
   }
 
  private:

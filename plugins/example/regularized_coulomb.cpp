@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "frichb/plugin/sdk.hpp"
+#include "frichb/plugin/tangents.hpp"
 
 namespace {
 
@@ -43,16 +44,18 @@ class RegularizedCoulomb final : public frichb::sdk::ContactLaw {
     force_now[0] = kt_ * e_now;
     force_now[1] = force_now[2] = 0.0;
     state_now[0] = u_now[0] - e_now;
-    if (!tangents) return;
+    const frichb::sdk::StepTangents tangent(tangents, 1);
+    if (!tangent.wanted()) return;  // value only
     // de/d(delta) = E (1 - s kt e_prev / (mu N)),  de/de_prev = E.
     const double de_ddelta = decay * (1.0 - s * kt_ * e_prev / slip_);
     const double de_dunow = de_ddelta, de_duprev = decay - de_ddelta, de_dw = -decay;
-    tangents->dforce_du_now[0] = kt_ * de_dunow;
-    tangents->dforce_du_prev[0] = kt_ * de_duprev;
-    tangents->dforce_dstate_prev[0] = kt_ * de_dw;
-    tangents->dstate_du_now[0] = 1.0 - de_dunow;
-    tangents->dstate_du_prev[0] = -de_duprev;
-    tangents->dstate_dstate_prev[0] = -de_dw;
+    tangent.zero();  // then only the t1 entries (row and column 0) are not zero
+    tangent.dforce_du_now()(0, 0) = kt_ * de_dunow;
+    tangent.dforce_du_prev()(0, 0) = kt_ * de_duprev;
+    tangent.dforce_dstate_prev()(0, 0) = kt_ * de_dw;
+    tangent.dstate_du_now()(0, 0) = 1.0 - de_dunow;
+    tangent.dstate_du_prev()(0, 0) = -de_duprev;
+    tangent.dstate_dstate_prev()(0, 0) = -de_dw;
   }
 
  private:
