@@ -1,11 +1,15 @@
 // The SDK's Eigen-based helpers, compiled as C++17 as a third-party plugin may be: the typed
-// views of a step's tangents (frichb/plugin/tangents.hpp) against the row-major layout that
+// views of a step's tangents (frichb/plugin/tangents.hpp) and the modal-basis builder of
+// structure providers (frichb/plugin/modal_basis.hpp), against the row-major layouts that
 // abi.h defines, written out here as index arithmetic.
 #include <gtest/gtest.h>
 
+#include <complex>
 #include <cstddef>
+#include <stdexcept>
 #include <vector>
 
+#include "frichb/plugin/modal_basis.hpp"
 #include "frichb/plugin/tangents.hpp"
 
 static_assert(__cplusplus == 201703L, "the SDK headers are checked as C++17");
@@ -180,6 +184,161 @@ TEST(StepTangents, ValueOnlyCallsAreNotWantedAndZeroTouchesNothing) {
   EXPECT_EQ(b.ss, ss);
 
   EXPECT_TRUE(StepTangents(&b.abi, 2).wanted());
+}
+
+// ---------------------------------------------------------------------------------------
+// ModalBasisBuilder
+
+using frichb::sdk::ModalBasisBuilder;
+
+// True when [p, p + n) lies inside the storage of `m` (the struct points at owned data).
+bool inside(const double* p, std::size_t n, const ModalBasisBuilder::RowMajorMatrix& m) {
+  return p == m.data() && n == static_cast<std::size_t>(m.size());
+}
+
+TEST(ModalBasisBuilder, RealBasisPointsAtItsOwnCopiesInAbiLayout) {
+  ModalBasisBuilder builder;
+  Eigen::VectorXd w(3);
+  w << 10.0, 20.0, 35.0;
+  Eigen::MatrixXd rows(2, 3);  // column-major on purpose: the struct must be row-major
+  rows << 1, 2, 3, 4, 5, 6;
+  builder.set_frequencies(w);
+  builder.add_damping_ratios({0.01, 0.02, 0.5});
+  builder.set_mode_rows(rows);
+  const frichb_modal_basis b = builder.basis();
+
+  EXPECT_EQ(b.struct_size, sizeof(frichb_modal_basis));
+  ASSERT_EQ(b.n_modes, 3U);
+  EXPECT_EQ(b.natural_frequencies, builder.frequencies().data());
+  EXPECT_TRUE(inside(b.modal_damping, 9, builder.damping()));
+  EXPECT_TRUE(inside(b.mode_rows_real, 6, builder.mode_rows_real()));
+  EXPECT_EQ(b.mode_rows_imag, nullptr);
+  EXPECT_EQ(b.residual_flexibility, nullptr);
+  EXPECT_EQ(b.residual_flexibility_imag, nullptr);
+
+  // The inputs are copied: changing them afterwards changes nothing the struct points at.
+  w.setZero();
+  rows.setZero();
+  const double w_expected[3] = {10.0, 20.0, 35.0};
+  const double z[3] = {0.01, 0.02, 0.5};
+  for (std::size_t r = 0; r < 3; ++r) {
+    EXPECT_EQ(b.natural_frequencies[r], w_expected[r]);
+    for (std::size_t c = 0; c < 3; ++c)
+      EXPECT_EQ(b.modal_damping[r * 3 + c], r == c ? 2.0 * z[r] * w_expected[r] : 0.0);
+  }
+  const double rows_expected[2][3] = {{1, 2, 3}, {4, 5, 6}};
+  for (std::size_t i = 0; i < 2; ++i)
+    for (std::size_t r = 0; r < 3; ++r) EXPECT_EQ(b.mode_rows_real[i * 3 + r], rows_expected[i][r]);
+}
+
+TEST(ModalBasisBuilder, DampingMatrixPlusOneRatioForEveryMode) {
+  ModalBasisBuilder builder;
+  builder.set_frequencies(Eigen::Vector2d(3.0, 7.0));
+  Eigen::Matrix2d c;
+  c << 0.5, 0.25, -0.125, 1.0;
+  builder.set_damping_matrix(c);
+  builder.add_damping_ratios({0.1});
+  builder.set_mode_rows(Eigen::MatrixXd::Identity(2, 2));
+  const frichb_modal_basis b = builder.basis();
+  const double expected[4] = {0.5 + 2.0 * 0.1 * 3.0, 0.25, -0.125, 1.0 + 2.0 * 0.1 * 7.0};
+  for (std::size_t k = 0; k < 4; ++k) EXPECT_EQ(b.modal_damping[k], expected[k]) << k;
+
+  // New frequencies start undamped again.
+  builder.set_frequencies(Eigen::Vector2d(3.0, 7.0));
+  builder.set_mode_rows(Eigen::MatrixXd::Identity(2, 2));
+  EXPECT_EQ(builder.damping(), ModalBasisBuilder::RowMajorMatrix::Zero(2, 2));
+  builder.add_damping_ratios({});
+  EXPECT_EQ(builder.damping(), ModalBasisBuilder::RowMajorMatrix::Zero(2, 2));
+}
+
+TEST(ModalBasisBuilder, ComplexRowsGiveBothPartsAndRealPartsGiveNoImaginaryPart) {
+  using cd = std::complex<double>;
+  ModalBasisBuilder builder;
+  builder.set_frequencies(Eigen::Vector2d(1.0, 2.0));
+  Eigen::MatrixXcd rows(3, 2);
+  rows << cd(1, -1), cd(2, 0.5), cd(3, 0), cd(4, -4), cd(-5, 2), cd(6, 6);
+  builder.set_mode_rows(rows);
+  frichb_modal_basis b = builder.basis();
+  ASSERT_NE(b.mode_rows_imag, nullptr);
+  EXPECT_TRUE(inside(b.mode_rows_imag, 6, builder.mode_rows_imag()));
+  for (int i = 0; i < 3; ++i)
+    for (int r = 0; r < 2; ++r) {
+      EXPECT_EQ(b.mode_rows_real[offset(i, 2, r)], rows(i, r).real());
+      EXPECT_EQ(b.mode_rows_imag[offset(i, 2, r)], rows(i, r).imag());
+    }
+  builder.set_mode_rows(rows.real());
+  b = builder.basis();
+  EXPECT_EQ(b.mode_rows_imag, nullptr);
+  EXPECT_EQ(b.mode_rows_real[offset(2, 2, 0)], -5.0);
+}
+
+TEST(ModalBasisBuilder, GatherTakesTheRowsOfTheKeptDofsInTheirOrder) {
+  using cd = std::complex<double>;
+  Eigen::MatrixXcd shapes(4, 2);  // 4 DOFs, 2 modes; entry (d, r) = (10 d + r, -d)
+  for (int d = 0; d < 4; ++d)
+    for (int r = 0; r < 2; ++r) shapes(d, r) = cd(10.0 * d + r, -d);
+  const std::size_t kept[3] = {3, 0, 3};
+  ModalBasisBuilder builder;
+  builder.set_frequencies(Eigen::Vector2d(1.0, 2.0));
+  builder.gather_mode_rows(shapes, kept, 3);
+  frichb_modal_basis b = builder.basis();
+  ASSERT_NE(b.mode_rows_imag, nullptr);
+  for (int i = 0; i < 3; ++i)
+    for (int r = 0; r < 2; ++r) {
+      const auto d = static_cast<double>(kept[i]);
+      EXPECT_EQ(b.mode_rows_real[offset(i, 2, r)], 10.0 * d + r);
+      EXPECT_EQ(b.mode_rows_imag[offset(i, 2, r)], -d);
+    }
+  builder.gather_mode_rows(shapes.real(), kept, 2);
+  b = builder.basis();
+  EXPECT_EQ(builder.kept_count(), 2);
+  EXPECT_EQ(b.mode_rows_imag, nullptr);
+  EXPECT_EQ(b.mode_rows_real[offset(1, 2, 1)], 1.0);
+
+  const std::size_t beyond[1] = {4};
+  EXPECT_THROW(builder.gather_mode_rows(shapes, beyond, 1), std::out_of_range);
+}
+
+TEST(ModalBasisBuilder, ResidualFlexibilityBelongsToTheKeptDofsOfTheRows) {
+  using cd = std::complex<double>;
+  ModalBasisBuilder builder;
+  builder.set_frequencies(Eigen::VectorXd::Constant(1, 5.0));
+  builder.set_mode_rows(Eigen::MatrixXd::Constant(2, 1, 0.5));
+  Eigen::Matrix2cd g;
+  g << cd(1, 0), cd(2, 3), cd(2, -3), cd(4, 0);
+  builder.set_residual_flexibility(g);
+  frichb_modal_basis b = builder.basis();
+  ASSERT_NE(b.residual_flexibility, nullptr);
+  ASSERT_NE(b.residual_flexibility_imag, nullptr);
+  EXPECT_TRUE(inside(b.residual_flexibility, 4, builder.residual_flexibility_real()));
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j) {
+      EXPECT_EQ(b.residual_flexibility[offset(i, 2, j)], g(i, j).real());
+      EXPECT_EQ(b.residual_flexibility_imag[offset(i, 2, j)], g(i, j).imag());
+    }
+  builder.set_residual_flexibility(g.real());
+  b = builder.basis();
+  EXPECT_NE(b.residual_flexibility, nullptr);
+  EXPECT_EQ(b.residual_flexibility_imag, nullptr);
+
+  // New mode rows are new kept DOFs: the residual flexibility of the old ones is dropped.
+  builder.set_mode_rows(Eigen::MatrixXd::Constant(2, 1, 0.5));
+  b = builder.basis();
+  EXPECT_EQ(b.residual_flexibility, nullptr);
+  EXPECT_EQ(b.residual_flexibility_imag, nullptr);
+}
+
+TEST(ModalBasisBuilder, RefusesSizesThatDoNotMatch) {
+  ModalBasisBuilder builder;
+  builder.set_frequencies(Eigen::Vector3d(1.0, 2.0, 3.0));
+  EXPECT_THROW(builder.set_damping_matrix(Eigen::Matrix2d::Zero()), std::invalid_argument);
+  EXPECT_THROW(builder.add_damping_ratios({0.1, 0.2}), std::invalid_argument);
+  EXPECT_THROW(builder.set_mode_rows(Eigen::MatrixXd::Zero(2, 2)), std::invalid_argument);
+  builder.set_mode_rows(Eigen::MatrixXd::Zero(2, 3));
+  EXPECT_THROW(builder.set_residual_flexibility(Eigen::Matrix3d::Zero()), std::invalid_argument);
+  // Frequencies changed after the rows: basis() refuses rows of another mode count.
+  builder.set_frequencies(Eigen::Vector2d(1.0, 2.0));
+  EXPECT_THROW(builder.basis(), std::invalid_argument);
 }
 
 }  // namespace

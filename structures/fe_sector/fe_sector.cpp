@@ -39,6 +39,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "frichb/plugin/modal_basis.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace {
@@ -50,7 +51,6 @@ template <class S>
 using SpMat = Eigen::SparseMatrix<S>;
 template <class S>
 using Mat = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
-using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 // Independent DOFs up to which `solver: auto` solves densely.
 constexpr Index kDenseLimit = 200;
@@ -548,29 +548,27 @@ class FeSector final : public frichb::sdk::StructureProvider {
     }
     const cd e = left_phase(harmonic_index);
     const auto rows = static_cast<Index>(n_kept);
-    rows_real_.resize(rows, modes_);
-    rows_imag_.resize(rows, modes_);
+    Mat<cd> phi(rows, modes_);
     for (Index i = 0; i < rows; ++i) {
       const size_t dof = kept[static_cast<size_t>(i)];
       const Index q = column_[dof];
       const cd factor = is_left_[dof] ? e : cd(1.0, 0.0);
-      for (Index r = 0; r < modes_; ++r) {
-        const cd value = factor * modes_q_(q, r);
-        rows_real_(i, r) = value.real();
-        rows_imag_(i, r) = value.imag();
-      }
+      for (Index r = 0; r < modes_; ++r) phi(i, r) = factor * modes_q_(q, r);
     }
-    frichb_modal_basis b{};
-    b.struct_size = sizeof(b);
-    b.n_modes = static_cast<size_t>(modes_);
-    b.natural_frequencies = frequencies_.data();
-    b.modal_damping = damping_.data();
-    b.mode_rows_real = rows_real_.data();
-    b.mode_rows_imag = real_ ? nullptr : rows_imag_.data();
-    residual_flexibility(harmonic_index, kept, n_kept);
-    b.residual_flexibility = residual_rows_.size() > 0 ? residual_rows_.data() : nullptr;
-    b.residual_flexibility_imag = residual_imag_.size() > 0 ? residual_imag_.data() : nullptr;
-    return b;
+    if (real_) {
+      phi = phi.real().cast<cd>().eval();
+      basis_.set_mode_rows(phi.real());
+    } else {
+      basis_.set_mode_rows(phi);
+    }
+    const Mat<cd> g = residual_flexibility(harmonic_index, kept, n_kept, phi);
+    if (g.size() > 0) {
+      if (real_)
+        basis_.set_residual_flexibility(g.real());
+      else
+        basis_.set_residual_flexibility(g);
+    }
+    return basis_.basis();
   }
 
  private:
@@ -763,14 +761,12 @@ class FeSector final : public frichb::sdk::StructureProvider {
     }
   }
 
-  // What follows the modal solution (solved or read from the cache): the modal damping.
+  // What follows the modal solution (solved or read from the cache): the frequencies and the
+  // modal damping of the basis handed to the host.
   void finish(int h) {
     real_ = left_phase(h).imag() == 0.0;
-    damping_ = RowMajor::Zero(modes_, modes_);
-    if (!ratios_.empty())
-      for (Index r = 0; r < modes_; ++r)
-        damping_(r, r) =
-            2.0 * ratios_[ratios_.size() == 1 ? 0 : static_cast<std::size_t>(r)] * frequencies_(r);
+    basis_.set_frequencies(frequencies_);
+    basis_.add_damping_ratios(ratios_);
   }
 
   // [K_h^{-1}] at the kept DOFs, S K_h^{-1} S^H with S the kept rows of T_h (row i: factor_i
@@ -799,14 +795,12 @@ class FeSector final : public frichb::sdk::StructureProvider {
     return g;
   }
 
-  // G_h = [K_h^{-1}]_kept - sum_r phi_r phi_r^H / w_r^2 into residual_rows_ and, for a complex
-  // harmonic index, residual_imag_ (row-major, Hermitian), or left empty: parameter off, every
-  // mode kept, or K_h singular (rigid-body mode).
-  void residual_flexibility(int h, const size_t* kept, size_t n_kept) {
-    residual_rows_.resize(0, 0);
-    residual_imag_.resize(0, 0);
-    if (!residual_ || modes_ >= independent_count() || n_kept == 0) return;
-    if (frequencies_(0) * frequencies_(0) <= kSingularRatio * scale_) return;
+  // G_h = [K_h^{-1}]_kept - sum_r phi_r phi_r^H / w_r^2 (Hermitian; real for a real K_h) with
+  // phi the mode rows at the kept DOFs, or empty: parameter off, every mode kept, or K_h
+  // singular (rigid-body mode).
+  Mat<cd> residual_flexibility(int h, const size_t* kept, size_t n_kept, const Mat<cd>& phi) const {
+    if (!residual_ || modes_ >= independent_count() || n_kept == 0) return {};
+    if (frequencies_(0) * frequencies_(0) <= kSingularRatio * scale_) return {};
     const cd e = left_phase(h);
     std::vector<Index> cols(n_kept);
     std::vector<cd> factors(n_kept);
@@ -816,14 +810,11 @@ class FeSector final : public frichb::sdk::StructureProvider {
     }
     Mat<cd> g = real_ ? static_compliance<double>(e.real(), cols, factors)
                       : static_compliance<cd>(e, cols, factors);
-    if (g.size() == 0) return;
-    Mat<cd> phi = rows_real_.cast<cd>();
-    if (!real_) phi.imag() = rows_imag_;
+    if (g.size() == 0) return g;
     const Eigen::VectorXd inv_w2 = frequencies_.array().square().inverse().matrix();
     g -= phi * inv_w2.asDiagonal() * phi.adjoint();
     g = (0.5 * (g + g.adjoint())).eval();
-    residual_rows_ = g.real();
-    if (!real_) residual_imag_ = g.imag();
+    return g;
   }
 
   // ---- disk cache
@@ -959,7 +950,7 @@ class FeSector final : public frichb::sdk::StructureProvider {
   bool real_ = true;
   Mat<cd> modes_q_;
   Eigen::VectorXd frequencies_;
-  RowMajor damping_, rows_real_, rows_imag_, residual_rows_, residual_imag_;
+  frichb::sdk::ModalBasisBuilder basis_;  // what modal_basis() hands to the host
 };
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "frichb/plugin/modal_basis.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace {
@@ -64,25 +65,23 @@ class Lumped final : public frichb::sdk::StructureProvider {
     if (eig.info() != Eigen::Success) throw std::runtime_error("eigen-solve failed");
     const Eigen::VectorXd& lambda = eig.eigenvalues();
     const double scale = std::max(1.0, lambda.cwiseAbs().maxCoeff());
-    frequencies_.resize(n);
+    Eigen::VectorXd frequencies(n);
     for (Eigen::Index r = 0; r < n; ++r) {
       if (lambda(r) < -1e-10 * scale)
         throw std::runtime_error("negative eigenvalue: the stiffness matrix is not positive");
-      frequencies_(r) = std::sqrt(std::max(0.0, lambda(r)));
+      frequencies(r) = std::sqrt(std::max(0.0, lambda(r)));
     }
     modes_ = eig.eigenvectors();  // mass-normalised: modes^T M modes = I
-    modal_damping_ = modes_.transpose() * damping_ * modes_;
     const auto ratios = p.reals("modal_damping");
     if (!ratios.empty() && ratios.size() != 1 && ratios.size() != masses.size())
       throw std::invalid_argument("modal_damping has " + std::to_string(ratios.size()) +
                                   " values; give 1 or one per mode (" +
                                   std::to_string(masses.size()) + ")");
-    for (Eigen::Index r = 0; r < n; ++r) {
-      if (ratios.empty()) break;
-      const double z = ratios.size() == 1 ? ratios[0] : ratios[static_cast<std::size_t>(r)];
-      modal_damping_(r, r) += 2.0 * z * frequencies_(r);
-    }
-    modal_damping_row_major_ = modal_damping_;
+    // The same for every call: only the mode rows depend on the kept DOFs.
+    basis_.set_frequencies(frequencies);
+    const Eigen::MatrixXd projected_damping = modes_.transpose() * damping_ * modes_;
+    basis_.set_damping_matrix(projected_damping);
+    basis_.add_damping_ratios(ratios);
   }
 
   size_t dof_count() const override { return static_cast<size_t>(mass_.rows()); }
@@ -91,29 +90,17 @@ class Lumped final : public frichb::sdk::StructureProvider {
     if (harmonic_index != 0)
       throw std::invalid_argument("the lumped provider has no cyclic symmetry (harmonic index " +
                                   std::to_string(harmonic_index) + " requested)");
-    const Eigen::Index n_modes = modes_.cols();
-    rows_.resize(static_cast<Eigen::Index>(n_kept), n_modes);
-    for (size_t i = 0; i < n_kept; ++i) {
+    for (size_t i = 0; i < n_kept; ++i)
       if (kept[i] >= dof_count())
         throw std::out_of_range("DOF " + std::to_string(kept[i]) +
                                 " does not exist (the model has " + std::to_string(dof_count()) +
                                 " DOFs)");
-      rows_.row(static_cast<Eigen::Index>(i)) = modes_.row(static_cast<Eigen::Index>(kept[i]));
-    }
-    frichb_modal_basis b{};
-    b.struct_size = sizeof(b);
-    b.n_modes = static_cast<size_t>(n_modes);
-    b.natural_frequencies = frequencies_.data();
-    b.modal_damping = modal_damping_row_major_.data();
-    b.mode_rows_real = rows_.data();
-    b.mode_rows_imag = nullptr;
-    b.residual_flexibility = nullptr;  // all modes kept: nothing is truncated
-    return b;
+    // Real modes; all modes kept, so no residual flexibility: nothing is truncated.
+    basis_.gather_mode_rows(modes_, kept, n_kept);
+    return basis_.basis();
   }
 
  private:
-  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
   long end_index(const std::string& end, Eigen::Index n) const {
     if (end == "ground") return -1;
     std::size_t used = 0;
@@ -149,9 +136,8 @@ class Lumped final : public frichb::sdk::StructureProvider {
     }
   }
 
-  Eigen::MatrixXd mass_, stiffness_, damping_, modes_, modal_damping_;
-  RowMajor modal_damping_row_major_, rows_;
-  Eigen::VectorXd frequencies_;
+  Eigen::MatrixXd mass_, stiffness_, damping_, modes_;
+  frichb::sdk::ModalBasisBuilder basis_;
 };
 
 }  // namespace

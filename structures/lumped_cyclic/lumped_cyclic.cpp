@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "frichb/plugin/modal_basis.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace {
@@ -87,36 +88,25 @@ class LumpedCyclic final : public frichb::sdk::StructureProvider {
                                   " is outside [0, " + std::to_string(sectors_) +
                                   "): the lumped_cyclic model has " + std::to_string(sectors_) +
                                   " sectors");
-    const Basis& basis = bases_[static_cast<std::size_t>(harmonic_index)];
-    const Eigen::Index n_modes = basis.modes.cols();
-    rows_real_.resize(static_cast<Eigen::Index>(n_kept), n_modes);
-    rows_imag_.resize(static_cast<Eigen::Index>(n_kept), n_modes);
-    for (size_t i = 0; i < n_kept; ++i) {
+    for (size_t i = 0; i < n_kept; ++i)
       if (kept[i] >= dof_count())
         throw std::out_of_range("DOF " + std::to_string(kept[i]) +
                                 " does not exist (the model has " + std::to_string(dof_count()) +
                                 " DOFs)");
-      const auto row = basis.modes.row(static_cast<Eigen::Index>(kept[i]));
-      rows_real_.row(static_cast<Eigen::Index>(i)) = row.real();
-      rows_imag_.row(static_cast<Eigen::Index>(i)) = row.imag();
-    }
-    frichb_modal_basis b{};
-    b.struct_size = sizeof(b);
-    b.n_modes = static_cast<size_t>(n_modes);
-    b.natural_frequencies = basis.frequencies.data();
-    b.modal_damping = basis.modal_damping.data();
-    b.mode_rows_real = rows_real_.data();
-    b.mode_rows_imag = basis.real ? nullptr : rows_imag_.data();
-    b.residual_flexibility = nullptr;  // all modes kept: nothing is truncated
-    return b;
+    const Basis& basis = bases_[static_cast<std::size_t>(harmonic_index)];
+    basis_.set_frequencies(basis.frequencies);
+    basis_.add_damping_ratios(ratios_);
+    // All modes kept, so no residual flexibility: nothing is truncated.
+    if (basis.real)
+      basis_.gather_mode_rows(basis.modes.real(), kept, n_kept);
+    else
+      basis_.gather_mode_rows(basis.modes, kept, n_kept);
+    return basis_.basis();
   }
 
  private:
-  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
   struct Basis {
     Eigen::VectorXd frequencies;
-    RowMajor modal_damping;
     Eigen::MatrixXcd modes;  // n x n, mass-normalised: modes^H M0 modes = I
     bool real = false;       // h = 0 or h = sectors/2: K_h is real, so are the modes
   };
@@ -162,12 +152,6 @@ class LumpedCyclic final : public frichb::sdk::StructureProvider {
         throw std::runtime_error("negative eigenvalue at harmonic index " + std::to_string(h) +
                                  ": the stiffness matrix is not positive");
       b.frequencies(r) = std::sqrt(std::max(0.0, lambda(r)));
-    }
-    b.modal_damping = RowMajor::Zero(n, n);
-    for (Eigen::Index r = 0; r < n; ++r) {
-      if (ratios_.empty()) break;
-      const double z = ratios_.size() == 1 ? ratios_[0] : ratios_[static_cast<std::size_t>(r)];
-      b.modal_damping(r, r) = 2.0 * z * b.frequencies(r);
     }
     return b;
   }
@@ -234,7 +218,7 @@ class LumpedCyclic final : public frichb::sdk::StructureProvider {
   Eigen::MatrixXd k0_, k1_;
   std::vector<double> ratios_;
   std::vector<Basis> bases_;
-  RowMajor rows_real_, rows_imag_;
+  frichb::sdk::ModalBasisBuilder basis_;
 };
 
 }  // namespace

@@ -25,6 +25,7 @@
 #include <utility>
 #include <vector>
 
+#include "frichb/plugin/modal_basis.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace {
@@ -107,10 +108,8 @@ class ModalTable final : public frichb::sdk::StructureProvider {
     const auto k = static_cast<std::size_t>(harmonic_index);
     if (source_[k] < 0) throw std::invalid_argument(absent_message(harmonic_index));
     const Basis& basis = bases_[static_cast<std::size_t>(source_[k])];
-    const double sign = conjugate_[k] ? -1.0 : 1.0;
     const Eigen::Index n_modes = basis.frequencies.size();
-    rows_real_ = RowMajor::Zero(static_cast<Eigen::Index>(n_kept), n_modes);
-    rows_imag_ = RowMajor::Zero(static_cast<Eigen::Index>(n_kept), n_modes);
+    Eigen::MatrixXcd rows = Eigen::MatrixXcd::Zero(static_cast<Eigen::Index>(n_kept), n_modes);
     for (size_t i = 0; i < n_kept; ++i) {
       if (kept[i] >= dofs_)
         throw std::out_of_range("DOF " + std::to_string(kept[i]) +
@@ -119,29 +118,28 @@ class ModalTable final : public frichb::sdk::StructureProvider {
       const auto it = std::lower_bound(basis.dofs.begin(), basis.dofs.end(), kept[i]);
       if (it == basis.dofs.end() || *it != kept[i]) continue;  // not exported: zero
       const auto row = basis.rows.row(it - basis.dofs.begin());
-      rows_real_.row(static_cast<Eigen::Index>(i)) = row.real();
-      rows_imag_.row(static_cast<Eigen::Index>(i)) = sign * row.imag();
+      if (conjugate_[k])  // the mirror harmonic index nb - h
+        rows.row(static_cast<Eigen::Index>(i)) = row.conjugate();
+      else
+        rows.row(static_cast<Eigen::Index>(i)) = row;
     }
-    frichb_modal_basis b{};
-    b.struct_size = sizeof(b);
-    b.n_modes = static_cast<size_t>(n_modes);
-    b.natural_frequencies = basis.frequencies.data();
-    b.modal_damping = basis.modal_damping.data();
-    b.mode_rows_real = rows_real_.data();
-    b.mode_rows_imag = basis.real ? nullptr : rows_imag_.data();
-    b.residual_flexibility = nullptr;  // the table's modes only: no static correction
-    return b;
+    basis_.set_frequencies(basis.frequencies);
+    basis_.add_damping_ratios(basis.damping_ratios);
+    // The table's modes only: no residual flexibility (no static correction).
+    if (basis.real)
+      basis_.set_mode_rows(rows.real());
+    else
+      basis_.set_mode_rows(rows);
+    return basis_.basis();
   }
 
  private:
-  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
   struct Basis {
-    Eigen::VectorXd frequencies;  // rad/s, ascending
-    RowMajor modal_damping;       // n_modes x n_modes, diagonal
-    std::vector<size_t> dofs;     // ascending: the DOFs some mode of h lists
-    Eigen::MatrixXcd rows;        // dofs.size() x n_modes
-    bool real = true;             // no imaginary part anywhere
+    Eigen::VectorXd frequencies;         // rad/s, ascending
+    std::vector<double> damping_ratios;  // per mode in that order, or empty (undamped)
+    std::vector<size_t> dofs;            // ascending: the DOFs some mode of h lists
+    Eigen::MatrixXcd rows;               // dofs.size() x n_modes
+    bool real = true;                    // no imaginary part anywhere
   };
 
   struct Mode {
@@ -296,14 +294,14 @@ class ModalTable final : public frichb::sdk::StructureProvider {
     basis.dofs.assign(all.begin(), all.end());
     const auto n_modes = static_cast<Eigen::Index>(n);
     basis.frequencies.resize(n_modes);
-    basis.modal_damping = RowMajor::Zero(n_modes, n_modes);
+    if (!ratios_.empty()) basis.damping_ratios.resize(n);
     basis.rows = Eigen::MatrixXcd::Zero(static_cast<Eigen::Index>(basis.dofs.size()), n_modes);
     for (Eigen::Index c = 0; c < n_modes; ++c) {
       const std::size_t r = order[static_cast<std::size_t>(c)];
       const double w = table[r].frequency;
       basis.frequencies(c) = w;
       if (!ratios_.empty())
-        basis.modal_damping(c, c) = 2.0 * ratios_[ratios_.size() == 1 ? 0 : r] * w;
+        basis.damping_ratios[static_cast<std::size_t>(c)] = ratios_[ratios_.size() == 1 ? 0 : r];
       for (const auto& [dof, value] : table[r].shape) {
         const auto it = std::lower_bound(basis.dofs.begin(), basis.dofs.end(), dof);
         basis.rows(it - basis.dofs.begin(), c) = value;
@@ -336,7 +334,7 @@ class ModalTable final : public frichb::sdk::StructureProvider {
   std::vector<int> source_;  // per h: index in bases_ it is served from, or -1
   std::vector<bool> conjugate_;
   std::vector<Basis> bases_;
-  RowMajor rows_real_, rows_imag_;
+  frichb::sdk::ModalBasisBuilder basis_;
 };
 
 }  // namespace
