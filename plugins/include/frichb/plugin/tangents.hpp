@@ -10,10 +10,10 @@
 //   dforce_dstate_prev()  3 x S   d force_now_i / d state_prev_j     (N per state unit)
 //   dstate_du_now()       S x 3   d state_now_i / d u_now_j          (state unit per m)
 //   dstate_du_prev()      S x 3   d state_now_i / d u_prev_j         (state unit per m)
-//   dstate_dstate_prev()  S x S   d state_now_i / d state_prev_j     (dimensionless for a
-//                                                                     state in m)
+//   dstate_dstate_prev()  S x S   d state_now_i / d state_prev_j     (1 for a state in m)
 //
-// Rows and columns of forces and displacements run over the local frame (t1, t2, n).
+// Rows and columns of forces and displacements run over the local frame (t1, t2, n); forces
+// in N, displacements in m, the state in the law's own units.
 //
 // Contract:
 //  - Ownership: the view owns nothing. It wraps the host's arrays, which stay valid for the
@@ -26,8 +26,8 @@
 //    calls it once and then writes its nonzero entries.
 //  - Threading: step() runs concurrently on several threads, each with its own arrays; a
 //    view is a local of one call and shares nothing.
-//  - Failure: nothing here throws or allocates. A block accessed when wanted() is false
-//    maps a null pointer (undefined behaviour on use; Eigen asserts in debug builds).
+//  - Failure: nothing here throws or allocates. No block may be used when wanted() is
+//    false: it may map a null pointer (undefined behaviour).
 //
 // Header-only and C++17; it needs Eigen 3.3 or later (the FricHB::sdk target brings it).
 // sdk.hpp does not include this header, so a plugin that does not use it needs no Eigen.
