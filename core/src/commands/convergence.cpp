@@ -13,6 +13,7 @@
 
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/commands/timesim.hpp"
+#include "frichb/core/report/failure.hpp"
 #include "frichb/core/report/output.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/interrupt.hpp"
@@ -373,15 +374,8 @@ int run_convergence(const ConvergenceRequest& request) {
   if (out_dir.empty()) out_dir = fs::path("out") / (base.file.stem().string() + "-convergence");
   try {
     return run_ladder(request, base, *registry, ladder, out_dir);
-  } catch (const SceneError& e) {
-    spdlog::error("{}", e.what());
-    return kExitInvalidInput;
-  } catch (const OutputError& e) {
-    spdlog::error("{}: writing the outputs: {}", request.scene_file.string(), e.what());
-    return e.user_error() ? kExitInvalidInput : kExitOutput;
-  } catch (const std::exception& e) {
-    spdlog::error("{}: {}", request.scene_file.string(), e.what());
-    return kExitInternal;
+  } catch (...) {
+    return report_failure(request.scene_file.string());
   }
 }
 

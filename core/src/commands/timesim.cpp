@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/report/failure.hpp"
 #include "frichb/core/report/output.hpp"
 #include "frichb/core/scene/plugin_checks.hpp"
 #include "frichb/core/support/exit_codes.hpp"
@@ -206,15 +207,8 @@ int run_timesim(const TimesimRequest& request) {
                  request.frequency_hz, result.periodic ? "periodic" : "NOT periodic yet",
                  out_dir.string());
     return result.periodic ? kExitOk : kExitIncomplete;
-  } catch (const SceneError& e) {
-    spdlog::error("{}", e.what());
-    return kExitInvalidInput;
-  } catch (const OutputError& e) {
-    spdlog::error("{}: writing the outputs: {}", file, e.what());
-    return e.user_error() ? kExitInvalidInput : kExitOutput;
-  } catch (const std::exception& e) {
-    spdlog::error("{}: {}", file, e.what());
-    return kExitInternal;
+  } catch (...) {
+    return report_failure(file);
   }
 }
 
