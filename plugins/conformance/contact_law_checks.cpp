@@ -417,13 +417,7 @@ CheckResult coulomb_check(const Subject& subject, const Period& p, bool per_comp
 
 CheckResult dissipation_check(const Period& p) {
   CheckResult c{"dissipation_nonnegative", CheckStatus::kPassed, ""};
-  double energy = 0;
-  for (int j = 0; j < p.n; ++j) {
-    const int jn = (j + 1) % p.n;
-    for (int a = 0; a < p.d; ++a)
-      energy += 0.5 * (p.base.force(j, a) + p.base.force(jn, a)) *
-                (p.base.displacement(jn, a) - p.base.displacement(j, a));
-  }
+  const double energy = dissipated_energy(p.base);
   c.figure = format("energy per cycle %.4e J", energy);
   if (energy < -1e-9 * p.force_scale * p.amplitude) c.status = CheckStatus::kFailed;
   return c;

@@ -17,6 +17,8 @@
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/interrupt.hpp"
 
+#include "frichb/core/support/format.hpp"
+
 namespace frichb::core {
 
 namespace fs = std::filesystem;
@@ -26,17 +28,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-std::string unit_name(FrequencyUnit u) {
-  return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
-}
-
-std::string format_number(double x, int precision = 6) {
-  std::ostringstream os;
-  os.precision(precision);
-  os << x;
-  return os.str();
 }
 
 // Total physical memory of the machine in bytes, or 0 when unknown.

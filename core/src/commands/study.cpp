@@ -193,10 +193,6 @@ class Progress {
   Clock::time_point start_ = Clock::now();
 };
 
-std::string unit_name(FrequencyUnit u) {
-  return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
-}
-
 }  // namespace
 
 std::vector<std::vector<std::size_t>> StudySpec::axes() const {

@@ -5,18 +5,9 @@
 #include <cmath>
 #include <sstream>
 
+#include "frichb/core/support/format.hpp"
+
 namespace frichb::core {
-
-namespace {
-
-std::string format_number(double x) {
-  std::ostringstream os;
-  os.precision(6);
-  os << x;
-  return os.str();
-}
-
-}  // namespace
 
 std::vector<ContinuationOptions::StepBand> resonance_bands(
     const std::vector<LinearResonance>& resonances) {
@@ -44,7 +35,7 @@ ContinuationSetup derive_continuation(const Scene& scene, const HarmonicBalanceM
     if (!u0.allFinite())
       ctx.fail(root["structure"], "structure",
                "the contact-free response is not finite at " + format_number(w / unit) + " " +
-                   (C.unit == FrequencyUnit::kHz ? "Hz" : "rad/s") +
+                   unit_name(C.unit) +
                    " (harmonic 0 with a rigid-body mode, or an undamped resonance): ground the "
                    "structure, drop harmonic 0, or add damping");
     if (u0.size()) peak = std::max(peak, u0.cwiseAbs().maxCoeff());

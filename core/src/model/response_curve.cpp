@@ -9,20 +9,11 @@
 #include "frichb/core/model/response.hpp"
 #include "frichb/core/numerics/harmonics.hpp"
 
+#include "frichb/core/support/format.hpp"
+
 namespace frichb::core {
 
 namespace {
-
-std::string unit_name(FrequencyUnit u) {
-  return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
-}
-
-std::string format_number(double x, int precision = 6) {
-  std::ostringstream os;
-  os.precision(precision);
-  os << x;
-  return os.str();
-}
 
 // Golden-section refinement of the highest point `top` of a traced curve over the frequency
 // between its two neighbours. Each probe solves the equations at a fixed frequency from the

@@ -13,22 +13,13 @@
 #include "frichb/core/numerics/harmonics.hpp"
 #include "frichb/core/support/version.hpp"
 
+#include "frichb/core/support/format.hpp"
+
 namespace frichb::core {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string unit_name(FrequencyUnit u) {
-  return u == FrequencyUnit::kHz ? "Hz" : "rad/s";
-}
-
-std::string format_number(double x, int precision = 6) {
-  std::ostringstream os;
-  os.precision(precision);
-  os << x;
-  return os.str();
-}
 
 // Where the response curve's wall time went, for users sizing a study: the continuation's
 // evaluations and LU factorisations (ContinuationSummary::profile), the parts of all the

@@ -227,6 +227,10 @@ const NodeSpec* StructureSpec::find(const std::string& name) const {
   return nullptr;
 }
 
+std::string unit_name(FrequencyUnit unit) {
+  return unit == FrequencyUnit::kHz ? "Hz" : "rad/s";
+}
+
 double ContinuationSpec::to_rad_per_s() const {
   return unit == FrequencyUnit::kHz ? 2.0 * std::numbers::pi : 1.0;
 }

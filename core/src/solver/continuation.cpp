@@ -143,6 +143,7 @@ ContinuationSummary CurveTracer::finish(const Ending& ending) {
     if (summary_.points[i - 1].tangent(n_) * summary_.points[i].tangent(n_) < 0.0)
       ++summary_.turning_points;
   summary_.wall_seconds = elapsed();
+  problem_.reset();  // it counts into summary_.profile, which leaves with the summary
   return std::move(summary_);
 }
 

@@ -1,8 +1,9 @@
 // The seam between the continuation and its linear algebra: every square system the corrector
 // and the tangent solve - the Newton matrix e_x at fixed lambda, the bordered Keller matrix
-// [e_y; v^T] - goes through a LinearSolver. Today's one factorises densely (DenseLuSolver);
-// another (an iterative solver on the Jacobian's structure, say) implements the same interface
-// and is returned by make_linear_solver without touching the corrector or the driver.
+// [e_y; v^T] - goes through a LinearSolver. make_linear_solver returns a dense one
+// (DenseLuSolver); another (an iterative solver on the Jacobian's structure, say) implements the
+// same interface and is returned by make_linear_solver without touching the corrector or the
+// driver.
 #pragma once
 
 #include <Eigen/Dense>
@@ -28,9 +29,10 @@ class LinearSolver {
   // False when the matrix is singular to working precision (its reciprocal condition estimate
   // is below machine epsilon or not finite); solve() must not be used then.
   virtual bool invertible() const = 0;
-  // Estimate of the 1-norm condition number; infinite when singular.
+  // Estimate of the 1-norm condition number (infinite when the estimate of its reciprocal is 0).
   virtual double condition() const = 0;
-  // Sign of the determinant (+1 or -1; 0 when singular): the curve's orientation comes from it.
+  // Sign of the determinant (+1 or -1; 0 when exactly singular): the curve's orientation comes
+  // from it.
   virtual int determinant_sign() const = 0;
 };
 

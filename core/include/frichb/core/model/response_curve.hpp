@@ -7,8 +7,9 @@
 //   solve_friction_loops - the contacts' periodic traces at requested frequencies
 // Units: frequencies in rad/s unless a field says the scene's unit; displacements in m.
 // Failure: the trace's end is a result (ContinuationSummary::termination); the other stages
-// report what they could not do by leaving it out (and logging a warning), never by throwing,
-// except std::bad_alloc. Threading: each call reads the model (whose evaluations are not
+// report what they could not do by leaving it out (and logging a warning). What the model's
+// evaluation throws (std::bad_alloc, std::system_error when a contact thread cannot start)
+// passes through. Threading: each call reads the model (whose evaluations are not
 // thread-safe); one model per thread.
 #pragma once
 

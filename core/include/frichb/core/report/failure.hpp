@@ -1,5 +1,7 @@
-// The one mapping from a failure to an exit code and a log line, for every verb: call it from
-// a `catch (...)` block.
+// The mapping from a failure to an exit code and a log line, for the verbs whose failures carry
+// no more than their type (loop, modes, timesim, convergence, and what escapes any verb to the
+// command line): call it from a `catch (...)` block. run and study map their failures
+// themselves, with what they know more (the run's termination in RunOutcome, the study's stage).
 //
 //   SceneError    -> kExitInvalidInput  (its message names the file, line and key)
 //   PluginError   -> kExitInvalidInput  ("<file>: <message>")

@@ -23,6 +23,8 @@
 namespace frichb::core {
 
 enum class FrequencyUnit { kHz, kRadPerSecond };
+// "Hz" or "rad/s", as messages, CSV headers and plot labels write the unit.
+std::string unit_name(FrequencyUnit unit);
 
 // A named group of structure DOFs (a scalar DOF, or a node's 2-3 translation DOFs).
 struct NodeSpec {
