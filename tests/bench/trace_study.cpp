@@ -44,14 +44,7 @@ Eigen::VectorXd ellipse(const PeriodicTracer& t, double a, double b) {
 }
 
 double energy(const ContactTrace& t) {
-  const auto n = t.displacement.rows();
-  double e = 0;
-  for (Eigen::Index j = 0; j < n; ++j) {
-    const Eigen::Index jn = (j + 1) % n;
-    for (Eigen::Index a = 0; a < t.force.cols(); ++a)
-      e += 0.5 * (t.force(j, a) + t.force(jn, a)) * (t.displacement(jn, a) - t.displacement(j, a));
-  }
-  return e;
+  return dissipated_energy(t);
 }
 
 template <class F>
