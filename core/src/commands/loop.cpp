@@ -125,18 +125,8 @@ LoopInput read_loop_input(const LoopRequest& request) {
       validate_params(root, top_schema(), "", ctx,
                       std::vector<std::string>{"params", "motion", "sampling", "output"});
   const auto tv = view(top_schema(), top);
-  std::vector<fs::path> extra;
-  const auto listed_paths = tv.texts("plugin_paths");
-  for (std::size_t i = 0; i < listed_paths.size(); ++i) {
-    fs::path path(listed_paths[i]);
-    if (!path.is_absolute()) path = request.input_file.parent_path() / path;
-    std::error_code missing;
-    if (!fs::is_directory(path, missing))
-      ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
-               "folder '" + path.string() +
-                   "' does not exist (a relative path is taken from the input file's folder)");
-    extra.push_back(path);
-  }
+  const std::vector<fs::path> extra =
+      resolve_plugin_paths(tv.texts("plugin_paths"), root, request.input_file, "input", ctx);
   const Registry registry(Registry::default_search_path(extra));
   try {
     check_plugin_allowed(registry.file_of(tv.text("law")), extra);

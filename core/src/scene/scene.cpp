@@ -401,7 +401,7 @@ namespace {
 
 // The top-level keys (name, description, plugin_paths); every other top-level key must be one
 // of the sections.
-void read_top_level(Scene& scene, YAML::Node root, const YamlContext& ctx) {
+void read_top_level(Scene& scene, const YAML::Node& root, const YamlContext& ctx) {
   if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
   const std::vector<std::string> sections = {"structure",        "excitation",   "contacts",
                                              "harmonic_balance", "continuation", "output",
@@ -410,17 +410,8 @@ void read_top_level(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   const auto topv = view(top_schema(), top);
   scene.name = topv.text("name");
   scene.description = topv.text("description");
-  const auto listed_paths = topv.texts("plugin_paths");
-  for (std::size_t i = 0; i < listed_paths.size(); ++i) {
-    fs::path path(listed_paths[i]);
-    if (!path.is_absolute()) path = scene.file.parent_path() / path;
-    std::error_code ec;
-    if (!fs::is_directory(path, ec))
-      ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
-               "folder '" + path.string() +
-                   "' does not exist (a relative path is taken from the scene file's folder)");
-    scene.plugin_paths.push_back(path);
-  }
+  scene.plugin_paths =
+      resolve_plugin_paths(topv.texts("plugin_paths"), root, scene.file, "scene", ctx);
   scene.core_values = top.to_json(top_schema());
 }
 
@@ -860,6 +851,23 @@ std::vector<CoreSection> core_schemas() {
       {"continuation.step", step_schema(),
        "Arclength steps in the frequency unit; displacements are scaled (see docs/theory.md)."},
       {"output", output_schema(), "`response` defaults to every node of `structure.dofs`."}};
+}
+
+std::vector<fs::path> resolve_plugin_paths(const std::vector<std::string>& listed, YAML::Node root,
+                                           const fs::path& file, const std::string& kind,
+                                           const YamlContext& ctx) {
+  std::vector<fs::path> paths;
+  for (std::size_t i = 0; i < listed.size(); ++i) {
+    fs::path path(listed[i]);
+    if (!path.is_absolute()) path = file.parent_path() / path;
+    std::error_code missing;
+    if (!fs::is_directory(path, missing))
+      ctx.fail(root["plugin_paths"][i], "plugin_paths[" + std::to_string(i) + "]",
+               "folder '" + path.string() + "' does not exist (a relative path is taken from the " +
+                   kind + " file's folder)");
+    paths.push_back(path);
+  }
+  return paths;
 }
 
 }  // namespace frichb::core

@@ -135,6 +135,14 @@ Scene load_scene(const std::filesystem::path& file);
 Scene load_scene(const YAML::Node& document, const std::filesystem::path& file);
 // Parses `file` as YAML. Throws SceneError (missing file, a folder, malformed YAML).
 YAML::Node load_scene_yaml(const std::filesystem::path& file);
+// The plugin_paths of an input file (a scene, a loop input), each relative one taken from the
+// file's folder. `kind` names the file in the error ("scene", "input"). Throws SceneError at
+// plugin_paths[i] for a folder that does not exist.
+std::vector<std::filesystem::path> resolve_plugin_paths(const std::vector<std::string>& listed,
+                                                        YAML::Node root,
+                                                        const std::filesystem::path& file,
+                                                        const std::string& kind,
+                                                        const YamlContext& ctx);
 
 // Scene-key paths, as study sweeps and `--set` address numeric scalars: map keys joined by
 // '.', a contact (any list entry with a `name:`) by its name, a list entry by its index as a
