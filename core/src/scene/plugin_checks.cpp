@@ -10,7 +10,13 @@ namespace {
 void check_dofs_exist(const Scene& scene, std::size_t n_dofs) {
   for (const auto& node : scene.structure.nodes)
     for (std::size_t d : node.dofs)
-      if (d >= n_dofs)
+      if (d >= n_dofs && node.from_mesh)
+        throw SceneError(node.defined_in, node.line, 0, "",
+                         "FE node " + node.name + ": row " + std::to_string(d) +
+                             " does not exist: provider '" + scene.structure.provider + "' has " +
+                             std::to_string(n_dofs) + " DOFs (0.." + std::to_string(n_dofs - 1) +
+                             ")");
+      else if (d >= n_dofs)
         YamlContext{node.defined_in.empty() ? scene.file.string() : node.defined_in}.fail(
             node.definition, "structure.dofs." + node.name,
             "DOF " + std::to_string(d) + " does not exist: provider '" + scene.structure.provider +
@@ -44,16 +50,16 @@ void check_contact(const Scene& scene, std::size_t index) {
     const ContactLawInstance law(spec.plugin, spec.values);
     traits = law.traits();
   } catch (const PluginError& e) {
-    fail_plugin_refusal(ctx, root["contacts"][index],
-                        "contacts[" + std::to_string(index) + "].params", spec.plugin->schema(),
-                        e.what());
+    fail_plugin_refusal(ctx, root["contacts"][spec.entry],
+                        "contacts[" + std::to_string(spec.entry) + "].params",
+                        spec.plugin->schema(), e.what());
   }
   static const char* const kNames[] = {"tangent1", "tangent2", "normal"};
   const std::vector<double>* directions[] = {&spec.tangent1, &spec.tangent2, &spec.normal};
   for (int a = 0; a < 3; ++a) {
     const bool used = a < 2 ? a < traits.tangential_dimensions : traits.uses_normal != 0;
     if (used && directions[a]->empty())
-      ctx.fail(root["contacts"][index], "contacts[" + std::to_string(index) + "].frame",
+      ctx.fail(root["contacts"][spec.entry], "contacts[" + std::to_string(spec.entry) + "].frame",
                "law '" + spec.law + "' with these params uses the " + kNames[a] +
                    " direction: give frame." + kNames[a]);
   }

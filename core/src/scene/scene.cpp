@@ -38,6 +38,10 @@ const std::vector<frichb_param_spec>& top_schema() {
 const std::vector<frichb_param_spec>& structure_schema() {
   static const std::vector<frichb_param_spec> s = {
       Param::text("provider", "structure-provider plugin name (`frichb plugins` lists them)"),
+      Param::path("mesh",
+                  "model map (mesh.yaml: FE node numbers, coordinates, nodal frames, contact "
+                  "faces) of an FE structure, relative to the scene's folder; optional")
+          .defaults_to_text(""),
   };
   return s;
 }
@@ -226,6 +230,41 @@ const NodeSpec* StructureSpec::find(const std::string& name) const {
     if (n.name == name) return &n;
   return nullptr;
 }
+
+namespace {
+
+// The node `name` names: a key of structure.dofs, else (with a model map) an FE node number or
+// a one-node set of the map, added to the structure's nodes on first use. Null when none, with
+// the reason in `why`.
+const NodeSpec* resolve_node(StructureSpec& s, const std::string& name, std::string& why) {
+  if (const NodeSpec* n = s.find(name)) return n;
+  why = "'" + name + "' is not a key of structure.dofs";
+  if (!s.mesh) return nullptr;
+  why += ", an FE node of the model map or one of its one-node sets";
+  std::int64_t number = fe_node_number(name);
+  if (const auto it = s.mesh->node_sets.find(name);
+      number < 0 && it != s.mesh->node_sets.end() && it->second.size() == 1)
+    number = it->second.front();
+  const MeshNode* m = number > 0 ? s.mesh->find(number) : nullptr;
+  if (!m) return nullptr;
+  NodeSpec node;
+  node.name = name;
+  node.from_mesh = true;
+  node.line = m->line;
+  node.defined_in = s.mesh->nodes_file.string();
+  for (int k = 0; k < 3; ++k) {
+    if (m->rows[static_cast<std::size_t>(k)] < 0) {
+      why = "FE node " + std::to_string(number) + " has its component " + std::to_string(k + 1) +
+            " outside the matrices (fixed)";
+      return nullptr;
+    }
+    node.dofs.push_back(static_cast<std::size_t>(m->rows[static_cast<std::size_t>(k)]));
+  }
+  s.nodes.push_back(std::move(node));
+  return &s.nodes.back();
+}
+
+}  // namespace
 
 std::string unit_name(FrequencyUnit unit) {
   return unit == FrequencyUnit::kHz ? "Hz" : "rad/s";
@@ -444,6 +483,10 @@ NodeSpec read_dof_node(const StructureSpec& structure, const YAML::Node& key,
                       "response.csv)");
   if (structure.find(node.name))
     dofs_ctx.fail(key, path, "DOF name '" + node.name + "' is used twice");
+  if (structure.mesh && fe_node_number(node.name) > 0)
+    dofs_ctx.fail(key, path,
+                  "with a model map (structure.mesh) numbers name FE nodes: give this DOF group "
+                  "a name that is not a number");
   auto read_index = [&](const YAML::Node& n) {
     double x = -1;
     if (!n.IsScalar() || !YAML::convert<double>::decode(n, x) || x < 0 || x != std::floor(x) ||
@@ -490,9 +533,19 @@ void read_structure_section(Scene& scene, YAML::Node root, const YamlContext& ct
   if (!s) ctx.fail(root, "structure", "missing required section");
   const auto sv = validate_params(s, structure_schema(), "structure", ctx,
                                   std::vector<std::string>{"params", "dofs"});
-  scene.structure.provider = view(structure_schema(), sv).text("provider");
+  const auto v = view(structure_schema(), sv);
+  scene.structure.provider = v.text("provider");
   scene.structure.params = s["params"];
-  read_dof_map(scene, s, ctx);
+  if (!v.text("mesh").empty()) {
+    const fs::path mesh_file(v.text("mesh"));  // resolved against the scene's folder
+    std::error_code ec;
+    if (!fs::is_regular_file(mesh_file, ec))
+      ctx.fail(s["mesh"], "structure.mesh",
+               "model map '" + mesh_file.string() +
+                   "' not found (a relative path is taken from the scene file's folder)");
+    scene.structure.mesh = std::make_shared<const FeMesh>(load_fe_mesh(mesh_file));
+  }
+  if (s["dofs"] || !scene.structure.mesh) read_dof_map(scene, s, ctx);
   scene.core_values["structure"] = sv.to_json(structure_schema());
 }
 
@@ -547,9 +600,9 @@ void read_excitation(Scene& scene, YAML::Node root, const YamlContext& ctx) {
     const std::string path = "excitation[" + std::to_string(i) + "]";
     ExcitationSpec e;
     e.node = r.text("dof");
-    const NodeSpec* node = scene.structure.find(e.node);
-    if (!node)
-      ctx.fail(exn[i]["dof"], path + ".dof", "'" + e.node + "' is not a key of structure.dofs");
+    std::string why;
+    const NodeSpec* node = resolve_node(scene.structure, e.node, why);
+    if (!node) ctx.fail(exn[i]["dof"], path + ".dof", why);
     auto dir = r.reals("direction");
     if (dir.empty() && node->dofs.size() == 1) dir.push_back(1.0);
     if (dir.empty())
@@ -606,7 +659,7 @@ nlohmann::json read_contact_sides(const Scene& scene, YAML::Node c, const std::s
 }
 
 // The DOF count of the contact's nodes (the sides that are not ground, which must agree).
-std::size_t contact_components(const Scene& scene, YAML::Node c, const std::string& path,
+std::size_t contact_components(Scene& scene, YAML::Node c, const std::string& path,
                                const YamlContext& ctx, const ContactSpec& contact) {
   YAML::Node bn = c["between"];
   const std::string* sides[2] = {&contact.side_a, &contact.side_b};
@@ -614,10 +667,10 @@ std::size_t contact_components(const Scene& scene, YAML::Node c, const std::stri
   for (int k = 0; k < 2; ++k) {
     const std::string& side = *sides[k];
     if (side == "ground") continue;
-    const NodeSpec* node = scene.structure.find(side);
+    std::string why;
+    const NodeSpec* node = resolve_node(scene.structure, side, why);
     if (!node)
-      ctx.fail(bn[k], path + ".between[" + std::to_string(k) + "]",
-               "'" + side + "' is neither 'ground' nor a key of structure.dofs");
+      ctx.fail(bn[k], path + ".between[" + std::to_string(k) + "]", why + " (nor 'ground')");
     if (components && node->dofs.size() != components)
       ctx.fail(bn, path + ".between", "the two sides have different DOF counts");
     components = node->dofs.size();
@@ -628,7 +681,7 @@ std::size_t contact_components(const Scene& scene, YAML::Node c, const std::stri
 }
 
 // One entry of `contacts`; its values, defaults filled in, are appended to `contacts_json`.
-ContactSpec read_contact(const Scene& scene, YAML::Node c, const std::string& path,
+ContactSpec read_contact(Scene& scene, YAML::Node c, const std::string& path,
                          const YamlContext& ctx, std::set<std::string>& contact_names,
                          nlohmann::json& contacts_json) {
   const auto cv = validate_params(c, contact_schema(), path, ctx,
@@ -664,6 +717,83 @@ ContactSpec read_contact(const Scene& scene, YAML::Node c, const std::string& pa
   return contact;
 }
 
+// A patch as summary.json records it: its faces, settings and every pair.
+nlohmann::json patch_json(const ContactPatch& patch) {
+  nlohmann::json faces = nlohmann::json::array();
+  faces.push_back({{"face", patch.face_a}, {"sector", patch.sector_a}});
+  if (patch.face_b.empty())
+    faces.push_back("ground");
+  else
+    faces.push_back({{"face", patch.face_b}, {"sector", patch.sector_b}});
+  nlohmann::json pairs = nlohmann::json::array();
+  for (const auto& p : patch.pairs) {
+    nlohmann::json pj = {{"node_a", p.node_a},
+                         {"node_b", p.node_b},
+                         {"area_m2", p.area},
+                         {"share", p.share},
+                         {"in_plane_distance_m", p.in_plane_distance},
+                         {"normal_distance_m", p.normal_distance}};
+    for (const auto& [key, value] : p.overrides) pj[key] = value;
+    pairs.push_back(pj);
+  }
+  return {{"faces", faces},
+          {"tolerance", patch.tolerance},
+          {"values", patch.per_area ? "per_area" : "total"},
+          {"face_a_area_m2", patch.area_a},
+          {"face_b_area_m2", patch.area_b},
+          {"pair_count", patch.pairs.size()},
+          {"pairs", pairs}};
+}
+
+// A patch entry (contact_patch.hpp): one contact per node pair, named `<name>.<node A>`.
+void read_patch_contacts(Scene& scene, YAML::Node c, const std::string& path,
+                         const YamlContext& ctx, std::set<std::string>& contact_names,
+                         nlohmann::json& contacts_json) {
+  if (c["between"])
+    ctx.fail(c["between"], path + ".between", "a contact has either `between` or `patch`");
+  if (!scene.structure.mesh)
+    ctx.fail(c["patch"], path + ".patch",
+             "a patch pairs the faces of a model map: give structure.mesh");
+  const auto cv = validate_params(c, contact_schema(), path, ctx,
+                                  std::vector<std::string>{"frame", "params", "patch"});
+  const auto v = view(contact_schema(), cv);
+  const std::string name = v.text("name");
+  if (!is_plain_name(name))
+    ctx.fail(c["name"], path + ".name",
+             "'" + name + "': use letters, digits, '_', '-' and '.' (it names files)");
+  if (!contact_names.insert(name).second)
+    ctx.fail(c["name"], path + ".name", "contact name '" + name + "' is used twice");
+  auto patch = std::make_shared<const ContactPatch>(read_contact_patch(
+      c, path, ctx, *scene.structure.mesh, scene.cyclic.enabled() ? scene.cyclic.sectors : 1));
+  for (const auto& pair : patch->pairs) {
+    ContactSpec contact;
+    contact.name = name + "." + std::to_string(pair.node_a);
+    if (!contact_names.insert(contact.name).second)
+      ctx.fail(c["name"], path + ".name", "contact name '" + contact.name + "' is used twice");
+    contact.law = v.text("law");
+    contact.side_a = std::to_string(pair.node_a);
+    contact.side_b = pair.node_b ? std::to_string(pair.node_b) : "ground";
+    contact.sector_a = patch->sector_a;
+    contact.sector_b = pair.node_b ? patch->sector_b : 0;
+    std::string why;
+    for (const auto& side : {contact.side_a, contact.side_b})
+      if (side != "ground" && !resolve_node(scene.structure, side, why))
+        ctx.fail(c["patch"], path + ".patch", why);
+    contact.tangent1.assign(pair.tangent1.begin(), pair.tangent1.end());
+    contact.tangent2.assign(pair.tangent2.begin(), pair.tangent2.end());
+    contact.normal.assign(pair.normal.begin(), pair.normal.end());
+    contact.params = c["params"];
+    contact.entry = contacts_json.size();
+    contact.param_scale = pair.share;
+    contact.param_overrides = pair.overrides;
+    contact.patch = patch;
+    scene.contacts.push_back(std::move(contact));
+  }
+  nlohmann::json cj = cv.to_json(contact_schema());
+  cj["patch"] = patch_json(*patch);
+  contacts_json.push_back(cj);
+}
+
 // contacts: a list of contacts between nodes of the structure (read after structure and
 // cyclic), with distinct names; their law params are left to bind_plugins().
 void read_contacts(Scene& scene, YAML::Node root, const YamlContext& ctx) {
@@ -674,7 +804,13 @@ void read_contacts(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   nlohmann::json contacts_json = nlohmann::json::array();
   for (std::size_t i = 0; cn && cn.IsSequence() && i < cn.size(); ++i) {
     const std::string path = "contacts[" + std::to_string(i) + "]";
-    scene.contacts.push_back(read_contact(scene, cn[i], path, ctx, contact_names, contacts_json));
+    if (cn[i].IsMap() && cn[i]["patch"]) {
+      read_patch_contacts(scene, cn[i], path, ctx, contact_names, contacts_json);
+      continue;
+    }
+    ContactSpec contact = read_contact(scene, cn[i], path, ctx, contact_names, contacts_json);
+    contact.entry = i;
+    scene.contacts.push_back(std::move(contact));
   }
   scene.core_values["contacts"] = contacts_json;
 }
@@ -728,12 +864,20 @@ void read_output(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   const auto ov = validate_params(on, output_schema(), "output", ctx);
   const auto o = view(output_schema(), ov);
   scene.output.response = o.texts("response");
-  for (std::size_t i = 0; i < scene.output.response.size(); ++i)
-    if (!scene.structure.find(scene.output.response[i]))
-      ctx.fail(on["response"][i], "output.response[" + std::to_string(i) + "]",
-               "'" + scene.output.response[i] + "' is not a key of structure.dofs");
+  for (std::size_t i = 0; i < scene.output.response.size(); ++i) {
+    std::string why;
+    if (!resolve_node(scene.structure, scene.output.response[i], why))
+      ctx.fail(on["response"][i], "output.response[" + std::to_string(i) + "]", why);
+  }
+  // By default the nodes of structure.dofs, else (a scene on a model map alone) the excited ones.
   if (scene.output.response.empty())
-    for (const auto& n : scene.structure.nodes) scene.output.response.push_back(n.name);
+    for (const auto& n : scene.structure.nodes)
+      if (!n.from_mesh) scene.output.response.push_back(n.name);
+  if (scene.output.response.empty())
+    for (const auto& e : scene.excitation)
+      if (std::find(scene.output.response.begin(), scene.output.response.end(), e.node) ==
+          scene.output.response.end())
+        scene.output.response.push_back(e.node);
   scene.output.friction_loops_at = o.reals("friction_loops_at");
   scene.output.plots = o.boolean("plots");
   scene.core_values["output"] = ov.to_json(output_schema());
@@ -758,6 +902,37 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   return scene;
 }
 
+namespace {
+
+// A patch pair's params: the entry's params validated as written (errors located there), then
+// its force-valued params times the pair's share and its per-pair values set, validated again.
+// The entry's params as written go to `written` (for summary.json).
+ParamValues patch_pair_values(const Scene& scene, const ContactSpec& c, const std::string& path,
+                              const YamlContext& ctx, nlohmann::json& written) {
+  const auto schema = c.plugin->schema();
+  const ParamValues given = validate_params(c.params, schema, path + ".params", ctx);
+  written = given.to_json(schema);
+  YAML::Node scaled = c.params && c.params.IsMap() ? YAML::Clone(c.params) : YAML::Node();
+  for (std::size_t k = 0; k < schema.size(); ++k) {
+    const auto& spec = schema[k];
+    if (spec.type != FRICHB_PARAM_REAL || !is_force_valued_unit(spec.unit)) continue;
+    const frichb_param_value& value = given.data()[k];
+    if (value.present || value.real != 0)
+      scaled[spec.name] = format_scene_value(value.real * c.param_scale);
+  }
+  for (const auto& [key, value] : c.param_overrides) {
+    const bool known = std::any_of(schema.begin(), schema.end(),
+                                   [&](const frichb_param_spec& p) { return key == p.name; });
+    if (!known)
+      ctx.fail(YAML::Node(scene.root["contacts"][c.entry]["patch"]), path + ".patch",
+               "law '" + c.law + "' has no parameter '" + key + "' to set pair by pair");
+    scaled[key] = format_scene_value(value);
+  }
+  return validate_params(scaled, schema, path + ".params", ctx);
+}
+
+}  // namespace
+
 void bind_plugins(Scene& scene, const Registry& registry) {
   YamlContext ctx{scene.file.string()};
   auto fail_plugin = [&](const YAML::Node& node, const std::string& path, const PluginError& e) {
@@ -771,16 +946,19 @@ void bind_plugins(Scene& scene, const Registry& registry) {
   }
   scene.structure.values = validate_params(scene.structure.params, scene.structure.plugin->schema(),
                                            "structure.params", ctx);
-  for (std::size_t i = 0; i < scene.contacts.size(); ++i) {
-    auto& c = scene.contacts[i];
-    const std::string path = "contacts[" + std::to_string(i) + "]";
+  for (auto& c : scene.contacts) {
+    const std::string path = "contacts[" + std::to_string(c.entry) + "]";
     try {
       check_plugin_allowed(registry.file_of(c.law), scene.plugin_paths);
       c.plugin = registry.load(c.law, FRICHB_KIND_CONTACT_LAW);
     } catch (const PluginError& e) {
-      fail_plugin(scene.root["contacts"][i]["law"], path + ".law", e);
+      fail_plugin(scene.root["contacts"][c.entry]["law"], path + ".law", e);
     }
-    c.values = validate_params(c.params, c.plugin->schema(), path + ".params", ctx);
+    if (c.patch)
+      c.values =
+          patch_pair_values(scene, c, path, ctx, scene.core_values["contacts"][c.entry]["params"]);
+    else
+      c.values = validate_params(c.params, c.plugin->schema(), path + ".params", ctx);
   }
 }
 
@@ -807,10 +985,9 @@ nlohmann::json scene_to_json(const Scene& scene) {
   nlohmann::json dofs = nlohmann::json::object();
   for (const auto& n : scene.structure.nodes) dofs[n.name] = n.dofs;
   j["structure"]["dofs"] = dofs;
-  for (std::size_t i = 0; i < scene.contacts.size(); ++i)
-    if (scene.contacts[i].plugin)
-      j["contacts"][i]["params"] =
-          scene.contacts[i].values.to_json(scene.contacts[i].plugin->schema());
+  for (const auto& c : scene.contacts)  // a patch's params are in core_values, as written
+    if (c.plugin && !c.patch)
+      j["contacts"][c.entry]["params"] = c.values.to_json(c.plugin->schema());
   return j;
 }
 
@@ -840,10 +1017,23 @@ std::vector<CoreSection> core_schemas() {
        "M x'' + C x' + K x + f_nl = f_ext with f_nl = +f on B and -f on A (thesis eq. 2.13): "
        "the contact pushes B back by -f."},
       {"contacts[].between[]", side_schema(), "The map form of a side."},
+      {"contacts[].patch", contact_patch_schema(),
+       "Instead of `between`: one contact per node pair of two faces of the model map "
+       "(`structure.mesh`), named `<name>.<node A>`. `faces`: [face A, face B], each a face "
+       "name or `{face: name, sector: +1}`; B may be `ground`. Each node of A pairs with the "
+       "node of B nearest in A's face plane (B rotated by the sectors between them), one to "
+       "one, within `tolerance`; a node without partner is refused with the distance it missed "
+       "by. Each pair's normal is minus A's outward normal, tangent1 the projection of "
+       "`frame.tangent1` (a global direction; default: the first of z, x, y not within 25 "
+       "degrees of the normal), tangent2 = normal x tangent1, in node A's nodal frame. The "
+       "law's force-valued params (units N, N/m, N/m^1.5, ...) are totals shared by node A's "
+       "tributary area, or per m^2 (`values: per_area`). See docs/fe-models.md."},
+      {"contacts[].patch.faces[]", contact_patch_side_schema(), "The map form of a face."},
       {"contacts[].frame", frame_schema(),
        "Each vector has one entry per DOF of the sides' nodes and is normalised. A 1-DOF node "
        "defaults to tangent1 = [1]. A law uses tangent2 when it is 2D tangential and normal "
-       "when its normal load varies."},
+       "when its normal load varies. A node of the model map has the components of its nodal "
+       "frame (nodes.csv)."},
       {"harmonic_balance", harmonic_balance_schema(),
        "Give `harmonics` or `max_harmonic`. Every excited harmonic must be kept."},
       {"continuation", continuation_schema(), "Sub-maps `frequency` (required) and `step`."},

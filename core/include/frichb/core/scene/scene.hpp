@@ -19,6 +19,8 @@
 
 #include "frichb/core/plugin_host/registry.hpp"
 #include "frichb/core/plugin_host/schema.hpp"
+#include "frichb/core/scene/contact_patch.hpp"
+#include "frichb/core/scene/fe_mesh.hpp"
 
 namespace frichb::core {
 
@@ -34,6 +36,10 @@ struct NodeSpec {
   // `structure.dofs` points to) and the YAML value of its indices there.
   std::string defined_in;
   YAML::Node definition;
+  // An FE node of the model map (`structure.mesh`) that the scene names by its number or by a
+  // one-node set: its DOFs are the node's matrix rows, `line` its line in nodes.csv.
+  bool from_mesh = false;
+  int line = 0;
 };
 
 struct ExcitationSpec {
@@ -54,13 +60,24 @@ struct ContactSpec {
   YAML::Node params;
   ParamValues values;  // set by bind_plugins()
   std::shared_ptr<const LoadedPlugin> plugin;
+  // The index of the scene's `contacts` entry this contact comes from: a patch entry gives one
+  // contact per node pair, named `<entry name>.<node A>`.
+  std::size_t entry = 0;
+  // A patch pair's share of the law's force-valued params (contact_patch.hpp), and the params
+  // set pair by pair (gap, normal_load); bind_plugins() applies both to `params`.
+  double param_scale = 1.0;
+  std::map<std::string, double> param_overrides;
+  std::shared_ptr<const ContactPatch> patch;  // the patch of a pair, else null
 };
 
 struct StructureSpec {
   std::string provider;
   YAML::Node params;
   std::vector<NodeSpec> nodes;  // in scene order
-  ParamValues values;           // set by bind_plugins()
+  // The model map (`structure.mesh`), or null: FE node numbers and its one-node sets then name
+  // nodes too, and contact patches pair its faces.
+  std::shared_ptr<const FeMesh> mesh;
+  ParamValues values;  // set by bind_plugins()
   std::shared_ptr<const LoadedPlugin> plugin;
   const NodeSpec* find(const std::string& name) const;
 };
