@@ -43,8 +43,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 GEO = os.path.join(HERE, "shrouded_blade.geo")
 DEFAULT_ROOT = os.path.normpath(os.path.join(HERE, "..", "generated"))
 OUTPUTS = ("sector_mass.mtx", "sector_stiffness.mtx", "cyclic_pairs.txt", "dofs.yaml",
-           "model.json")
-FORMAT_VERSION = 1  # bump when the outputs change for the same parameters
+           "mesh.yaml", "nodes.csv", "faces.csv", "model.json")
+FORMAT_VERSION = 2  # bump when the outputs change for the same parameters
 
 # Steel (SI)
 MATERIAL = {"E": 2.1e11, "nu": 0.3, "rho": 7850.0}
@@ -190,6 +190,107 @@ def parse_gmsh_inp(path):
             elif mode == "nset":
                 nsets[cur].extend(int(v) for v in s.rstrip(",").split(",") if v.strip())
     return nodes, elements, nsets
+
+
+def parse_face_triangles(path, face_names):
+    """Surface triangles of the named element sets: {name: [[nodes], ...]} (CPS3 / CPS6)."""
+    triangles, elsets = {}, {}
+    mode, cur = None, None
+    with open(path) as f:
+        for line in f:
+            s = line.strip()
+            if not s or s.startswith("**"):
+                continue
+            if s.startswith("*"):
+                u = s.upper().replace(" ", "")
+                mode = None
+                if u.startswith("*ELEMENT"):
+                    m = re.search(r"TYPE=([A-Z0-9]+)", u)
+                    mode = "tri" if m and m.group(1) in ("CPS3", "CPS6") else None
+                elif u.startswith("*ELSET"):
+                    m = re.search(r"ELSET=([^,]+)", u)
+                    cur = m.group(1).lower()
+                    mode = "elset" if cur in face_names else None
+                    if mode:
+                        elsets[cur] = []
+                continue
+            if mode == "tri":
+                a = [int(v) for v in s.rstrip(",").split(",") if v.strip()]
+                triangles[a[0]] = a[1:]
+            elif mode == "elset":
+                elsets[cur].extend(int(v) for v in s.rstrip(",").split(",") if v.strip())
+    out = {}
+    for name in face_names:
+        if not elsets.get(name):
+            raise BuildError(f"gmsh wrote no surface elements for '{name}'")
+        try:
+            out[name] = [triangles[e] for e in elsets[name]]
+        except KeyError as e:
+            raise BuildError(f"element set '{name}' lists element {e} that is not a triangle")
+    return out
+
+
+def triangle_area(a, b, c):
+    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    vx, vy, vz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    return 0.5 * math.sqrt(nx * nx + ny * ny + nz * nz), (nx, ny, nz)
+
+
+def lumped_face_areas(triangles, coords):
+    """Tributary areas {node: area} of an unstructured face mesh: 1/3 of each linear triangle
+    to each of its vertices; a 6-node triangle is split into its 4 linear sub-triangles first
+    (corner-mid-mid three times and the middle one), so that mid-side nodes get area too.
+    Returns the areas and the triangles' (unnormalised) normals."""
+    areas, normals = {}, []
+    for conn in triangles:
+        if len(conn) == 3:
+            subs = [conn]
+        elif len(conn) == 6:
+            a, b, c, ab, bc, ca = conn
+            for m, (p, q) in ((ab, (a, b)), (bc, (b, c)), (ca, (c, a))):
+                mid = [(coords[p][k] + coords[q][k]) / 2 for k in range(3)]
+                if math.dist(mid, coords[m]) > 1e-9 * (1 + math.dist(coords[p], coords[q])):
+                    raise BuildError(f"face triangle {conn}: node {m} is not the middle of "
+                                     f"its side {p}-{q}")
+            subs = [(a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca)]
+        else:
+            raise BuildError(f"face triangle with {len(conn)} nodes")
+        for sub in subs:
+            area, normal = triangle_area(*(coords[n] for n in sub))
+            if area <= 0:
+                raise BuildError(f"face triangle {sub} has no area")
+            normals.append(normal)
+            for n in sub:
+                areas[n] = areas.get(n, 0.0) + area / 3
+    return areas, normals
+
+
+def choose_contact_grid(pairs, length_r, length_z):
+    """The factorisation n_r x n_z = pairs whose tributary cell (dr x dz) is closest to a
+    square. A direction with n nodes has spacing length / (n - 1), or length for n = 1 (one
+    node in the middle that carries the whole length)."""
+    best = None
+    for n_r in range(1, pairs + 1):
+        if pairs % n_r:
+            continue
+        n_z = pairs // n_r
+        dr = length_r / (n_r - 1) if n_r > 1 else length_r
+        dz = length_z / (n_z - 1) if n_z > 1 else length_z
+        score = abs(math.log(dr / dz))
+        if best is None or score < best[0] - 1e-12:
+            best = (score, n_r, n_z)
+    return best[1], best[2]
+
+
+def grid_lines(n, length):
+    """Contact node positions along one direction (offsets from the edge) with their bilinear
+    tributary lengths, and the number of mesh vertices along it (a single node sits in the
+    middle of a 2-element line)."""
+    if n == 1:
+        return [(0.5 * length, length)], 3
+    h = length / (n - 1)
+    return [(i * h, h if 0 < i < n - 1 else 0.5 * h) for i in range(n)], n
 
 
 def tet_volume(a, b, c, d):
@@ -346,6 +447,134 @@ def cyl_point(r, theta, z):
     return (r * math.cos(theta), r * math.sin(theta), z)
 
 
+# ----------------------------------------------------------------------------- contact faces
+def contact_layout(p):
+    """How the shroud side faces are meshed: unstructured (default), or a structured grid of
+    contact nodes chosen by --contact-pairs (n_r x n_z = pairs) or --contact-face-size."""
+    length_r, length_z = p["shroud_thickness"], p["shroud_width"]
+    if p.get("contact_pairs") is not None:
+        n_r, n_z = choose_contact_grid(p["contact_pairs"], length_r, length_z)
+    elif p.get("contact_face_size") is not None:
+        h = p["contact_face_size"]
+        n_r = max(2, int(round(length_r / h)) + 1)
+        n_z = max(2, int(round(length_z / h)) + 1)
+    else:
+        return {"structured": False, "grid": None, "mesh_grid": None}
+    lines_r, m_r = grid_lines(n_r, length_r)
+    lines_z, m_z = grid_lines(n_z, length_z)
+    return {"structured": True, "grid": [n_r, n_z], "mesh_grid": [m_r, m_z],
+            "lines_r": lines_r, "lines_z": lines_z}
+
+
+def contact_faces(p, contact, coords, face_tris, sl, sr, shroud_pairs, phi):
+    """{face: {"nodes": [(node, area)], "normal": (nx, ny, nz)}} for shroud_left (ascending
+    node) and shroud_right (in the order of the left partners); checks the areas, the normals
+    and the pairing under the +phi rotation."""
+    length_r, length_z = p["shroud_thickness"], p["shroud_width"]
+    face_area = length_r * length_z
+    r_mid = p["r_tip"] + 0.5 * length_r
+    tol = 1e-6 * p["r_tip"]
+    out = {}
+    for name, face_nodes, theta in (("shroud_left", sl, -phi / 2), ("shroud_right", sr, phi / 2)):
+        sign = 1.0 if theta > 0 else -1.0
+        normal = (-sign * math.sin(theta), sign * math.cos(theta), 0.0)  # +-e_theta, outward
+        areas, tri_normals = lumped_face_areas(face_tris[name], coords)
+        if set(areas) != set(face_nodes):
+            raise BuildError(f"{name}: the face triangles' nodes are not the face's node set")
+        for tn in tri_normals:
+            size = math.sqrt(sum(c * c for c in tn))
+            cross = (tn[1] * normal[2] - tn[2] * normal[1], tn[2] * normal[0] - tn[0] * normal[2],
+                     tn[0] * normal[1] - tn[1] * normal[0])
+            if math.sqrt(sum(c * c for c in cross)) > 1e-9 * size:
+                raise BuildError(f"{name}: a face triangle is not in the plane theta = {theta:.6g}")
+        probe = coords[face_nodes[0]]
+        if sum(normal[k] * (probe[k] - (r_mid, 0.0, 0.0)[k]) for k in range(3)) <= 0:
+            raise BuildError(f"{name}: the normal {normal} does not point out of the sector")
+        if contact["structured"]:
+            areas = structured_areas(name, contact, face_tris[name], coords, p, tol)
+        total = math.fsum(areas.values())
+        if abs(total - face_area) > 1e-9 * face_area:
+            raise BuildError(f"{name}: tributary areas sum to {total:.12g} m^2, the face is "
+                             f"{face_area:.12g} m^2")
+        if min(areas.values()) <= 0:
+            raise BuildError(f"{name}: a contact node has no tributary area")
+        out[name] = {"areas": areas, "normal": normal}
+    left, right = out["shroud_left"]["areas"], out["shroud_right"]["areas"]
+    left_nodes = sorted(left)
+    for n in left_nodes:
+        m = shroud_pairs[n]
+        if m not in right:
+            raise BuildError(f"contact faces: the +phi rotation of left contact node {n} is node "
+                             f"{m}, not a right contact node")
+        if abs(right[m] - left[n]) > 1e-9 * left[n]:
+            raise BuildError(f"contact faces: left node {n} and its partner {m} have different "
+                             f"areas ({left[n]:.9g}, {right[m]:.9g} m^2)")
+    if len(right) != len(left):
+        raise BuildError(f"contact faces: {len(left)} left but {len(right)} right contact nodes")
+    return {"shroud_left": {"nodes": [(n, left[n]) for n in left_nodes],
+                            "normal": out["shroud_left"]["normal"]},
+            "shroud_right": {"nodes": [(shroud_pairs[n], right[shroud_pairs[n]])
+                                       for n in left_nodes],
+                             "normal": out["shroud_right"]["normal"]}}
+
+
+def structured_areas(name, contact, triangles, coords, p, tol):
+    """Bilinear tributary areas {node: area} of the contact nodes of a structured face: the
+    vertex nodes of its triangles at the grid positions (mid-side nodes are not contact
+    nodes)."""
+    m_r, m_z = contact["mesh_grid"]
+    h_r = p["shroud_thickness"] / (m_r - 1)
+    h_z = p["shroud_width"] / (m_z - 1)
+    vertices = {}
+    for conn in triangles:
+        for n in conn[:3]:
+            x, y, z = coords[n]
+            fi = (math.hypot(x, y) - p["r_tip"]) / h_r
+            fj = (z + 0.5 * p["shroud_width"]) / h_z
+            i, j = int(round(fi)), int(round(fj))
+            if abs(fi - i) * h_r > tol or abs(fj - j) * h_z > tol or not (
+                    0 <= i < m_r and 0 <= j < m_z):
+                raise BuildError(f"{name}: vertex node {n} is off the {m_r} x {m_z} grid")
+            if vertices.setdefault((i, j), n) != n:
+                raise BuildError(f"{name}: two vertex nodes at grid position {(i, j)}")
+    if len(vertices) != m_r * m_z:
+        raise BuildError(f"{name}: {len(vertices)} vertex nodes, the grid has {m_r} x {m_z}")
+    areas = {}
+    for i, (_, ar) in enumerate(contact["lines_r"]):
+        for j, (_, az) in enumerate(contact["lines_z"]):
+            key = (i if len(contact["lines_r"]) > 1 else 1, j if len(contact["lines_z"]) > 1 else 1)
+            areas[vertices[key]] = ar * az
+    return areas
+
+
+def write_model_map(out, p, kept, index, coords, faces, named):
+    """mesh.yaml, nodes.csv and faces.csv: the model map in FricHB's shared format."""
+    with open(os.path.join(out, "nodes.csv.tmp"), "w") as f:
+        f.write("node,x,y,z,frame,dof_1,dof_2,dof_3\n")
+        for n in kept:
+            x, y, z = coords[n]
+            i = index[n]
+            f.write(f"{n},{x:.17g},{y:.17g},{z:.17g},cylindrical,{i},{i + 1},{i + 2}\n")
+    os.replace(os.path.join(out, "nodes.csv.tmp"), os.path.join(out, "nodes.csv"))
+    with open(os.path.join(out, "faces.csv.tmp"), "w") as f:
+        f.write("face,node,area,nx,ny,nz\n")
+        for name, face in faces.items():
+            nx, ny, nz = face["normal"]
+            for n, area in face["nodes"]:
+                f.write(f"{name},{n},{area:.17g},{nx:.17g},{ny:.17g},{nz:.17g}\n")
+    os.replace(os.path.join(out, "faces.csv.tmp"), os.path.join(out, "faces.csv"))
+    with open(os.path.join(out, "mesh.yaml.tmp"), "w") as f:
+        f.write("# FricHB model map (written by configs/models/shrouded_blade/build_model.py)\n"
+                f"# {p['name']}: nodes.csv holds every node of the sector matrices (bore removed),\n"
+                "# faces.csv the contact nodes of the shroud side faces (shroud_right of sector s\n"
+                "# touches shroud_left of sector s+1; row k of shroud_right is the +phi rotation\n"
+                "# of row k of shroud_left)\n"
+                "format: 1\nunits: SI\nnodes: nodes.csv\nfaces: faces.csv\nnode_sets:\n")
+        for name, n in named.items():
+            f.write(f"  {name}: [{n}]\n")
+    os.replace(os.path.join(out, "mesh.yaml.tmp"), os.path.join(out, "mesh.yaml"))
+
+
 # ----------------------------------------------------------------------------- main build
 def build(p, out, keep_work, gmsh, ccx, threads):
     t_all = time.time()
@@ -369,6 +598,10 @@ def build(p, out, keep_work, gmsh, ccx, threads):
     cmd = [gmsh, GEO, "-3", "-format", "inp", "-o", "mesh_gmsh.inp", "-nt", "1"]
     for k in GEO_PARAMS:
         cmd += ["-setnumber", k, repr(p[k])]
+    contact = contact_layout(p)
+    if contact["structured"]:
+        cmd += ["-setnumber", "contact_n_r", str(contact["mesh_grid"][0]),
+                "-setnumber", "contact_n_z", str(contact["mesh_grid"][1])]
     log("gmsh: " + " ".join(cmd))
     gout = run(cmd, work, "gmsh")
     errors = [l for l in gout.splitlines() if l.startswith("Error")]
@@ -489,6 +722,11 @@ def build(p, out, keep_work, gmsh, ccx, threads):
             if m not in bore:
                 raise BuildError(f"left bore node {n} has a right partner {m} off the bore")
 
+    # contact faces: contact nodes, tributary areas, outward normals
+    face_tris = parse_face_triangles(os.path.join(work, "mesh_gmsh.inp"),
+                                     ("shroud_left", "shroud_right"))
+    faces = contact_faces(p, contact, coords, face_tris, sl, sr, shroud_pairs, phi)
+
     # DOF numbering: remaining nodes ascending, (r, theta, z)
     kept = sorted(used - bore)
     index = {n: 3 * k for k, n in enumerate(kept)}
@@ -528,13 +766,14 @@ def build(p, out, keep_work, gmsh, ccx, threads):
                                 (r_out, 0.0, -p["shroud_width"] / 2))
     inv = {v: k for k, v in shroud_pairs.items()}
     r_mid = p["r_tip"] + 0.5 * p["shroud_thickness"]
-    mid = nearest(sl, coords, cyl_point(r_mid, -phi / 2, 0.0))
+    left_contact = [n for n, _ in faces["shroud_left"]["nodes"]]
+    mid = nearest(left_contact, coords, cyl_point(r_mid, -phi / 2, 0.0))
     named["shroud_left"], named["shroud_right"] = mid, shroud_pairs[mid]
     grid_nodes = []
     for fr, fz in CONTACT_GRID:
         target = cyl_point(p["r_tip"] + fr * p["shroud_thickness"], -phi / 2,
                            fz * p["shroud_width"])
-        n = nearest(sl, coords, target)
+        n = nearest(left_contact, coords, target)
         if n not in grid_nodes:
             grid_nodes.append(n)
     for k, n in enumerate(grid_nodes, 1):
@@ -578,6 +817,7 @@ def build(p, out, keep_work, gmsh, ccx, threads):
             i = index[n]
             f.write(f"{name}: [{i}, {i + 1}, {i + 2}]\n")
     os.replace(os.path.join(out, "dofs.yaml.tmp"), os.path.join(out, "dofs.yaml"))
+    write_model_map(out, p, kept, index, coords, faces, named)
     times["write_s"] = round(time.time() - t, 3)
     times["total_s"] = round(time.time() - t_all, 3)
 
@@ -603,6 +843,22 @@ def build(p, out, keep_work, gmsh, ccx, threads):
                                              math.atan2(coords[n][1], coords[n][0]),
                                              coords[n][2]]}
                         for name, n in named.items()},
+        "contact_faces": {
+            "mesh": "structured" if contact["structured"] else "unstructured",
+            "requested": {"contact_pairs": p["contact_pairs"],
+                          "contact_face_size_m": p["contact_face_size"]},
+            "grid_r_z": contact["grid"],
+            "mesh_vertices_r_z": contact["mesh_grid"],
+            "face_area_m2": p["shroud_thickness"] * p["shroud_width"],
+            "faces": {name: {"contact_nodes": len(f["nodes"]),
+                             "area_sum_m2": math.fsum(a for _, a in f["nodes"]),
+                             "normal": list(f["normal"])}
+                      for name, f in faces.items()},
+            "contact_node_pairs": len(faces["shroud_left"]["nodes"]),
+            "areas": "bilinear tributary areas of the structured grid (interior dr*dz, edge "
+                     "half, corner quarter)" if contact["structured"] else
+                     "1/3 of each linear triangle to each vertex; quadratic triangles split "
+                     "into their 4 linear sub-triangles first"},
         "times_s": times,
         "versions": {"gmsh": gmsh_version, "ccx": ccx_version,
                      "python": sys.version.split()[0]},
@@ -631,6 +887,12 @@ def main():
     ap.add_argument("--gmsh", default="gmsh", help="gmsh executable (default: gmsh on PATH)")
     ap.add_argument("--ccx", default="ccx", help="CalculiX executable (default: ccx on PATH)")
     ap.add_argument("--threads", type=int, default=1, help="CalculiX threads (default 1)")
+    ap.add_argument("--contact-pairs", type=int, metavar="N",
+                    help="mesh the shroud side faces as a structured grid of N contact nodes "
+                         "(n_r x n_z = N, the cells closest to square); default: unstructured")
+    ap.add_argument("--contact-face-size", type=float, metavar="H",
+                    help="mesh the shroud side faces as a structured grid of spacing near H "
+                         "(m) instead")
     for k in GEO_PARAMS:
         ap.add_argument("--" + k.replace("_", "-"), type=int if k in INT_PARAMS else float,
                         help=f"override {k}")
@@ -645,7 +907,20 @@ def main():
     if "mesh_size" in overridden and "blade_mesh_size" not in overridden:
         overridden["blade_mesh_size"] = overridden["mesh_size"]
     p.update(overridden)
-    p["name"] = a.name or a.preset
+    if a.contact_pairs is not None and a.contact_face_size is not None:
+        print("build_model.py: error: --contact-pairs and --contact-face-size exclude each other",
+              file=sys.stderr)
+        return 1
+    if a.contact_pairs is not None and a.contact_pairs < 1 or (
+            a.contact_face_size is not None and not a.contact_face_size > 0):
+        print("build_model.py: error: --contact-pairs must be >= 1, --contact-face-size > 0",
+              file=sys.stderr)
+        return 1
+    p["contact_pairs"] = a.contact_pairs
+    p["contact_face_size"] = a.contact_face_size
+    suffix = (f"_p{a.contact_pairs}" if a.contact_pairs is not None else
+              f"_h{a.contact_face_size:g}" if a.contact_face_size is not None else "")
+    p["name"] = a.name or a.preset + suffix
     p["preset"] = a.preset
     out = os.path.abspath(a.out or os.path.join(DEFAULT_ROOT, p["name"]))
 

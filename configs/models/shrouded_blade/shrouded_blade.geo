@@ -32,6 +32,10 @@ If (!Exists(shroud_width))     shroud_width = 0.05;  EndIf  // axial
 If (!Exists(mesh_size))        mesh_size = 0.03;     EndIf  // largest element edge
 If (!Exists(blade_mesh_size))  blade_mesh_size = mesh_size; EndIf  // in blade and shroud
 If (!Exists(element_order))    element_order = 2;    EndIf  // 1: C3D4, 2: C3D10
+// Structured contact faces: contact_n_r x contact_n_z vertex nodes on each shroud side face
+// (a transfinite grid); 0 keeps the unstructured mesh of the faces.
+If (!Exists(contact_n_r))      contact_n_r = 0;      EndIf  // vertex nodes along r
+If (!Exists(contact_n_z))      contact_n_z = 0;      EndIf  // vertex nodes along z
 
 phi = 2 * Pi / sectors;
 c = Cos(phi / 2);
@@ -107,6 +111,42 @@ EndIf
 
 Periodic Surface {dr[0]} = {dl[0]} Rotate {{0, 0, 1}, {0, 0, 0}, phi};
 Periodic Surface {sr[0]} = {sl[0]} Rotate {{0, 0, 1}, {0, 0, 0}, phi};
+
+// structured shroud side faces: the left face is a transfinite grid, the right face its copy
+If (contact_n_r > 0 || contact_n_z > 0)
+  If (contact_n_r < 2 || contact_n_z < 2)
+    Error("shrouded_blade.geo: contact_n_r and contact_n_z must both be >= 2 (%g, %g)",
+          contact_n_r, contact_n_z);
+    Abort;
+  EndIf
+  // edges of a side face at angle t: radial ones at z = +-shroud_width/2, axial ones at
+  // r = r_tip and r = r_out
+  For side In {-1:1:2}
+    cs = Cos(side * phi / 2);
+    sn = Sin(side * phi / 2);
+    For zs In {-1:1:2}
+      zc = zs * shroud_width / 2;
+      er[] = Curve In BoundingBox {Min(r_tip * cs, r_out * cs) - e, Min(r_tip * sn, r_out * sn) - e, zc - e,
+                                   Max(r_tip * cs, r_out * cs) + e, Max(r_tip * sn, r_out * sn) + e, zc + e};
+      If (#er[] != 1)
+        Error("shrouded_blade.geo: radial edge of a shroud side face not found (%g)", #er[]);
+        Abort;
+      EndIf
+      Transfinite Curve {er[0]} = contact_n_r;
+    EndFor
+    For k In {0:1}
+      rc = r_tip + k * shroud_thickness;
+      ez[] = Curve In BoundingBox {rc * cs - e, rc * sn - e, -shroud_width / 2 - e,
+                                   rc * cs + e, rc * sn + e, shroud_width / 2 + e};
+      If (#ez[] != 1)
+        Error("shrouded_blade.geo: axial edge of a shroud side face not found (%g)", #ez[]);
+        Abort;
+      EndIf
+      Transfinite Curve {ez[0]} = contact_n_z;
+    EndFor
+  EndFor
+  Transfinite Surface {sl[0]};
+EndIf
 
 Physical Volume("sector") = {v[0]};
 Physical Surface("bore") = {bore[0]};
