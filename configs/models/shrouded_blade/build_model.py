@@ -10,20 +10,29 @@ Pipeline (every step checked; any failure stops with a message and a non-zero ex
   3. the matrices are checked in the global Cartesian frame (sum of the x-x mass block = rho *
      mesh volume; K times a rigid translation or rotation about z vanishes), the bore DOFs
      (clamped hub, r = r_hub) are removed, every node's DOFs are turned into its cylindrical
-     frame (r, theta, z) and the results are written for fe_sector.
+     frame (r, theta, z) and the results are written for fe_sector;
+  4. the contact nodes of the shroud's side faces get tributary areas and outward normals,
+     checked to pair under the +phi rotation, and the model map (mesh.yaml, nodes.csv,
+     faces.csv) is written.
 
 Usage:
   python3 configs/models/shrouded_blade/build_model.py --preset test_case|large_case|tiny
           [--out DIR] [--name NAME] [--keep-work] [--force] [overrides: --sectors N,
           --mesh-size H, --blade-mesh-size H, --element-order 1|2, --r-hub R, ...]
+          [--contact-pairs N | --contact-face-size H]
 
-Outputs (default folder configs/models/generated/<name>, name = the preset's):
+Outputs (default folder configs/models/generated/<name>, name = the preset's, with _p<N> or
+_h<H> appended for --contact-pairs N or --contact-face-size H):
   sector_mass.mtx, sector_stiffness.mtx  Matrix Market, coordinate real symmetric (lower
                                          triangle), DOFs node by node (ascending node number),
                                          components (r, theta, z); FricHB DOF = file row - 1
   cyclic_pairs.txt                       'left right' 0-based DOF pairs of the disk's cyclic
                                          boundary (fe_sector's cyclic_pairs)
   dofs.yaml                              named nodes: name: [i_r, i_theta, i_z]
+  mesh.yaml, nodes.csv, faces.csv        the model map (FricHB's shared format): every node's
+                                         coordinates and rows, the named nodes as node sets,
+                                         the contact nodes of the faces shroud_left and
+                                         shroud_right with tributary area and outward normal
   model.json                             parameters, counts, mass, named nodes, timings, versions
 The build is skipped when model.json holds the same parameters and sources and every output
 exists (--force rebuilds). Standard library only.
@@ -75,7 +84,7 @@ PRESETS = {
     "tiny": dict(TEST_GEOMETRY, mesh_size=0.2, blade_mesh_size=0.2, element_order=1),
 }
 
-# Contact pairs on the shroud faces: (radial fraction, axial fraction) of the face
+# Named contact pairs on the shroud faces: (radial fraction, axial fraction) of the face
 CONTACT_GRID = [(fr, fz) for fr in (0.0, 0.5, 1.0) for fz in (-0.5, 0.0, 0.5)]
 
 
