@@ -119,15 +119,16 @@ If (contact_n_r > 0 || contact_n_z > 0)
           contact_n_r, contact_n_z);
     Abort;
   EndIf
-  // edges of a side face at angle t: radial ones at z = +-shroud_width/2, axial ones at
-  // r = r_tip and r = r_out
+  // edges of the side face at theta = side * phi/2: the radial ones at z = +-shroud_width/2,
+  // the axial ones at r = r_tip and r = r_out (Min/Max keep the box ordered)
   For side In {-1:1:2}
     cs = Cos(side * phi / 2);
     sn = Sin(side * phi / 2);
     For zs In {-1:1:2}
       zc = zs * shroud_width / 2;
-      er[] = Curve In BoundingBox {Min(r_tip * cs, r_out * cs) - e, Min(r_tip * sn, r_out * sn) - e, zc - e,
-                                   Max(r_tip * cs, r_out * cs) + e, Max(r_tip * sn, r_out * sn) + e, zc + e};
+      er[] = Curve In BoundingBox {
+        Min(r_tip * cs, r_out * cs) - e, Min(r_tip * sn, r_out * sn) - e, zc - e,
+        Max(r_tip * cs, r_out * cs) + e, Max(r_tip * sn, r_out * sn) + e, zc + e};
       If (#er[] != 1)
         Error("shrouded_blade.geo: radial edge of a shroud side face not found (%g)", #er[]);
         Abort;
