@@ -548,11 +548,13 @@ def structured_areas(name, contact, triangles, coords, p, tol):
                 raise BuildError(f"{name}: two vertex nodes at grid position {(i, j)}")
     if len(vertices) != m_r * m_z:
         raise BuildError(f"{name}: {len(vertices)} vertex nodes, the grid has {m_r} x {m_z}")
+    # a direction with a single contact node uses the middle one of its 3 mesh vertices
+    rows_r = range(len(contact["lines_r"])) if m_r == len(contact["lines_r"]) else [1]
+    rows_z = range(len(contact["lines_z"])) if m_z == len(contact["lines_z"]) else [1]
     areas = {}
-    for i, (_, ar) in enumerate(contact["lines_r"]):
-        for j, (_, az) in enumerate(contact["lines_z"]):
-            key = (i if len(contact["lines_r"]) > 1 else 1, j if len(contact["lines_z"]) > 1 else 1)
-            areas[vertices[key]] = ar * az
+    for i, (_, ar) in zip(rows_r, contact["lines_r"]):
+        for j, (_, az) in zip(rows_z, contact["lines_z"]):
+            areas[vertices[(i, j)]] = ar * az
     return areas
 
 
@@ -574,10 +576,11 @@ def write_model_map(out, p, kept, index, coords, faces, named):
     os.replace(os.path.join(out, "faces.csv.tmp"), os.path.join(out, "faces.csv"))
     with open(os.path.join(out, "mesh.yaml.tmp"), "w") as f:
         f.write("# FricHB model map (written by configs/models/shrouded_blade/build_model.py)\n"
-                f"# {p['name']}: nodes.csv holds every node of the sector matrices (bore removed),\n"
-                "# faces.csv the contact nodes of the shroud side faces (shroud_right of sector s\n"
-                "# touches shroud_left of sector s+1; row k of shroud_right is the +phi rotation\n"
-                "# of row k of shroud_left)\n"
+                f"# {p['name']}: nodes.csv holds every node of the sector matrices (bore\n"
+                "# removed), "
+"faces.csv the contact nodes of the shroud side faces (shroud_right of\n"
+                "# sector s touches shroud_left of sector s+1; row k of shroud_right is the +phi\n"
+                "# rotation of row k of shroud_left)\n"
                 "format: 1\nunits: SI\nnodes: nodes.csv\nfaces: faces.csv\nnode_sets:\n")
         for name, n in named.items():
             f.write(f"  {name}: [{n}]\n")
