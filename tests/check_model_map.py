@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Checks the model map written by configs/models/shrouded_blade/build_model.py.
 
-Builds two small models into WORK (tiny: linear tets, unstructured contact faces; test_case with
---contact-pairs 16: quadratic tets, a structured 16-node contact grid) and checks for each:
+Builds three small models into WORK (tiny: linear tets, unstructured contact faces; test_case:
+quadratic tets, unstructured faces whose mid-side nodes are contact nodes too; test_case with
+--contact-pairs 16: a structured 16-node contact grid) and checks for each:
   - mesh.yaml names nodes.csv and faces.csv, format 1, SI units;
   - nodes.csv: the exact header, unique node numbers, frame cylindrical, its rows a permutation
     of 0 .. DOFs-1 (DOFs from sector_stiffness.mtx); every named node of dofs.yaml is a node
@@ -186,7 +187,7 @@ def main():
     if os.path.isdir(work):
         shutil.rmtree(work)
     os.makedirs(work)
-    for preset, pairs in (("tiny", None), ("test_case", 16)):
+    for preset, pairs in (("tiny", None), ("test_case", None), ("test_case", 16)):
         out = os.path.join(work, preset if pairs is None else f"{preset}_p{pairs}")
         cmd = [sys.executable, build, "--preset", preset, "--out", out]
         if pairs is not None:
