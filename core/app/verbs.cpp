@@ -7,6 +7,7 @@
 
 #include "cli.hpp"
 #include "frichb/core/commands/convergence.hpp"
+#include "frichb/core/commands/import.hpp"
 #include "frichb/core/commands/loop.hpp"
 #include "frichb/core/commands/modes.hpp"
 #include "frichb/core/commands/run.hpp"
@@ -194,6 +195,49 @@ int convergence_verb(const Invocation& call) {
                                    text + "'");
   }
   return core::run_convergence(request);
+}
+
+// The files each format needs besides the two matrices.
+bool needs_equation_map(core::VendorFormat format) {
+  return format != core::VendorFormat::kAbaqusMatrixInput;
+}
+
+int import_verb(const Invocation& call) {
+  core::ImportRequest request;
+  const std::string format = call.arguments[0];
+  if (!core::parse_vendor_format(format, request.format))
+    return usage_error(call, "unknown format '" + format +
+                                 "': abaqus-matrix-input, abaqus-coordinate, ansys-hbmat or "
+                                 "ansys-mmf");
+  for (const char* required : {"stiffness", "mass", "nodes", "sectors"})
+    if (!call.options.count(required))
+      return usage_error(call, std::string("--") + required + " is required");
+  if (call.output.empty()) return usage_error(call, "give the output folder, -o DIR");
+  request.stiffness_file = call.options["stiffness"].as<std::string>();
+  request.mass_file = call.options["mass"].as<std::string>();
+  request.coordinates_file = call.options["nodes"].as<std::string>();
+  if (needs_equation_map(request.format)) {
+    if (!call.options.count("dof-map"))
+      return usage_error(call, format + " needs the equation map, --dof-map FILE");
+    request.equation_map_file = call.options["dof-map"].as<std::string>();
+  } else if (call.options.count("dof-map")) {
+    return usage_error(call, "abaqus-matrix-input names nodes and DOFs itself: no --dof-map");
+  }
+  request.sectors = call.options["sectors"].as<int>();
+  if (request.sectors < 1) return usage_error(call, "--sectors takes a count >= 1");
+  const auto units = call.options["units"].as<std::string>();
+  if (!core::parse_unit_system(units, request.units))
+    return usage_error(call, "--units takes SI or mm-t-s, not '" + units + "'");
+  const auto frame = call.options["nodal-frames"].as<std::string>();
+  if (!core::parse_nodal_frame(frame, request.nodal_frame))
+    return usage_error(call, "--nodal-frames takes global or cylindrical, not '" + frame + "'");
+  if (call.options.count("not-cyclic"))
+    request.not_cyclic_file = call.options["not-cyclic"].as<std::string>();
+  if (call.options.count("tolerance")) {
+    request.tolerance = call.options["tolerance"].as<double>();
+    if (!(request.tolerance > 0)) return usage_error(call, "--tolerance takes a length > 0");
+  }
+  return core::run_import(request, call.output);
 }
 
 int plugins_verb(const Invocation& /*call*/) {
@@ -422,6 +466,67 @@ Verb convergence_spec() {
   return v;
 }
 
+Verb import_spec() {
+  Verb v;
+  v.name = "import";
+  v.arguments = "FORMAT";
+  v.min_arguments = 1;
+  v.max_arguments = 1;
+  v.missing_arguments =
+      "one format: abaqus-matrix-input, abaqus-coordinate, ansys-hbmat or ansys-mmf";
+  v.summary = "turn an ANSYS or Abaqus sector export into fe_sector's files";
+  v.description =
+      "Reads a sector's stiffness and mass matrices exported by Abaqus or ANSYS (FORMAT:\n"
+      "abaqus-matrix-input: *MATRIX OUTPUT, FORMAT=MATRIX INPUT, lines 'node, dof, node,\n"
+      "dof, value'; abaqus-coordinate: FORMAT=COORDINATE, 'row, column, value' with the\n"
+      "equation map --dof-map; ansys-hbmat: HBMAT Harwell-Boeing ASCII with its .mapping\n"
+      "file; ansys-mmf: APDL Math *EXPORT,,MMF with the .mapping file) and the node\n"
+      "coordinates (--nodes: a .csv 'node,x,y,z', an Abaqus .inp's *NODE blocks, or any\n"
+      "other name: ANSYS NWRITE output). Converts the units once (--units mm-t-s: N/mm,\n"
+      "t, mm to N/m, kg, m), turns each node's DOFs from the global frame into its\n"
+      "cylindrical frame (r, theta, z) about z (--nodal-frames global: K' = T^T K T),\n"
+      "pairs the cyclic boundary by position (node R is the partner of node L when R is\n"
+      "L turned by +2 pi/sectors about z within --tolerance; default 1e-6 of the largest\n"
+      "coordinate) and writes DIR/sector_stiffness.mtx, sector_mass.mtx (Matrix Market,\n"
+      "SI, lower triangle), cyclic_pairs.txt, mesh.yaml and nodes.csv, for the fe_sector\n"
+      "provider. Refused, with file and line: rotational DOFs, internal nodes (Lagrange\n"
+      "multipliers), unsymmetric matrices, nodes without coordinates, an unpaired or\n"
+      "doubly paired boundary. docs/fe-models.md walks through both vendors.";
+  v.examples = {
+      "frichb import abaqus-matrix-input --stiffness blade_STIF2.mtx --mass blade_MASS2.mtx "
+      "--nodes blade.inp --sectors 24 --units mm-t-s -o model",
+      "frichb import ansys-hbmat --stiffness k.matrix --mass m.matrix --dof-map k.mapping "
+      "--nodes sector.node --sectors 24 --nodal-frames cylindrical -o model"};
+  v.writes_output = true;
+  v.output_default = "none: required";
+  v.add_options = [](po::options_description& d) {
+    d.add_options()("stiffness", po::value<std::string>()->value_name("FILE"),
+                    "the stiffness matrix file (required)")(
+        "mass", po::value<std::string>()->value_name("FILE"), "the mass matrix file (required)")(
+        "dof-map", po::value<std::string>()->value_name("FILE"),
+        "equation -> node, DOF map: 'equation node dof' lines, DOF a number or UX/UY/UZ (the "
+        "ANSYS .mapping file); all formats but abaqus-matrix-input")(
+        "nodes", po::value<std::string>()->value_name("FILE"),
+        "node coordinates: .csv (node,x,y,z), .inp (Abaqus *NODE) or NWRITE output (required)")(
+        "sectors", po::value<int>()->value_name("N"),
+        "sectors of the full disk; the sector angle is 2 pi / N (required)")(
+        "units", po::value<std::string>()->default_value("SI")->value_name("SI|mm-t-s"),
+        "units of the exported files; written files are always SI")(
+        "nodal-frames",
+        po::value<std::string>()->default_value("global")->value_name("global|cylindrical"),
+        "frame of each node's DOFs in the export: global (x, y, z; turned into r, theta, z) "
+        "or cylindrical (r, theta, z about the global z axis, kept)")(
+        "tolerance", po::value<double>()->value_name("L"),
+        "cyclic pairing distance, in the coordinates' units (default 1e-6 of the largest "
+        "coordinate magnitude)")(
+        "not-cyclic", po::value<std::string>()->value_name("FILE"),
+        "node numbers never paired across the cyclic boundary (contact faces that coincide "
+        "with the neighbour's at rest, e.g. shroud interfaces); blanks/commas, # comments");
+  };
+  v.run = import_verb;
+  return v;
+}
+
 Verb plugins_spec() {
   Verb v;
   v.name = "plugins";
@@ -470,9 +575,10 @@ Verb reference_spec() {
 }  // namespace
 
 const std::vector<Verb>& verbs() {
-  static const std::vector<Verb> list = {
-      run_spec(),     validate_spec(),    study_spec(),   loop_spec(),     modes_spec(),
-      timesim_spec(), convergence_spec(), plugins_spec(), describe_spec(), reference_spec()};
+  static const std::vector<Verb> list = {run_spec(),         validate_spec(), study_spec(),
+                                         loop_spec(),        modes_spec(),    timesim_spec(),
+                                         convergence_spec(), import_spec(),   plugins_spec(),
+                                         describe_spec(),    reference_spec()};
   return list;
 }
 

@@ -1,0 +1,44 @@
+// Line-by-line reading of the vendor text files with the file and line number in every error.
+#pragma once
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace frichb::core::fe_import_detail {
+
+// Throws ImportError "FILE:LINE: what" (or "FILE: what" for line 0).
+[[noreturn]] void fail(const std::filesystem::path& file, long line, const std::string& what);
+
+// A text file read line by line, counting lines (the first is 1).
+class LineReader {
+ public:
+  explicit LineReader(const std::filesystem::path& file);
+  bool next(std::string& line);  // false at the end (a read error throws)
+  long number() const { return number_; }
+  const std::filesystem::path& file() const { return file_; }
+  [[noreturn]] void fail(const std::string& what) const;
+
+ private:
+  std::filesystem::path file_;
+  std::ifstream in_;
+  long number_ = 0;
+};
+
+// The fields of a line separated by commas and/or blanks (empty fields dropped).
+std::vector<std::string> split_fields(std::string_view line);
+std::string_view trim(std::string_view text);
+std::string upper(std::string_view text);
+
+// Whole-field conversions; false when `text` is not entirely a number (Fortran D exponents
+// are read as E; a non-finite value is refused).
+bool parse_integer(std::string_view text, long& value);
+bool parse_real(std::string_view text, double& value);
+
+// The numbers of a line whose fixed-width fields may touch ("1.0E+00-2.0E+00"), in order;
+// false when something else than numbers and blanks is found.
+bool scan_numbers(std::string_view line, std::vector<std::string>& numbers);
+
+}  // namespace frichb::core::fe_import_detail
