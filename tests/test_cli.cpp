@@ -835,7 +835,7 @@ TEST_F(Cli, EachVerbHasItsOwnHelp) {
   // Every example in every verb's help names a verb that exists and files that are shipped.
   const Result all = frichb("--help");
   for (const char* verb : {"run", "validate", "study", "loop", "modes", "timesim", "convergence",
-                           "plugins", "describe", "reference"}) {
+                           "import", "plugins", "describe", "reference"}) {
     EXPECT_THAT(all.output, HasSubstr("  frichb " + std::string(verb))) << verb;
     const Result help = frichb(std::string(verb) + " --help");
     EXPECT_EQ(help.code, 0) << verb;
@@ -850,6 +850,28 @@ TEST_F(Cli, EachVerbHasItsOwnHelp) {
       }
     }
   }
+}
+
+// frichb import: an incomplete command line is a usage error (1); a vendor file that cannot be
+// read is invalid input (2), named in the message.
+TEST_F(Cli, ImportChecksItsCommandLineAndNamesTheFileItCannotRead) {
+  const std::string files = " --stiffness k.mtx --mass m.mtx --nodes n.csv --sectors 8 -o out";
+  const Result no_format = frichb("import" + files);
+  EXPECT_EQ(no_format.code, 1);
+  EXPECT_THAT(no_format.output, HasSubstr("expected one format"));
+  const Result unknown = frichb("import nastran-op2" + files);
+  EXPECT_EQ(unknown.code, 1);
+  EXPECT_THAT(unknown.output, HasSubstr("unknown format 'nastran-op2'"));
+  const Result no_map = frichb("import ansys-hbmat" + files);
+  EXPECT_EQ(no_map.code, 1);
+  EXPECT_THAT(no_map.output, HasSubstr("ansys-hbmat needs the equation map, --dof-map FILE"));
+  const Result units = frichb("import abaqus-matrix-input --units inch" + files);
+  EXPECT_EQ(units.code, 1);
+  EXPECT_THAT(units.output, HasSubstr("--units takes SI or mm-t-s, not 'inch'"));
+  const Result missing = frichb("import abaqus-matrix-input" + files, dir_);
+  EXPECT_EQ(missing.code, 2) << missing.output;
+  EXPECT_THAT(missing.output, HasSubstr("k.mtx: cannot be opened for reading"));
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
 }
 
 // -v and -q (or --log-level, before or after the verb) set how much is logged.
