@@ -39,7 +39,7 @@ class FeImport : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   fs::path write(const std::string& name, const std::string& text) const {
-    const fs::path file = dir_ / name;
+    fs::path file = dir_ / name;
     std::ofstream(file) << text;
     return file;
   }

@@ -167,14 +167,14 @@ std::map<std::pair<long, long>, Block> rotated_blocks(const std::vector<UpperEnt
     const Frame& ta = frames.at(e.node_a);
     const Frame& tb = frames.at(e.node_b);
     Block& b = blocks[{e.node_a, e.node_b}];
-    const int i = e.dof_a - 1;
-    const int j = e.dof_b - 1;
+    const auto i = static_cast<std::size_t>(e.dof_a - 1);
+    const auto j = static_cast<std::size_t>(e.dof_b - 1);
     const bool off_diagonal_within_node = e.node_a == e.node_b && i != j;
-    for (int p = 0; p < 3; ++p)
-      for (int q = 0; q < 3; ++q) {
+    for (std::size_t p = 0; p < 3; ++p)
+      for (std::size_t q = 0; q < 3; ++q) {
         double v = ta[3 * i + p] * tb[3 * j + q];
         if (off_diagonal_within_node) v += ta[3 * j + p] * tb[3 * i + q];
-        b[static_cast<std::size_t>(3 * p + q)] += e.value * v;
+        b[3 * p + q] += e.value * v;
       }
   }
   return blocks;
