@@ -296,6 +296,54 @@ TEST_F(CyclicPairing, RefusesAComponentOnOneSideOnly) {
       << message;
 }
 
+TEST_F(CyclicPairing, LeavesTheNotCyclicNodesOutAndRefusesTwoSectors) {
+  auto r = request("");
+  r.not_cyclic_file = write("shroud.txt", "# contact nodes\n2, 7 ** and one not in the model\n");
+  const auto s = assemble_sector(r);
+  EXPECT_TRUE(s.cyclic_pairs.empty());
+  EXPECT_EQ(s.boundary_node_pairs, 0U);
+  r.not_cyclic_file = write("bad.txt", "2 x\n");
+  EXPECT_EQ(refusal(r), r.not_cyclic_file.string() + ":1: 'x' is not a node number");
+  r.not_cyclic_file.clear();
+  r.sectors = 2;
+  EXPECT_NE(refusal(r).find("--sectors 2"), std::string::npos);
+}
+
+// NWRITE leaves trailing zero fields blank: "node x" is (x, 0, 0); an Abaqus *NODE in another
+// coordinate system is refused.
+TEST_F(FeImport, NodeFilesReadBlankFieldsAsZeroAndRefuseOtherSystems) {
+  const auto nwrite = write("sector.node", "        3 0.1E+01\n        7 0.2E+01 0.5E+00\n");
+  const auto nodes = frichb::core::read_node_coordinates(nwrite);
+  ASSERT_EQ(nodes.size(), 2U);
+  EXPECT_EQ(nodes.at(3), (std::array<double, 3>{1.0, 0.0, 0.0}));
+  EXPECT_EQ(nodes.at(7), (std::array<double, 3>{2.0, 0.5, 0.0}));
+  const auto inp = write("c.inp", "*HEADING\nx\n*NODE, NSET=N, SYSTEM=C\n1, 1., 30., 0.\n");
+  try {
+    frichb::core::read_node_coordinates(inp);
+    ADD_FAILURE() << "SYSTEM=C accepted";
+  } catch (const ImportError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              inp.string() +
+                  ":3: *NODE with SYSTEM=C: only rectangular coordinates (SYSTEM=R, "
+                  "the default) are read");
+  }
+}
+
+// A write failure throws ImportWriteError and leaves no temporary file behind.
+TEST_F(FeImport, AFailedWriteLeavesNoFiles) {
+  auto r = two_node_request(VendorFormat::kAbaqusMatrixInput, write("k.mtx", kAbaqusStiffness),
+                            write("m.mtx", kAbaqusMass), write("job.inp", kAbaqusNodes));
+  const auto sector = assemble_sector(r);
+  const fs::path out = dir_ / "out";
+  fs::create_directories(out);
+  // nodes.csv, the last file, goes to a folder that does not exist
+  const auto path_of = [&](const std::string& name) {
+    return name == "nodes.csv" ? dir_ / "missing" / name : out / name;
+  };
+  EXPECT_THROW(frichb::core::write_sector(sector, path_of), frichb::core::ImportWriteError);
+  EXPECT_TRUE(fs::is_empty(out));
+}
+
 TEST_F(FeImport, ErrorsNameTheFileAndTheLine) {
   const auto nodes = write("nodes.csv", "node,x,y,z\n3,1,0,0\n7,2,0,0\n");
   const auto mass = write("m.mtx", kAbaqusMass);
