@@ -154,16 +154,20 @@ TEST_F(FeImport, AbaqusCoordinateFormatGoesThroughTheEquationMap) {
 }
 
 TEST_F(FeImport, AnsysHarwellBoeingWithItsMappingFile) {
-  // RSA: the lower triangle by columns; fixed-width fields (6I8), (8I8), (4E20.12).
+  // RSA: the lower triangle by columns; fixed-width fields (6I8), (8I8), (4E20.12); with a
+  // right-hand side (RHSCRD = 2: the fifth header line, and values after the matrix).
   const char* stiffness =
       "FricHB two-node test                                                    KEY\n"
-      "             4             1             1             2             0\n"
+      "             6             1             1             2             2\n"
       "RSA                        5             5             8             0\n"
-      "(6I8)           (8I8)           (4E20.12)           \n"
+      "(6I8)           (8I8)           (4E20.12)           (4E20.12)           \n"
+      "F                          1             0\n"
       "       1       4       6       7       8       9\n"
       "       1       2       4       2       5       3       4       5\n"
       "  0.100000000000E+02  0.150000000000E+01 -0.400000000000E+01  0.200000000000E+02\n"
-      " -0.500000000000E+01  0.300000000000E+02  0.800000000000E+01  0.900000000000E+01\n";
+      " -0.500000000000E+01  0.300000000000E+02  0.800000000000E+01  0.900000000000E+01\n"
+      "  0.000000000000E+00  0.000000000000E+00  0.000000000000E+00  0.000000000000E+00\n"
+      "  0.000000000000E+00\n";
   const char* mass =
       "FricHB two-node test mass                                               KEY\n"
       "             4             1             1             2             0\n"
