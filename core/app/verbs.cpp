@@ -498,7 +498,7 @@ Verb import_spec() {
       "frichb import ansys-hbmat --stiffness k.matrix --mass m.matrix --dof-map k.mapping "
       "--nodes sector.node --sectors 24 --nodal-frames cylindrical -o model"};
   v.writes_output = true;
-  v.output_default = "none: required";
+  v.output_default = "none, required";
   v.add_options = [](po::options_description& d) {
     d.add_options()("stiffness", po::value<std::string>()->value_name("FILE"),
                     "the stiffness matrix file (required)")(
