@@ -154,10 +154,18 @@ int run_scene(const RunRequest& request) {
       spdlog::error("{}: {}", scene.file.string(), e.what());
       return kExitInternal;
     }
+    // A patch is listed once, as its entry's name and its pair count.
     std::string contacts;
-    for (const auto& c : scene.contacts)
-      contacts += (contacts.empty() ? "" : ", ") + c.name + " (" + c.plugin->name() + " " +
+    const ContactPatch* listed_patch = nullptr;
+    for (const auto& c : scene.contacts) {
+      if (c.patch && c.patch.get() == listed_patch) continue;
+      listed_patch = c.patch.get();
+      const std::string name = c.patch ? c.name.substr(0, c.name.rfind('.')) + " (patch of " +
+                                             std::to_string(c.patch->pairs.size()) + " node pairs, "
+                                       : c.name + " (";
+      contacts += (contacts.empty() ? "" : ", ") + name + c.plugin->name() + " " +
                   c.plugin->descriptor().version + ")";
+    }
     spdlog::info("{}: valid; structure '{}' {}; contacts: {}", request.scene_file.string(),
                  scene.structure.plugin->name(), scene.structure.plugin->descriptor().version,
                  contacts.empty() ? "none" : contacts);

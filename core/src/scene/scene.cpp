@@ -920,7 +920,8 @@ ParamValues patch_pair_values(const Scene& scene, const ContactSpec& c, const st
     if (value.present || value.real != 0)
       scaled[spec.name] = format_scene_value(value.real * c.param_scale);
   }
-  for (const auto& [key, value] : c.param_overrides) {
+  for (const auto& [name, value] : c.param_overrides) {
+    const std::string& key = name;  // a structured binding cannot be captured (C++17 rules)
     const bool known = std::any_of(schema.begin(), schema.end(),
                                    [&](const frichb_param_spec& p) { return key == p.name; });
     if (!known)

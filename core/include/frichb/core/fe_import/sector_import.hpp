@@ -42,6 +42,8 @@
 #include <utility>
 #include <vector>
 
+#include "frichb/core/fe_import/nodal_frame.hpp"
+
 namespace frichb::core {
 
 // A vendor file (or the request) that cannot be imported; the message names the file and the
@@ -59,7 +61,6 @@ class ImportWriteError : public std::runtime_error {
 
 enum class VendorFormat { kAbaqusMatrixInput, kAbaqusCoordinate, kAnsysHbmat, kAnsysMmf };
 enum class UnitSystem { kSI, kMmTonneSecond };
-enum class NodalFrame { kGlobal, kCylindrical };
 
 // Parses "abaqus-matrix-input", ... / "SI", "mm-t-s" / "global", "cylindrical"; false when the
 // name is not one of them.

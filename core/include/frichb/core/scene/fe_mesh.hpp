@@ -30,9 +30,9 @@
 #include <unordered_map>
 #include <vector>
 
-namespace frichb::core {
+#include "frichb/core/fe_import/nodal_frame.hpp"
 
-enum class NodalFrame { kGlobal, kCylindrical };
+namespace frichb::core {
 
 struct MeshNode {
   std::int64_t number = 0;           // FE node number
