@@ -11,8 +11,9 @@ Builds test_case with --contact-pairs 1 and 4 into WORK, then:
     together: without it the motion has odd harmonics only, under which a flipped normal
     gives the same response (N0 + kn u_n(t + T/2) with u_t(t + T/2) = -u_t(t) and an odd law),
     and the test could not see the normal's sign;
-  - four pairs: the patch runs through the resonance to the sweep's end, and summary.json
-    records 4 pairs whose areas sum to the face area (shroud_thickness * shroud_width).
+  - four pairs: the patch runs through the resonance to the sweep's end, summary.json
+    records 4 pairs whose areas sum to the face area (shroud_thickness * shroud_width), and
+    contact_states/ holds each pair's shares of the period stuck, slipping and open.
 
 Usage: check_fe_patch.py SOURCE_DIR FRICHB WORK_DIR      (exit code 1 on a failed check)
 """
@@ -48,7 +49,7 @@ continuation:
   frequency: {{from: 105, to: 130, unit: Hz}}
   step: {{initial: 0.5, min: 1.0e-6, max: 1.0}}
   displacement_scale: 2.0e-5
-output: {{response: [response], plots: false}}
+output: {{response: [response], contact_states_at: [119.3], plots: false}}
 """
 PATCH = """    patch:
       faces: [{face: shroud_right, sector: 0}, {face: shroud_left, sector: 1}]
@@ -98,6 +99,10 @@ def main():
     area = sum(p["area_m2"] for p in patch["pairs"])
     if patch["pair_count"] != 4 or abs(area / face_area - 1) > 1e-12:
         fail(f"four-pair patch: {patch['pair_count']} pairs, area {area} of {face_area} m^2")
+    states = work / "p4_patch" / "contact_states" / "119.3Hz_1.csv"
+    rows = [line.split(",") for line in states.read_text().splitlines()[1:]]
+    if len(rows) != 4 or any(abs(sum(float(x) for x in r[7:10]) - 1) > 1e-12 for r in rows):
+        fail(f"{states}: expected 4 pairs whose shares stuck + slipping + open sum to 1")
     print(f"check_fe_patch: one-pair patch = hand-written contact (peak {a['amplitude_m']:.9g} m "
           f"at {a['frequency_hz']:.9g} Hz); four pairs: peak "
           f"{summaries['p4_patch']['peak']['response']['amplitude_m']:.6g} m")

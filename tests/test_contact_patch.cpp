@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "frichb/core/commands/run.hpp"
+#include "frichb/core/numerics/harmonics.hpp"
+#include "frichb/core/plugin_host/periodic_trace.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
 #include "frichb/core/scene/contact_patch.hpp"
 #include "frichb/core/scene/fe_mesh.hpp"
@@ -249,6 +251,57 @@ TEST(ContactPatch, NormalDistanceIsRefusedOrBecomesTheGap) {
                  "gaps_from_coordinates: true}}");
   EXPECT_NEAR(patch.pairs[0].overrides.at("gap"), 2e-4, 1e-11);
   EXPECT_NEAR(patch.pairs[1].overrides.at("gap"), 0.0, 1e-15);
+}
+
+// ---- Where a contact sticks ----
+
+// Jenkins element (kt = 2e5 N/m, mu N = 2.5 N) under u = d cos(theta): after each reversal it
+// sticks until u has come back 2 mu N / kt, i.e. for theta_s = arccos(1 - 2 mu N / (kt d)) of
+// each half period: stuck theta_s / pi of the period. Sampled, each of the two stick-slip
+// transitions is located to one sample.
+TEST(SlipShares, JenkinsStickShareMeetsTheClosedForm) {
+  constexpr double kKt = 2e5, kSlipForce = 2.5;
+  constexpr int kSamples = 512;
+  auto h = frichb::test::make_law("jenkins_1d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  const HarmonicLayout layout({0, 1}, kSamples);
+  PeriodicTracer tracer(*h.law, layout);
+  for (double ratio : {0.5, 1.5, 3.0, 10.0}) {
+    const double d = ratio * kSlipForce / kKt;
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(layout.coefficient_count());
+    u(layout.cos_index(1)) = d;
+    ContactTrace trace;
+    std::string error;
+    ASSERT_TRUE(tracer.trace(u, JacobianMode::kNone, trace, &error)) << error;
+    const SlipShares shares = slip_shares(trace, tracer.components());
+    const double stuck =
+        ratio <= 1 ? 1.0 : std::acos(1 - 2 * kSlipForce / (kKt * d)) / std::numbers::pi;
+    EXPECT_NEAR(shares.stuck, stuck, 2.0 / kSamples) << "d = " << ratio << " mu N / kt";
+    EXPECT_NEAR(shares.slipping, 1 - stuck, 2.0 / kSamples);
+    EXPECT_EQ(shares.open, 0.0);
+  }
+}
+
+// With a normal load N = max(0, N0 + kn u_n) and u_n = e cos(theta), e > N0 / kn, the contact is
+// open where cos(theta) < -N0 / (kn e): a share 1 - arccos(-N0 / (kn e)) / pi of the period.
+TEST(SlipShares, OpenShareMeetsTheClosedForm) {
+  constexpr double kN0 = 5.0, kKn = 1e5, kE = 2e-4;
+  constexpr int kSamples = 512;
+  auto h =
+      frichb::test::make_law("jenkins_1d", "{kt: 2.0e5, kn: 1.0e5, mu: 0.5, normal_load: 5.0}");
+  const HarmonicLayout layout({0, 1}, kSamples);
+  PeriodicTracer tracer(*h.law, layout);
+  ASSERT_EQ(tracer.components().size(), 2u);
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(2 * layout.coefficient_count());
+  u(layout.coefficient_count() + layout.cos_index(1)) = kE;
+  ContactTrace trace;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kNone, trace, &error)) << error;
+  const SlipShares shares = slip_shares(trace, tracer.components());
+  const double open = 1 - std::acos(-kN0 / (kKn * kE)) / std::numbers::pi;
+  EXPECT_NEAR(shares.open, open, 2.0 / kSamples);
+  // No tangential motion: closed, the slider stays put.
+  EXPECT_NEAR(shares.stuck, 1 - open, 2.0 / kSamples);
+  EXPECT_EQ(shares.slipping, 0.0);
 }
 
 // ---- The model map's files ----

@@ -257,10 +257,14 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     const RunRecord record{scene, model, prepared.setup, summary, table, loops};
     const bool plots = run_options.plots < 0 ? scene.output.plots : run_options.plots != 0;
     const nlohmann::json loop_entries = write_curve_files(*out, record, plots);
+    const std::vector<FrictionLoop> states =
+        solve_contact_traces(scene, model, options, summary, scene.output.contact_states_at);
+    const nlohmann::json state_entries = write_contact_states(*out, record, states, plots);
     timing["post_and_output_s"] = seconds_since(t_post);
     timing["total_s"] = seconds_since(t_start);
     warn_about_results(record);
-    const nlohmann::json doc = run_summary(record, loop_entries, timing, run_options.study_context);
+    nlohmann::json doc = run_summary(record, loop_entries, timing, run_options.study_context);
+    doc["contact_states"] = state_entries;
     if (interrupted()) return interrupted_while("while writing");
     write_json(out->path("summary.json"), doc);
     out->commit();

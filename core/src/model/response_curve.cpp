@@ -272,11 +272,19 @@ std::vector<FrictionLoop> solve_friction_loops(const Scene& scene,
                                                const HarmonicBalanceModel& model,
                                                const ContinuationOptions& options,
                                                const ContinuationSummary& summary) {
+  return solve_contact_traces(scene, model, options, summary, scene.output.friction_loops_at);
+}
+
+std::vector<FrictionLoop> solve_contact_traces(const Scene& scene,
+                                               const HarmonicBalanceModel& model,
+                                               const ContinuationOptions& options,
+                                               const ContinuationSummary& summary,
+                                               const std::vector<double>& frequencies) {
   std::vector<FrictionLoop> loops;
   const auto& C = scene.continuation;
   const double unit = C.to_rad_per_s();
   const Eigen::Index n = model.equation_count();
-  for (double f_req : scene.output.friction_loops_at) {
+  for (double f_req : frequencies) {
     const double w_req = f_req * unit;
     int crossing = 0;
     for (std::size_t i = 1; i < summary.points.size(); ++i) {

@@ -1,5 +1,6 @@
 #include "frichb/core/plugin_host/periodic_trace.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -208,6 +209,32 @@ double dissipated_energy(const ContactTrace& trace) {
                 (trace.displacement(jn, a) - trace.displacement(j, a));
   }
   return energy;
+}
+
+SlipShares slip_shares(const ContactTrace& trace, const std::vector<int>& components) {
+  SlipShares shares;
+  const Eigen::Index samples = trace.force.rows();
+  if (samples == 0) return shares;
+  const auto normal = std::find(components.begin(), components.end(), 2);
+  const Eigen::Index normal_column =
+      normal == components.end() ? -1 : static_cast<Eigen::Index>(normal - components.begin());
+  const double tolerance = 1e-9 * trace.displacement.cwiseAbs().maxCoeff();
+  for (Eigen::Index j = 0; j < samples; ++j) {
+    const Eigen::Index before = (j + samples - 1) % samples;
+    if (normal_column >= 0 && trace.force(j, normal_column) <= 0) {
+      shares.open += 1;
+    } else if (trace.state.cols() == 0 ||
+               (trace.state.row(j) - trace.state.row(before)).cwiseAbs().maxCoeff() <= tolerance) {
+      shares.stuck += 1;
+    } else {
+      shares.slipping += 1;
+    }
+  }
+  const auto n = static_cast<double>(samples);
+  shares.stuck /= n;
+  shares.slipping /= n;
+  shares.open /= n;
+  return shares;
 }
 
 }  // namespace frichb::core

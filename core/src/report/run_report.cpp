@@ -222,6 +222,26 @@ nlohmann::json write_loop(StagedOutput& out, const RunRecord& run, const Frictio
           {"trace_passes", trace.passes}};
 }
 
+// The plot of a patch's face at one frequency: each pair at its place on face A, coloured by
+// its share of the period stuck.
+std::string face_plot_script(const std::string& csv, const std::string& png,
+                             const std::string& entry, const std::string& title) {
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 900,600 noenhanced\n"
+     << "set output " << gnuplot_string(png) << "\n"
+     << "set datafile separator ','\nset grid\nset size ratio -1\n"
+     << "set offsets graph 0.05, graph 0.05, graph 0.1, graph 0.1\n"
+     << "set title " << gnuplot_string(title) << "\n"
+     << "set xlabel 'along tangent1 from the face centroid [mm]'\n"
+     << "set ylabel 'along tangent2 [mm]'\n"
+     << "set cblabel 'share of the period stuck'\nset cbrange [0:1]\n"
+     << "set palette defined (0 'red', 0.5 'yellow', 1 'blue')\n"
+     << "plot " << gnuplot_string(csv) << " every ::1 using (strcol(1) eq " << gnuplot_string(entry)
+     << " ? $5*1000 : NaN):($6*1000):8 with points pt 7 ps 2 palette "
+     << "notitle\n";
+  return gp.str();
+}
+
 }  // namespace
 
 std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
@@ -278,6 +298,77 @@ nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool p
     run_gnuplot(gp);
   }
   return loops;
+}
+
+namespace {
+
+// The table of one crossing's contact states (states[first, last)); returns the names of the
+// patch entries among them.
+std::vector<std::string> write_states_table(const fs::path& csv_file, const RunRecord& run,
+                                            const std::vector<FrictionLoop>& states,
+                                            std::size_t first, std::size_t last) {
+  std::ostringstream csv;
+  csv.precision(12);
+  csv << "entry,contact,node_a,node_b,face_s1_m,face_s2_m,area_m2,stuck,slipping,open\n";
+  std::vector<std::string> patches;
+  for (std::size_t i = first; i < last; ++i) {
+    const ContactSpec& spec = run.scene.contacts[states[i].contact];
+    const auto& comps = run.model.contacts()[states[i].contact].tracer->components();
+    const SlipShares shares = slip_shares(states[i].trace, comps);
+    const PatchPair* pair = nullptr;
+    if (spec.patch)
+      for (const auto& p : spec.patch->pairs)
+        if (spec.side_a == std::to_string(p.node_a)) pair = &p;
+    const std::string entry = pair ? spec.name.substr(0, spec.name.rfind('.')) : spec.name;
+    if (pair && std::find(patches.begin(), patches.end(), entry) == patches.end())
+      patches.push_back(entry);
+    csv << entry << ',' << spec.name << ',' << spec.side_a << ',' << spec.side_b << ',';
+    if (pair)
+      csv << pair->face_coordinates[0] << ',' << pair->face_coordinates[1] << ',' << pair->area;
+    else
+      csv << ",,";
+    csv << ',' << shares.stuck << ',' << shares.slipping << ',' << shares.open << '\n';
+  }
+  write_text(csv_file, csv.str());
+  return patches;
+}
+
+}  // namespace
+
+nlohmann::json write_contact_states(StagedOutput& out, const RunRecord& run,
+                                    const std::vector<FrictionLoop>& states, bool plots) {
+  const std::string unit = unit_name(run.scene.continuation.unit);
+  nlohmann::json entries = nlohmann::json::array();
+  for (std::size_t first = 0; first < states.size();) {
+    // The traces of one crossing of one frequency: consecutive in `states`.
+    std::size_t last = first;
+    while (last < states.size() && states[last].frequency == states[first].frequency &&
+           states[last].crossing == states[first].crossing)
+      ++last;
+    const double frequency = states[first].frequency;
+    std::string stem = format_number(frequency, 10);
+    stem.append(unit.substr(0, 2)).append("_").append(std::to_string(states[first].crossing));
+    const std::string base = "contact_states/" + stem;
+    const auto patches = write_states_table(out.path(base + ".csv"), run, states, first, last);
+    nlohmann::json plot_files = nlohmann::json::array();
+    for (std::size_t k = 0; plots && k < patches.size(); ++k) {
+      std::string face = stem;
+      face.append("_").append(patches[k]).append("_face");
+      std::string title = patches[k];
+      title.append(" at ").append(format_number(frequency)).append(" ").append(unit);
+      title.append(": share of the period stuck");
+      const fs::path gp = out.path("contact_states/" + face + ".gp");
+      write_text(gp, face_plot_script(stem + ".csv", face + ".png", patches[k], title));
+      run_gnuplot(gp);
+      plot_files.push_back("contact_states/" + face + ".png");
+    }
+    entries.push_back({{"frequency", frequency},
+                       {"crossing", states[first].crossing},
+                       {"file", base + ".csv"},
+                       {"face_plots", plot_files}});
+    first = last;
+  }
+  return entries;
 }
 
 void warn_about_results(const RunRecord& run) {

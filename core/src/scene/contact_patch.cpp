@@ -159,6 +159,21 @@ void set_frame(PatchPair& pair, const Vec3& outward_a, const std::optional<Vec3>
   pair.normal = FeMesh::to_nodal(node_a, normal);
   pair.tangent1 = FeMesh::to_nodal(node_a, t1);
   pair.tangent2 = FeMesh::to_nodal(node_a, t2);
+  pair.tangent1_global = t1;
+  pair.tangent2_global = t2;
+}
+
+// Each pair's position on face A: node A from the face's area-weighted centroid, along the
+// pair's tangent1 and tangent2 (global), in m.
+void set_face_coordinates(ContactPatch& patch, const FeMesh& mesh) {
+  Vec3 centroid{};
+  for (const auto& pair : patch.pairs)
+    for (int k = 0; k < 3; ++k)
+      centroid[k] += pair.area * mesh.find(pair.node_a)->position[k] / patch.area_a;
+  for (auto& pair : patch.pairs) {
+    const Vec3 d = minus(mesh.find(pair.node_a)->position, centroid);
+    pair.face_coordinates = {dot(d, pair.tangent1_global), dot(d, pair.tangent2_global)};
+  }
 }
 
 // A CSV table `header` (two columns: node and a value) read into node -> value.
@@ -438,6 +453,7 @@ ContactPatch read_contact_patch(const YAML::Node& entry, const std::string& path
     set_frame(pair, face_a[i].normal, hint, node_a, frame, path, ctx);
     patch.pairs.push_back(std::move(pair));
   }
+  set_face_coordinates(patch, mesh);
   check_facing(patch, mesh, angle, pn["faces"], patch_path + ".faces", ctx);
   check_normal_distances(patch, v.boolean("gaps_from_coordinates"), pn["faces"],
                          patch_path + ".faces", ctx);

@@ -193,6 +193,12 @@ const std::vector<frichb_param_spec>& output_schema() {
                        "frequencies where friction loops are written")
           .greater_than(0)
           .optional(),
+      Param::real_list("contact_states_at", "Hz or rad/s",
+                       "frequencies where each contact's shares of the period stuck, slipping "
+                       "and open are written (contact_states/; a patch's pairs also as a plot "
+                       "of the face)")
+          .greater_than(0)
+          .optional(),
       Param::boolean("plots", "write gnuplot scripts and PNG plots").defaults_to(1),
   };
   return s;
@@ -879,6 +885,7 @@ void read_output(Scene& scene, YAML::Node root, const YamlContext& ctx) {
           scene.output.response.end())
         scene.output.response.push_back(e.node);
   scene.output.friction_loops_at = o.reals("friction_loops_at");
+  scene.output.contact_states_at = o.reals("contact_states_at");
   scene.output.plots = o.boolean("plots");
   scene.core_values["output"] = ov.to_json(output_schema());
 }

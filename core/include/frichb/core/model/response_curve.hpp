@@ -118,5 +118,11 @@ std::vector<FrictionLoop> solve_friction_loops(const Scene& scene,
                                                const HarmonicBalanceModel& model,
                                                const ContinuationOptions& options,
                                                const ContinuationSummary& summary);
+// The same at any frequencies (in the scene's unit), e.g. output.contact_states_at.
+std::vector<FrictionLoop> solve_contact_traces(const Scene& scene,
+                                               const HarmonicBalanceModel& model,
+                                               const ContinuationOptions& options,
+                                               const ContinuationSummary& summary,
+                                               const std::vector<double>& frequencies);
 
 }  // namespace frichb::core

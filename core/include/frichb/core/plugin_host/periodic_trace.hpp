@@ -51,6 +51,16 @@ struct ContactTrace {
 // samples (trapezoidal, over every axis the law uses), in J.
 double dissipated_energy(const ContactTrace& trace);
 
+// The shares of a traced period (fractions of its samples, summing to 1) a contact spends
+// open, stuck and slipping. A sample is open when the law uses the normal direction
+// (`components` holds 2) and its normal force is <= 0; else stuck when the law's state did not
+// change from the sample before (within 1e-9 of the largest displacement: a slider that did not
+// move), else slipping. A law without state is stuck whenever it is closed.
+struct SlipShares {
+  double stuck = 0, slipping = 0, open = 0;
+};
+SlipShares slip_shares(const ContactTrace& trace, const std::vector<int>& components);
+
 class PeriodicTracer {
  public:
   PeriodicTracer(const ContactLawInstance& law, const HarmonicLayout& layout,

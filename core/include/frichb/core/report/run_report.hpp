@@ -41,6 +41,15 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene);
 // output folder, energy per cycle, force harmonic amplitudes).
 nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool plots);
 
+// Writes, for each crossing of each output.contact_states_at frequency (the traces of
+// solve_contact_traces, every contact of a crossing in a row), contact_states/<frequency><unit>_
+// <crossing>.csv: per contact its scene entry, name, sides, the place of a patch pair on its
+// face (m, along its tangents from the face's centroid) and area (m^2), and its shares of the
+// period stuck, slipping and open (slip_shares); with `plots`, a plot of each patch's face
+// coloured by the share stuck. Returns the contact_states entries of summary.json.
+nlohmann::json write_contact_states(StagedOutput& out, const RunRecord& run,
+                                    const std::vector<FrictionLoop>& states, bool plots);
+
 // Logs the warnings a run's results call for: micro-folds, an ill-conditioned Newton matrix,
 // contact traces that did not become periodic, contact traces by finite differences.
 void warn_about_results(const RunRecord& run);

@@ -56,8 +56,12 @@ struct PatchPair {
   double in_plane_distance = 0, normal_distance = 0;  // m, B (rotated) from A
   // Per-pair parameters set by a file or the coordinates (N, m).
   std::map<std::string, double> overrides;
-  // The frame in node A's nodal components.
+  // The frame in node A's nodal components, and its tangents in global components.
   std::array<double, 3> tangent1{}, tangent2{}, normal{};
+  std::array<double, 3> tangent1_global{}, tangent2_global{};
+  // Node A's position on the face (m): from face A's area-weighted centroid along the
+  // tangents, for plots of the face.
+  std::array<double, 2> face_coordinates{};
 };
 
 struct ContactPatch {

@@ -127,6 +127,7 @@ struct CyclicSpec {
 struct OutputSpec {
   std::vector<std::string> response;      // node names
   std::vector<double> friction_loops_at;  // in the continuation unit
+  std::vector<double> contact_states_at;  // in the continuation unit
   bool plots = true;
 };
 
