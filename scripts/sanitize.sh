@@ -10,7 +10,9 @@
 #     points or integrate in time. Their code paths run in the other tests at smaller sizes;
 #     the remaining stress scenes (extreme stiffness, preload, gap, harmonics, aliasing) run;
 #     and the FE pipeline check (a 4422-DOF sector's eigen-solution, 3 s in Release), whose
-#     provider code runs under the sanitizers in the fe_sector tests;
+#     provider code runs under the sanitizers in the fe_sector tests; and the FE patch check
+#     (three response curves on the test-case blade, 18-36 s in Release, over 300 s here), whose
+#     patch code runs under the sanitizers in test_contact_patch;
 #  2. fuzz_scene_bounded: libFuzzer on scene parsing and validation for FRICHB_FUZZ_SECONDS
 #     (default 60) from the shipped scenes.
 # Warnings are errors in the main GCC build (scripts/test.sh), not here.
@@ -32,7 +34,7 @@ stamp "build-sanitize built"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-sanitize --output-on-failure -j"$jobs" -LE "long|install|fuzz" \
-  -E "^(fe_pipeline_matches_calculix_cyclic|Cyclic\.BladedDiskPeakConvergesWithTheNumberOfHarmonics|Stress\.(StiffContactSlippingReachesTheEndAndItsPeakAgrees|HertzAtZeroPreloadConvergesToTimeIntegration|SeveralResonancesInOneSweep|GapFoldsEndRightOrSayWhy|FineControlLocatesTheFoldsOfAClosingGap))$"
+  -E "^(fe_pipeline_matches_calculix_cyclic|fe_patch_scene_matches_hand_written_contact|Cyclic\.BladedDiskPeakConvergesWithTheNumberOfHarmonics|Stress\.(StiffContactSlippingReachesTheEndAndItsPeakAgrees|HertzAtZeroPreloadConvergesToTimeIntegration|SeveralResonancesInOneSweep|GapFoldsEndRightOrSayWhy|FineControlLocatesTheFoldsOfAClosingGap))$"
 stamp "ASan/UBSan tests passed"
 ctest --test-dir build-sanitize -L fuzz --output-on-failure
 grep -h "^stat::" build-sanitize/fuzz-scene/fuzz.log || true
