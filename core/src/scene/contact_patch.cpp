@@ -179,39 +179,18 @@ void set_face_coordinates(ContactPatch& patch, const FeMesh& mesh) {
 // A CSV table `header` (two columns: node and a value) read into node -> value.
 std::map<std::int64_t, double> read_node_values(const fs::path& file, const std::string& header,
                                                 const std::string& key_path) {
-  std::ifstream in(file);
-  if (!in) throw SceneError(file.string(), 0, 0, key_path, "cannot open the file");
   std::map<std::int64_t, double> values;
-  std::string text;
-  int line = 0;
-  bool header_seen = false;
-  while (std::getline(in, text)) {
-    ++line;
-    if (!text.empty() && text.back() == '\r') text.pop_back();
-    if (text.find_first_not_of(" \t") == std::string::npos || text[0] == '#') continue;
-    if (!header_seen) {
-      if (text != header)
-        throw SceneError(file.string(), line, 0, key_path, "expected the header '" + header + "'");
-      header_seen = true;
-      continue;
-    }
-    std::istringstream fields(text);
-    std::string node_text, value_text, extra;
-    std::getline(fields, node_text, ',');
-    std::getline(fields, value_text, ',');
-    const std::int64_t node = fe_node_number(node_text);
+  read_csv_table(file, header, 2, key_path, [&](const std::vector<std::string>& f, int line) {
+    const std::int64_t node = fe_node_number(f[0]);
     char* end = nullptr;
-    const double value = std::strtod(value_text.c_str(), &end);
-    if (node < 0 || value_text.empty() || *end != '\0' || !std::isfinite(value) ||
-        std::getline(fields, extra))
+    const double value = std::strtod(f[1].c_str(), &end);
+    if (node < 0 || f[1].empty() || *end != '\0' || !std::isfinite(value))
       throw SceneError(
           file.string(), line, 0, key_path,
-          "expected 'node,value' (an FE node number and a finite number): '" + text + "'");
+          "expected an FE node number and a finite number: '" + f[0] + "," + f[1] + "'");
     if (!values.emplace(node, value).second)
-      throw SceneError(file.string(), line, 0, key_path, "node " + node_text + " is listed twice");
-  }
-  if (!header_seen)
-    throw SceneError(file.string(), line, 0, key_path, "empty table: expected '" + header + "'");
+      throw SceneError(file.string(), line, 0, key_path, "node " + f[0] + " is listed twice");
+  });
   return values;
 }
 

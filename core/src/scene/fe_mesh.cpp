@@ -69,97 +69,67 @@ std::int64_t parse_integer(const std::string& text, const fs::path& file, int li
   return x;
 }
 
-// Calls `row(fields, line)` for every data line of the CSV table `file` after checking that
-// its header is `header` ('#' lines and blank lines are skipped).
-template <class Row>
-void read_table(const fs::path& file, const std::string& header, std::size_t columns, Row row) {
-  std::ifstream in(file);
-  if (!in)
-    fail_at(file, 0, "cannot open the file (a relative path is taken from mesh.yaml's folder)");
-  std::string text;
-  int line = 0;
-  bool header_seen = false;
-  while (std::getline(in, text)) {
-    ++line;
-    if (!text.empty() && text.back() == '\r') text.pop_back();
-    if (text.find_first_not_of(" \t") == std::string::npos || text[0] == '#') continue;
-    if (!header_seen) {
-      if (text != header) fail_at(file, line, "expected the header '" + header + "'");
-      header_seen = true;
-      continue;
-    }
-    const auto fields = split_fields(text);
-    if (fields.size() != columns)
-      fail_at(file, line,
-              "expected " + std::to_string(columns) + " fields (" + header + "), found " +
-                  std::to_string(fields.size()));
-    row(fields, line);
-  }
-  if (in.bad()) fail_at(file, line, "read error");
-  if (!header_seen) fail_at(file, line, "empty table: expected the header '" + header + "'");
-}
-
 void read_nodes(FeMesh& mesh, double length_scale) {
-  read_table(mesh.nodes_file, "node,x,y,z,frame,dof_1,dof_2,dof_3", 8,
-             [&](const std::vector<std::string>& f, int line) {
-               MeshNode n;
-               n.line = line;
-               n.number = parse_integer(f[0], mesh.nodes_file, line, "node");
-               if (n.number <= 0) fail_at(mesh.nodes_file, line, "node numbers are positive");
-               for (int k = 0; k < 3; ++k)
-                 n.position[k] =
-                     length_scale * parse_real(f[1 + k], mesh.nodes_file, line, "coordinate");
-               if (f[4] == "global") {
-                 n.frame = NodalFrame::kGlobal;
-               } else if (f[4] == "cylindrical") {
-                 n.frame = NodalFrame::kCylindrical;
-               } else {
-                 fail_at(mesh.nodes_file, line,
-                         "frame '" + f[4] + "': expected 'global' or 'cylindrical'");
-               }
-               for (int k = 0; k < 3; ++k) {
-                 n.rows[k] = parse_integer(f[5 + k], mesh.nodes_file, line, "DOF row");
-                 if (n.rows[k] < -1)
-                   fail_at(mesh.nodes_file, line, "a DOF row is >= 0, or -1 (not in the matrices)");
-               }
-               if (!mesh.index.emplace(n.number, mesh.nodes.size()).second)
-                 fail_at(mesh.nodes_file, line,
-                         "node " + std::to_string(n.number) + " is listed twice (first on line " +
-                             std::to_string(mesh.nodes[mesh.index.at(n.number)].line) + ")");
-               mesh.nodes.push_back(n);
-             });
+  read_csv_table(
+      mesh.nodes_file, "node,x,y,z,frame,dof_1,dof_2,dof_3", 8, "",
+      [&](const std::vector<std::string>& f, int line) {
+        MeshNode n;
+        n.line = line;
+        n.number = parse_integer(f[0], mesh.nodes_file, line, "node");
+        if (n.number <= 0) fail_at(mesh.nodes_file, line, "node numbers are positive");
+        for (int k = 0; k < 3; ++k)
+          n.position[k] = length_scale * parse_real(f[1 + k], mesh.nodes_file, line, "coordinate");
+        if (f[4] == "global") {
+          n.frame = NodalFrame::kGlobal;
+        } else if (f[4] == "cylindrical") {
+          n.frame = NodalFrame::kCylindrical;
+        } else {
+          fail_at(mesh.nodes_file, line,
+                  "frame '" + f[4] + "': expected 'global' or 'cylindrical'");
+        }
+        for (int k = 0; k < 3; ++k) {
+          n.rows[k] = parse_integer(f[5 + k], mesh.nodes_file, line, "DOF row");
+          if (n.rows[k] < -1)
+            fail_at(mesh.nodes_file, line, "a DOF row is >= 0, or -1 (not in the matrices)");
+        }
+        if (!mesh.index.emplace(n.number, mesh.nodes.size()).second)
+          fail_at(mesh.nodes_file, line,
+                  "node " + std::to_string(n.number) + " is listed twice (first on line " +
+                      std::to_string(mesh.nodes[mesh.index.at(n.number)].line) + ")");
+        mesh.nodes.push_back(n);
+      });
 }
 
 void read_faces(FeMesh& mesh, double length_scale) {
-  read_table(mesh.faces_file, "face,node,area,nx,ny,nz", 6,
-             [&](const std::vector<std::string>& f, int line) {
-               FaceNode n;
-               n.line = line;
-               if (f[0].empty()) fail_at(mesh.faces_file, line, "empty face name");
-               n.node = parse_integer(f[1], mesh.faces_file, line, "node");
-               if (!mesh.find(n.node))
-                 fail_at(mesh.faces_file, line,
-                         "node " + f[1] + " is not in " + mesh.nodes_file.filename().string());
-               n.area =
-                   length_scale * length_scale * parse_real(f[2], mesh.faces_file, line, "area");
-               if (!(n.area > 0)) fail_at(mesh.faces_file, line, "the area must be > 0");
-               double norm2 = 0;
-               for (int k = 0; k < 3; ++k) {
-                 n.normal[k] = parse_real(f[3 + k], mesh.faces_file, line, "normal component");
-                 norm2 += n.normal[k] * n.normal[k];
-               }
-               if (std::abs(std::sqrt(norm2) - 1.0) > 1e-6)
-                 fail_at(mesh.faces_file, line,
-                         "the normal is not a unit vector (length " +
-                             std::to_string(std::sqrt(norm2)) + ")");
-               auto& face = mesh.faces[f[0]];
-               for (const auto& other : face)
-                 if (other.node == n.node)
-                   fail_at(mesh.faces_file, line,
-                           "node " + f[1] + " is listed twice in face '" + f[0] + "' (line " +
-                               std::to_string(other.line) + ")");
-               face.push_back(n);
-             });
+  read_csv_table(
+      mesh.faces_file, "face,node,area,nx,ny,nz", 6, "",
+      [&](const std::vector<std::string>& f, int line) {
+        FaceNode n;
+        n.line = line;
+        if (f[0].empty()) fail_at(mesh.faces_file, line, "empty face name");
+        n.node = parse_integer(f[1], mesh.faces_file, line, "node");
+        if (!mesh.find(n.node))
+          fail_at(mesh.faces_file, line,
+                  "node " + f[1] + " is not in " + mesh.nodes_file.filename().string());
+        n.area = length_scale * length_scale * parse_real(f[2], mesh.faces_file, line, "area");
+        if (!(n.area > 0)) fail_at(mesh.faces_file, line, "the area must be > 0");
+        double norm2 = 0;
+        for (int k = 0; k < 3; ++k) {
+          n.normal[k] = parse_real(f[3 + k], mesh.faces_file, line, "normal component");
+          norm2 += n.normal[k] * n.normal[k];
+        }
+        if (std::abs(std::sqrt(norm2) - 1.0) > 1e-6)
+          fail_at(
+              mesh.faces_file, line,
+              "the normal is not a unit vector (length " + std::to_string(std::sqrt(norm2)) + ")");
+        auto& face = mesh.faces[f[0]];
+        for (const auto& other : face)
+          if (other.node == n.node)
+            fail_at(mesh.faces_file, line,
+                    "node " + f[1] + " is listed twice in face '" + f[0] + "' (line " +
+                        std::to_string(other.line) + ")");
+        face.push_back(n);
+      });
 }
 
 void read_node_sets(FeMesh& mesh, const YAML::Node& sets, const YamlContext& ctx) {
@@ -201,6 +171,35 @@ std::int64_t fe_node_number(const std::string& text) {
     if (ch < '0' || ch > '9') return -1;
   const std::int64_t n = std::stoll(text);
   return n > 0 ? n : -1;
+}
+
+void read_csv_table(const fs::path& file, const std::string& header, std::size_t columns,
+                    const std::string& key_path, const CsvRow& row) {
+  auto fail_at = [&](int line, const std::string& message) {
+    throw SceneError(file.string(), line, 0, key_path, message);
+  };
+  std::ifstream in(file);
+  if (!in) fail_at(0, "cannot open the file (a relative path is taken from mesh.yaml's folder)");
+  std::string text;
+  int line = 0;
+  bool header_seen = false;
+  while (std::getline(in, text)) {
+    ++line;
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    if (text.find_first_not_of(" \t") == std::string::npos || text[0] == '#') continue;
+    if (!header_seen) {
+      if (text != header) fail_at(line, "expected the header '" + header + "'");
+      header_seen = true;
+      continue;
+    }
+    const auto fields = split_fields(text);
+    if (fields.size() != columns)
+      fail_at(line, "expected " + std::to_string(columns) + " fields (" + header + "), found " +
+                        std::to_string(fields.size()));
+    row(fields, line);
+  }
+  if (in.bad()) fail_at(line, "read error");
+  if (!header_seen) fail_at(line, "empty table: expected the header '" + header + "'");
 }
 
 FeMesh load_fe_mesh(const fs::path& file) {

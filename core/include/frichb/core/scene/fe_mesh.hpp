@@ -25,6 +25,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <unordered_map>
@@ -67,6 +68,14 @@ struct FeMesh {
 
 // Reads mesh.yaml and the tables it names. Throws SceneError (file:line: what is wrong).
 FeMesh load_fe_mesh(const std::filesystem::path& file);
+
+// Reads the CSV table `file`: '#' lines and blank lines skipped, then the header line, which
+// must be `header`, then calls `row(fields, line)` (fields trimmed) for every data line, which
+// must have `columns` fields. Throws SceneError (file:line, `key_path`) for a missing file, a
+// wrong header, a wrong field count; `row` throws its own.
+using CsvRow = std::function<void(const std::vector<std::string>& fields, int line)>;
+void read_csv_table(const std::filesystem::path& file, const std::string& header,
+                    std::size_t columns, const std::string& key_path, const CsvRow& row);
 
 // An FE node number written as a scene name ("1234"), or -1 when `text` is not one.
 std::int64_t fe_node_number(const std::string& text);
