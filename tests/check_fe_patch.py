@@ -13,7 +13,9 @@ Builds test_case with --contact-pairs 1 and 4 into WORK, then:
     and the test could not see the normal's sign;
   - four pairs: the patch runs through the resonance to the sweep's end, summary.json
     records 4 pairs whose areas sum to the face area (shroud_thickness * shroud_width), and
-    contact_states/ holds each pair's shares of the period stuck, slipping and open.
+    contact_states/ holds each pair's shares of the period stuck, slipping and open;
+  - the shipped contact-mesh studies (configs/case_studies/contact_mesh_case*.yaml, one scene
+    for every mesh through the variable `pairs`) validate on these two models.
 
 Usage: check_fe_patch.py SOURCE_DIR FRICHB WORK_DIR      (exit code 1 on a failed check)
 """
@@ -103,6 +105,19 @@ def main():
     rows = [line.split(",") for line in states.read_text().splitlines()[1:]]
     if len(rows) != 4 or any(abs(sum(float(x) for x in r[7:10]) - 1) > 1e-12 for r in rows):
         fail(f"{states}: expected 4 pairs whose shares stuck + slipping + open sum to 1")
+    # The shipped contact-mesh studies, their sweep cut to the two models built here.
+    scenes = work / "configs" / "case_studies"
+    scenes.mkdir(parents=True)
+    generated = work / "configs" / "models" / "generated"
+    generated.mkdir(parents=True)
+    for pairs in (1, 4):
+        (generated / f"test_case_p{pairs}").symlink_to(work / f"p{pairs}")
+    for case in (1, 2):
+        shipped = source / "configs" / "case_studies" / f"contact_mesh_case{case}.yaml"
+        scene = scenes / shipped.name
+        shutil.copy(shipped, scene)
+        run([str(frichb), "--log-level", "warn", "validate", str(scene),
+             "--set", "variables.pairs=4", "--set", "study.sweep.0.values=[1, 4]"])
     print(f"check_fe_patch: one-pair patch = hand-written contact (peak {a['amplitude_m']:.9g} m "
           f"at {a['frequency_hz']:.9g} Hz); four pairs: peak "
           f"{summaries['p4_patch']['peak']['response']['amplitude_m']:.6g} m")

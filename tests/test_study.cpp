@@ -282,6 +282,82 @@ TEST(StudyRun, RunsMatchHandEditedScenesAndLinearLimits) {
   EXPECT_EQ(index["optimum"]["run"], "0001");
 }
 
+// The quick-start scene with its normal load and name taken from the variable n0.
+fs::path quickstart_with_variable(const TempDir& dir, const std::string& study,
+                                  const std::string& name = "variables.yaml") {
+  std::string text = read_text(quickstart_with_study(dir, study, name));
+  text = std::regex_replace(text, std::regex("params: \\{kt: 2.0e5, mu: 0.5, normal_load: 5.0\\}"),
+                            "params:\n      kt: 2.0e5\n      mu: 0.5\n      normal_load: ${n0}");
+  text = std::regex_replace(text, std::regex("name: friction_oscillator"),
+                            "name: oscillator_${n0}_N\nvariables: {n0: 5.0}");
+  return dir.write(name, text);
+}
+
+// A swept scene variable gives the runs of the keys it stands for, swept by hand.
+TEST(StudyRun, SweptVariablesAreTheKeysTheyStandFor) {
+  TempDir dir;
+  const auto by_variable = quickstart_with_variable(
+      dir, "study:\n  sweep:\n    - {path: variables.n0, values: [1.0e6, 5]}\n");
+  ASSERT_NE(read_text(by_variable).find("normal_load: ${n0}"), std::string::npos);
+  const auto by_key = quickstart_with_study(
+      dir,
+      "study:\n  sweep:\n"
+      "    - {path: contacts.root_friction.params.normal_load, values: [1.0e6, 5]}\n",
+      "keys.yaml");
+  StudyCommunicator serial;
+  ASSERT_EQ(run_study({by_variable, dir.path() / "variable", 1}, serial), kExitOk);
+  ASSERT_EQ(run_study({by_key, dir.path() / "key", 1}, serial), kExitOk);
+  for (const char* run : {"0000", "0001"})
+    EXPECT_EQ(read_text(dir.path() / "variable" / "runs" / run / "response.csv"),
+              read_text(dir.path() / "key" / "runs" / run / "response.csv"))
+        << run;
+  // Stuck (1e6 N): the linear oscillator with kt added to its spring.
+  const auto index = nlohmann::json::parse(read_text(dir.path() / "variable" / "study.json"));
+  const double m = 0.1, k = 4e5, kt = 2e5, force = 2.0;
+  const double c = 2 * 0.005 * std::sqrt(k / m) * m;
+  EXPECT_NEAR(index["runs"][0]["peak"]["blade"]["amplitude_m"].get<double>() /
+                  linear_peak(m, c, k + kt, force),
+              1.0, 1e-5);
+  // Text values take the variable as the study wrote it.
+  const auto member =
+      nlohmann::json::parse(read_text(dir.path() / "variable" / "runs" / "0001" / "summary.json"));
+  EXPECT_EQ(member["scene"]["name"], "oscillator_5_N");
+}
+
+TEST(SceneVariables, BadReferencesAndDefinitionsNameFileLineAndKey) {
+  TempDir dir;
+  auto error_of = [&](const std::string& from, const std::string& to) {
+    std::string text = read_text(quickstart_with_variable(dir, ""));
+    const auto at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    try {
+      Scene scene = load_scene(dir.write("bad.yaml", text));
+      bind_plugins(scene, frichb::test::built_plugins());
+    } catch (const SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(error_of("normal_load: ${n0}", "normal_load: ${N0}"),
+              ::testing::ContainsRegex("bad.yaml:[0-9]+:[0-9]+: "
+                                       "contacts\\[0\\].params.normal_load: .*unknown variable "
+                                       "'N0' \\(variables: n0\\)"));
+  EXPECT_THAT(error_of("normal_load: ${n0}", "normal_load: ${n0"),
+              HasSubstr("without its closing"));
+  EXPECT_THAT(error_of("variables: {n0: 5.0}", "variables: {2n: 5.0}"),
+              HasSubstr("'2n' is not a variable name"));
+  EXPECT_THAT(error_of("variables: {n0: 5.0}", "variables: {n0: [5.0]}"),
+              HasSubstr("variables.n0: a variable holds one value"));
+  EXPECT_THAT(error_of("variables: {n0: 5.0}", "variables: {n0: '${n0}'}"),
+              HasSubstr("cannot refer to a variable"));
+  EXPECT_THAT(error_of("variables: {n0: 5.0}", "variables: [5.0]"),
+              HasSubstr("variables: a map of names to values"));
+  // A substituted value is read like one written by hand: its key's checks still apply.
+  EXPECT_THAT(error_of("variables: {n0: 5.0}", "variables: {n0: -5.0}"), HasSubstr("normal_load"));
+  EXPECT_EQ(error_of("variables: {n0: 5.0}", "variables: {n0: 7.5}"), "no error");
+}
+
 TEST(StudyRun, OneThreadAndTwoThreadsWriteTheSameIndex) {
   TempDir dir;
   const auto file = quickstart_with_study(

@@ -2,19 +2,29 @@
 # The thesis case studies (docs/case-studies.md) from scratch: builds the FE models with Gmsh
 # and CalculiX, runs the scenes of this folder with frichb, and draws the figures.
 #
-#   configs/case_studies/run_case_studies.sh [--large] [OUT_DIR]
+#   configs/case_studies/run_case_studies.sh [--large] [--contact-mesh] [OUT_DIR]
 #
 # OUT_DIR (default out/case_studies) receives every run; docs/figures/case_studies/ the
-# figures and case_studies.json. Without --large only the 8-sector test case runs (cases 1
+# figures and case_studies.json. Without options only the 8-sector test case runs (cases 1
 # and 2: about 5 minutes on 2 cores); --large adds the 146-sector, 33 k-DOF case 3 and its
 # nodal-diameter map (its modal solutions, about 30 s per harmonic index, are cached in
 # configs/models/generated/large_case/modes_cache, 0.7 GB: about 40 minutes the first time,
-# 5 once cached).
+# 5 once cached); --contact-mesh adds the contact-mesh convergence study (the test case with
+# its shroud faces meshed as 1 to 128 contact node pairs, cases 1 and 2: about 25 minutes)
+# and its figures and contact_mesh.json.
 # Needs a build (scripts/build.sh) and the dependencies of scripts/setup.sh.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 large=0
-if [ "${1:-}" = "--large" ]; then large=1; shift; fi
+contact_mesh=0
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --large) large=1; shift ;;
+    --contact-mesh) contact_mesh=1; shift ;;
+    --*) echo "run_case_studies: unknown option $1" >&2; exit 1 ;;
+    *) break ;;
+  esac
+done
 out=${1:-out/case_studies}
 frichb=build/bin/frichb
 scenes=configs/case_studies
@@ -62,5 +72,19 @@ if [ "$large" = 1 ]; then
   fh study "$scenes/large_case_3_friction.yaml" -o "$out/large_case_3_friction"
 fi
 
+if [ "$contact_mesh" = 1 ]; then
+  step "contact-mesh models: the shroud faces as 1, 4, 16, 64 and 128 node pairs"
+  for n in 1 4 16 64 128; do
+    python3 "$models/build_model.py" --preset test_case --contact-pairs "$n"
+  done
+  step "contact-mesh convergence, case 1 settings (EO3, 1D friction)"
+  fh study "$scenes/contact_mesh_case1.yaml" -o "$out/contact_mesh_case1"
+  step "contact-mesh convergence, case 2 settings (EO1, 3D coupled friction)"
+  fh study "$scenes/contact_mesh_case2.yaml" -o "$out/contact_mesh_case2"
+fi
+
 step "figures"
 python3 scripts/case_studies_report.py "$out" docs/figures/case_studies
+if [ "$contact_mesh" = 1 ]; then
+  python3 scripts/contact_mesh_report.py "$out" configs/models/generated docs/figures/case_studies
+fi

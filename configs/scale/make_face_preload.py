@@ -12,7 +12,7 @@ harder than its near edge.
     python3 configs/scale/make_face_preload.py configs/models/generated/test_case_p100 \\
         --face shroud_right --total 5.0 --tilt 0.8 --axis z
 
-writes <model>/preload_<face>.csv. Python 3 standard library only; exit status 1 with a
+writes <model>/preload_<face>.csv (or the --output file name). Python 3 standard library only; exit status 1 with a
 message on bad input.
 """
 import argparse
@@ -44,6 +44,8 @@ def main() -> int:
     parser.add_argument("--total", type=float, default=5.0, help="total normal preload, N")
     parser.add_argument("--tilt", type=float, default=0.8, help="pressure slope, -1 < tilt < 1")
     parser.add_argument("--axis", choices="xyz", default="z", help="global axis across the face")
+    parser.add_argument("--output", help="file name in the model folder "
+                        "(default preload_<face>.csv)")
     args = parser.parse_args()
     if not -1 < args.tilt < 1 or not args.total >= 0:
         print("make_face_preload: need -1 < tilt < 1 and total >= 0", file=sys.stderr)
@@ -63,7 +65,12 @@ def main() -> int:
     weight = {n: a * (1 + args.tilt * ((coordinate[n] - mid) / half if half > 0 else 0.0))
               for n, a in face}
     total_weight = sum(weight.values())
-    out = args.model / f"preload_{args.face}.csv"
+    name = args.output or f"preload_{args.face}.csv"
+    if pathlib.Path(name).name != name or not name.endswith(".csv"):
+        print(f"make_face_preload: --output '{name}' must be a file name ending in .csv",
+              file=sys.stderr)
+        return 1
+    out = args.model / name
     tmp = out.with_suffix(".csv.tmp")
     with tmp.open("w", newline="") as f:
         f.write(f"# normal preload over {args.face}: total {args.total} N, tilt {args.tilt} "

@@ -776,6 +776,13 @@ def build(p, out, keep_work, gmsh, ccx, threads):
     named["excitation"] = nearest(kept, coords, blade_point(r_exc, 0.0, -p["blade_chord"] / 2))
     named["response"] = nearest(nsets["shroud_top"], coords,
                                 (r_out, 0.0, -p["shroud_width"] / 2))
+    # The outer leading corner of the shroud_right face: a vertex of the geometry, hence a node
+    # at the same place on every face mesh (a response point for comparing meshes).
+    corner = cyl_point(r_out, phi / 2, -p["shroud_width"] / 2)
+    named["shroud_corner"] = nearest(kept, coords, corner)
+    miss = math.dist(coords[named["shroud_corner"]], corner)
+    if miss > 1e-9:
+        raise BuildError(f"no node at the shroud face's corner (nearest {miss:.3g} m away)")
     inv = {v: k for k, v in shroud_pairs.items()}
     r_mid = p["r_tip"] + 0.5 * p["shroud_thickness"]
     left_contact = [n for n, _ in faces["shroud_left"]["nodes"]]

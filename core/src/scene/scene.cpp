@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "frichb/core/numerics/harmonics.hpp"
+#include "frichb/core/scene/scene_variables.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace frichb::core {
@@ -450,7 +451,7 @@ void read_top_level(Scene& scene, const YAML::Node& root, const YamlContext& ctx
   if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
   const std::vector<std::string> sections = {"structure",        "excitation",   "contacts",
                                              "harmonic_balance", "continuation", "output",
-                                             "cyclic",           "study"};
+                                             "cyclic",           "study",        "variables"};
   const auto top = validate_params(root, top_schema(), "", ctx, sections);
   const auto topv = view(top_schema(), top);
   scene.name = topv.text("name");
@@ -897,6 +898,7 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   scene.file = file;
   scene.root = document;
   const YamlContext ctx{file.string()};
+  substitute_scene_variables(scene.root, ctx);
   // In this order: a section is checked against those read before it.
   read_top_level(scene, scene.root, ctx);
   read_cyclic(scene, scene.root, ctx);
@@ -1003,7 +1005,10 @@ std::vector<CoreSection> core_schemas() {
   return {
       {"(top level)", top_schema(),
        "Sections: `structure`, `excitation`, `contacts`, `harmonic_balance`, `continuation` "
-       "(required), `output`, `cyclic`, `study`."},
+       "(required), `output`, `cyclic`, `study`, `variables`. `variables`: a map of names to "
+       "values (`variables: {pairs: 16}`); `${name}` in any text value of the scene is "
+       "replaced by the value as written, e.g. `mass: models/blade_p${pairs}/sector_mass.mtx`, "
+       "and a study can sweep `variables.pairs`."},
       {"structure", structure_schema(),
        "`params`: the provider's parameters (see Structure providers below). `dofs`: a map "
        "naming the DOFs the scene refers to (or the path, relative to the scene's folder, of a "
