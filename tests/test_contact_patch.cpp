@@ -145,6 +145,60 @@ output: {response: [block], plots: false}
   EXPECT_EQ(j["contacts"][0]["patch"]["pair_count"], 4);
 }
 
+// ---- Forces along global directions on nodes of the model map ----
+
+// Node 21 at theta = 60 deg in its cylindrical frame (r, theta, z), node 22 in the global frame,
+// both on the block's rows.
+fs::path axis_scene(const frichb::test::TempDir& dir, const std::string& excitation) {
+  dir.write("mesh.yaml", "format: 1\nunits: SI\nnodes: nodes.csv\n");
+  dir.write("nodes.csv",
+            "node,x,y,z,frame,dof_1,dof_2,dof_3\n"
+            "21,0.5,0.8660254037844386,0,cylindrical,0,1,2\n22,0,0,0,global,0,1,2\n");
+  return dir.write("axis.yaml", std::string("structure:") + kBlock + "  mesh: mesh.yaml\n" +
+                                    "excitation:\n" + excitation +
+                                    "output: {response: [\"21\"], plots: false}\n" + kSweep);
+}
+
+TEST(Excitation, GlobalAxesTurnIntoTheNodalFrame) {
+  frichb::test::TempDir dir;
+  const Scene scene =
+      bound(axis_scene(dir,
+                       "  - {dof: \"21\", amplitude: 1, axis: uy}\n"
+                       "  - {dof: \"21\", amplitude: 1, axis: ur}\n"
+                       "  - {dof: \"21\", amplitude: 1, axis: ut}\n"
+                       "  - {dof: \"21\", amplitude: 1, global_direction: [1, 0, 1]}\n"
+                       "  - {dof: \"22\", amplitude: 1, axis: uy}\n"));
+  ASSERT_EQ(scene.excitation.size(), 5u);
+  // At theta = 60 deg: e_r = (cos, sin, 0), e_theta = (-sin, cos, 0). Global y has the
+  // components (sin 60, cos 60, 0); x + z has (cos 60, -sin 60, 1) / sqrt 2.
+  const double c = 0.5, s = std::sqrt(3.0) / 2, h = 1 / std::sqrt(2.0);
+  const std::vector<std::vector<double>> expected = {
+      {s, c, 0}, {1, 0, 0}, {0, 1, 0}, {c * h, -s * h, h}, {0, 1, 0}};
+  for (std::size_t i = 0; i < expected.size(); ++i)
+    for (std::size_t k = 0; k < 3; ++k)
+      EXPECT_NEAR(scene.excitation[i].direction[k], expected[i][k], 1e-15) << i << "," << k;
+}
+
+TEST(Excitation, GlobalAxesNeedANodeOfTheModelMap) {
+  frichb::test::TempDir dir;
+  expect_scene_error(
+      [&] {
+        bound(axis_scene(dir,
+                         "  - {dof: \"21\", amplitude: 1, axis: uy, "
+                         "direction: [0, 1, 0]}\n"));
+      },
+      {"excitation[0]", "give one of direction"});
+  expect_scene_error([&] { bound(axis_scene(dir, "  - {dof: \"22\", amplitude: 1, axis: ur}\n")); },
+                     {"excitation[0].axis", "FE node 22 lies on the z axis"});
+  expect_scene_error([&] { bound(axis_scene(dir, "  - {dof: \"21\", amplitude: 1, axis: uq}\n")); },
+                     {"excitation[0].axis", "'uq' is not one of"});
+  expect_scene_error(
+      [&] {
+        bound(axis_scene(dir, "  - {dof: \"21\", amplitude: 1, global_direction: [0, 0]}\n"));
+      },
+      {"excitation[0].global_direction", "three components"});
+}
+
 // ---- Pairing across the cyclic boundary ----
 
 constexpr int kSectors = 8;

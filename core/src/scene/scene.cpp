@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <fstream>
@@ -57,10 +58,20 @@ const frichb_param_spec* excitation_fields() {
       Param::real_list("direction", "",
                        "direction over the node's components (nodes with more than one DOF)")
           .optional(),
+      Param::text("axis",
+                  "for a node of the model map: the force along a global axis (ux, uy, uz) or "
+                  "radial / circumferential about the global z axis at the node (ur, ut), turned "
+                  "into the node's frame; instead of direction")
+          .optional()
+          .choices("ux|uy|uz|ur|ut"),
+      Param::real_list("global_direction", "",
+                       "for a node of the model map: the direction [x, y, z] in global "
+                       "coordinates, turned into the node's frame; instead of direction")
+          .optional(),
   };
   return f;
 }
-constexpr std::size_t kExcitationFieldCount = 5;
+constexpr std::size_t kExcitationFieldCount = 7;
 const std::vector<frichb_param_spec>& excitation_schema() {
   static const std::vector<frichb_param_spec> s = {
       Param::records("excitation", "harmonic point forces", excitation_fields(),
@@ -257,6 +268,7 @@ const NodeSpec* resolve_node(StructureSpec& s, const std::string& name, std::str
   NodeSpec node;
   node.name = name;
   node.from_mesh = true;
+  node.fe_node = number;
   node.line = m->line;
   node.defined_in = s.mesh->nodes_file.string();
   for (int k = 0; k < 3; ++k) {
@@ -595,6 +607,67 @@ void read_harmonic_balance(Scene& scene, YAML::Node root, const YamlContext& ctx
 
 // excitation: the harmonic point forces, on nodes of the structure and kept harmonics (read
 // after structure and harmonic_balance).
+// The global unit vector an excitation's `axis` or `global_direction` names at `node` (global
+// Cartesian components), or throws at `entry`.
+std::array<double, 3> global_force_direction(const MeshNode& node, const sdk::Params& r,
+                                             YAML::Node entry, const std::string& path,
+                                             const YamlContext& ctx) {
+  const std::string axis = r.present("axis") ? r.text("axis") : std::string();
+  if (axis.empty()) {
+    const auto v = r.reals("global_direction");
+    if (v.size() != 3)
+      ctx.fail(entry["global_direction"], path + ".global_direction",
+               "give three components [x, y, z]");
+    const double norm = std::hypot(v[0], v[1], v[2]);
+    if (!(norm > 0) || !std::isfinite(norm))
+      ctx.fail(entry["global_direction"], path + ".global_direction",
+               "a zero or non-finite vector");
+    return {v[0] / norm, v[1] / norm, v[2] / norm};
+  }
+  if (axis == "ux") return {1, 0, 0};
+  if (axis == "uy") return {0, 1, 0};
+  if (axis == "uz") return {0, 0, 1};
+  const double x = node.position[0], y = node.position[1], radius = std::hypot(x, y);
+  if (!(radius > 0))
+    ctx.fail(entry["axis"], path + ".axis",
+             "FE node " + std::to_string(node.number) +
+                 " lies on the z axis: it has no radial or circumferential direction");
+  if (axis == "ur") return {x / radius, y / radius, 0};
+  return {-y / radius, x / radius, 0};
+}
+
+// An excitation's direction over its node's components: `direction` as written (a one-DOF
+// node defaults to [1]), or a global `axis` / `global_direction` turned into the frame of a
+// node of the model map.
+std::vector<double> excitation_direction(const StructureSpec& structure, const NodeSpec& node,
+                                         const sdk::Params& r, YAML::Node entry,
+                                         const std::string& path, const YamlContext& ctx) {
+  auto dir = r.reals("direction");
+  const bool global = r.present("axis") || r.present("global_direction");
+  if (global) {
+    if (!dir.empty() || (r.present("axis") && r.present("global_direction")))
+      ctx.fail(entry, path,
+               "give one of direction (the node's components), axis or global_direction");
+    const MeshNode* m =
+        node.from_mesh && structure.mesh ? structure.mesh->find(node.fe_node) : nullptr;
+    if (!m)
+      ctx.fail(entry[r.present("axis") ? "axis" : "global_direction"], path,
+               "'" + node.name +
+                   "' is not a node of the model map (structure.mesh): a global direction needs "
+                   "its coordinates and nodal frame; give direction over its components");
+    const auto v = FeMesh::to_nodal(*m, global_force_direction(*m, r, entry, path, ctx));
+    return {v[0], v[1], v[2]};
+  }
+  if (dir.empty() && node.dofs.size() == 1) dir.push_back(1.0);
+  if (dir.empty())
+    ctx.fail(entry, path + ".direction",
+             "node '" + node.name +
+                 "' has several DOFs: give a direction (or, for a node of "
+                 "the model map, a global axis or global_direction)");
+  return unit_vector(dir, entry["direction"] ? entry["direction"] : entry, path + ".direction", ctx,
+                     node.dofs.size());
+}
+
 void read_excitation(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   YAML::Node exn = root["excitation"];
   YAML::Node wrapped;
@@ -610,13 +683,7 @@ void read_excitation(Scene& scene, YAML::Node root, const YamlContext& ctx) {
     std::string why;
     const NodeSpec* node = resolve_node(scene.structure, e.node, why);
     if (!node) ctx.fail(exn[i]["dof"], path + ".dof", why);
-    auto dir = r.reals("direction");
-    if (dir.empty() && node->dofs.size() == 1) dir.push_back(1.0);
-    if (dir.empty())
-      ctx.fail(exn[i], path + ".direction",
-               "node '" + e.node + "' has several DOFs: give a direction");
-    e.direction = unit_vector(dir, exn[i]["direction"] ? exn[i]["direction"] : exn[i],
-                              path + ".direction", ctx, node->dofs.size());
+    e.direction = excitation_direction(scene.structure, *node, r, exn[i], path, ctx);
     e.amplitude = r.real("amplitude");
     e.harmonic = static_cast<int>(r.integer("harmonic"));
     e.phase = r.real("phase_deg") * std::numbers::pi / 180.0;

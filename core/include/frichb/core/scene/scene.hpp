@@ -39,6 +39,7 @@ struct NodeSpec {
   // An FE node of the model map (`structure.mesh`) that the scene names by its number or by a
   // one-node set: its DOFs are the node's matrix rows, `line` its line in nodes.csv.
   bool from_mesh = false;
+  std::int64_t fe_node = 0;  // its FE node number
   int line = 0;
 };
 
