@@ -10,7 +10,7 @@
 # nodal-diameter map (its modal solutions, about 30 s per harmonic index, are cached in
 # configs/models/generated/large_case/modes_cache, 0.7 GB: about 40 minutes the first time,
 # 5 once cached); --contact-mesh adds the contact-mesh convergence study (the test case with
-# its shroud faces meshed as 1 to 128 contact node pairs, cases 1 and 2: about 25 minutes)
+# its shroud faces meshed as 1 to 128 contact node pairs, cases 1 and 2: about 40 minutes)
 # and its figures and contact_mesh.json.
 # Needs a build (scripts/build.sh) and the dependencies of scripts/setup.sh.
 set -euo pipefail
@@ -76,11 +76,21 @@ if [ "$contact_mesh" = 1 ]; then
   step "contact-mesh models: the shroud faces as 1, 4, 16, 64 and 128 node pairs"
   for n in 1 4 16 64 128; do
     python3 "$models/build_model.py" --preset test_case --contact-pairs "$n"
+    python3 configs/scale/make_face_preload.py "configs/models/generated/test_case_p$n" \
+      --total 1.0 --tilt 0.8 --axis z --output preload_tilted_1N.csv
   done
   step "contact-mesh convergence, case 1 settings (EO3, 1D friction)"
   fh study "$scenes/contact_mesh_case1.yaml" -o "$out/contact_mesh_case1"
   step "contact-mesh convergence, case 2 settings (EO1, 3D coupled friction)"
   fh study "$scenes/contact_mesh_case2.yaml" -o "$out/contact_mesh_case2"
+  step "contact-mesh convergence, case 2 settings with the preload varying 9:1 over the face"
+  fh study "$scenes/contact_mesh_case2_tilted.yaml" -o "$out/contact_mesh_case2_tilted"
+  step "contact-mesh models without the contact (the structure's own change with the mesh)"
+  free=(--set contacts.shroud.params.mu=0 --set contacts.shroud.params.kn=0
+        --set harmonic_balance.max_harmonic=1 --set "output.contact_states_at=[]")
+  fh study "$scenes/contact_mesh_case1.yaml" "${free[@]}" -o "$out/contact_mesh_case1_free"
+  fh study "$scenes/contact_mesh_case2.yaml" "${free[@]}" \
+    --set contacts.shroud.params.normal_load=0 -o "$out/contact_mesh_case2_free"
 fi
 
 step "figures"
