@@ -9,8 +9,8 @@ OUT_DIR holds the studies contact_mesh_case1/, contact_mesh_case2/ and contact_m
 and, when run, the same meshes without contact (contact_mesh_case1_free/, contact_mesh_case2_free/:
 the structure's own change with the face mesh) (frichb study outputs,
 swept over variables.pairs); MODELS_DIR the models they ran on (test_case_p<N>/, whose
-nodes.csv gives each mesh's sector DOFs). Writes into FIGURE_DIR contact_mesh.json (every
-number the page quotes), contact_mesh_peaks.png (the peak's distance to the reference against
+nodes.csv gives each mesh's sector DOFs). Writes into FIGURE_DIR contact_mesh.json (the
+numbers of the page's tables), contact_mesh_peaks.png (the peak's distance to the reference against
 the pair count), contact_mesh_frequencies.png (free, stuck and peak frequencies against
 the pair count) and, for each study's finest mesh, a plot of its face coloured by the share of
 the period each pair sticks (from the run's contact_states tables); prints
@@ -22,7 +22,8 @@ pairs (h halving each time) p = log2((P4 - P16) / (P16 - P64)), P_inf = P64 + (P
 (2^p - 1); 16, 64 and 128 pairs (unequal ratios) are the cross-check, p found by bisection.
 Where the differences change sign the order is not defined: the finest mesh is then the
 reference. "Enough pairs for 1 %" is the coarsest mesh from which every finer one is within 1 %
-of the reference.
+of the reference (of the finest mesh, when that is the reference: then only the coarser meshes
+say anything). A run whose peak was not refined (summary.json peak.refined false) is reported.
 """
 import csv
 import glob
@@ -91,6 +92,9 @@ def case_rows(study_dir, free_dir, models, harmonic_index, node):
             s = json.load(f)
         pairs = int(float(r["variables.pairs"]))
         peak = s["peak"][node]
+        if not peak.get("refined", False):
+            print(f"  warning: {study_dir} run {r['run']}: the peak of {node} was not refined "
+                  "(the largest sampled point)")
         rows.append({
             "pairs": pairs, "sector_dofs": sector_dofs(models, pairs),
             "unknowns": s["unknowns"], "points": s["points"],

@@ -112,7 +112,10 @@ def main():
     generated.mkdir(parents=True)
     for pairs in (1, 4):
         (generated / f"test_case_p{pairs}").symlink_to(work / f"p{pairs}")
-    for case in (1, 2):
+        run([sys.executable, str(source / "configs/scale/make_face_preload.py"),
+             str(work / f"p{pairs}"), "--total", "1.0", "--tilt", "0.8", "--axis", "z",
+             "--output", "preload_tilted_1N.csv"])
+    for case in ("1", "2", "2_tilted"):
         shipped = source / "configs" / "case_studies" / f"contact_mesh_case{case}.yaml"
         scene = scenes / shipped.name
         shutil.copy(shipped, scene)

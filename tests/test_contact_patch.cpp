@@ -149,12 +149,13 @@ output: {response: [block], plots: false}
 
 // Node 21 at theta = 60 deg in its cylindrical frame (r, theta, z), node 22 in the global frame,
 // both on the block's rows.
-fs::path axis_scene(const frichb::test::TempDir& dir, const std::string& excitation) {
+fs::path axis_scene(const frichb::test::TempDir& dir, const std::string& excitation,
+                    const std::string& dofs = "") {
   dir.write("mesh.yaml", "format: 1\nunits: SI\nnodes: nodes.csv\n");
   dir.write("nodes.csv",
             "node,x,y,z,frame,dof_1,dof_2,dof_3\n"
             "21,0.5,0.8660254037844386,0,cylindrical,0,1,2\n22,0,0,0,global,0,1,2\n");
-  return dir.write("axis.yaml", std::string("structure:") + kBlock + "  mesh: mesh.yaml\n" +
+  return dir.write("axis.yaml", std::string("structure:") + kBlock + dofs + "  mesh: mesh.yaml\n" +
                                     "excitation:\n" + excitation +
                                     "output: {response: [\"21\"], plots: false}\n" + kSweep);
 }
@@ -187,7 +188,21 @@ TEST(Excitation, GlobalAxesNeedANodeOfTheModelMap) {
                          "  - {dof: \"21\", amplitude: 1, axis: uy, "
                          "direction: [0, 1, 0]}\n"));
       },
-      {"excitation[0]", "give one of direction"});
+      {"excitation[0].axis", "give one of direction"});
+  expect_scene_error(
+      [&] {
+        bound(axis_scene(dir,
+                         "  - {dof: \"21\", amplitude: 1, axis: uy, "
+                         "global_direction: [0, 1, 0]}\n"));
+      },
+      {"excitation[0].axis", "give one of direction"});
+  // A node named by structure.dofs has no coordinates: no global direction.
+  expect_scene_error(
+      [&] {
+        bound(axis_scene(dir, "  - {dof: block, amplitude: 1, axis: ux}\n",
+                         "  dofs: {block: [0, 1, 2]}\n"));
+      },
+      {"excitation[0].axis", "'block' is not a node of the model map"});
   expect_scene_error([&] { bound(axis_scene(dir, "  - {dof: \"22\", amplitude: 1, axis: ur}\n")); },
                      {"excitation[0].axis", "FE node 22 lies on the z axis"});
   expect_scene_error([&] { bound(axis_scene(dir, "  - {dof: \"21\", amplitude: 1, axis: uq}\n")); },

@@ -7,6 +7,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -326,10 +327,12 @@ TEST(StudyRun, SweptVariablesAreTheKeysTheyStandFor) {
 
 TEST(SceneVariables, BadReferencesAndDefinitionsNameFileLineAndKey) {
   TempDir dir;
+  int line_of_change = 0;  // 1-based line of the replaced text
   auto error_of = [&](const std::string& from, const std::string& to) {
     std::string text = read_text(quickstart_with_variable(dir, ""));
     const auto at = text.find(from);
     EXPECT_NE(at, std::string::npos) << from;
+    line_of_change = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
     text.replace(at, from.size(), to);
     try {
       Scene scene = load_scene(dir.write("bad.yaml", text));
@@ -339,10 +342,12 @@ TEST(SceneVariables, BadReferencesAndDefinitionsNameFileLineAndKey) {
     }
     return std::string("no error");
   };
-  EXPECT_THAT(error_of("normal_load: ${n0}", "normal_load: ${N0}"),
-              ::testing::ContainsRegex("bad.yaml:[0-9]+:[0-9]+: "
-                                       "contacts\\[0\\].params.normal_load: .*unknown variable "
-                                       "'N0' \\(variables: n0\\)"));
+  const std::string unknown = error_of("normal_load: ${n0}", "normal_load: ${N0}");
+  EXPECT_THAT(unknown, HasSubstr("bad.yaml:" + std::to_string(line_of_change) + ":"));
+  EXPECT_THAT(unknown, ::testing::ContainsRegex("contacts\\[0\\].params.normal_load: .*unknown "
+                                                "variable 'N0' \\(variables: n0\\)"));
+  EXPECT_THAT(error_of("      mu: 0.5", "      mu_${n0}: 0.5"),
+              HasSubstr("a key cannot hold a variable"));
   EXPECT_THAT(error_of("normal_load: ${n0}", "normal_load: ${n0"),
               HasSubstr("without its closing"));
   EXPECT_THAT(error_of("variables: {n0: 5.0}", "variables: {2n: 5.0}"),

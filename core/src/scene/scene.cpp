@@ -646,12 +646,14 @@ std::vector<double> excitation_direction(const StructureSpec& structure, const N
   const bool global = r.present("axis") || r.present("global_direction");
   if (global) {
     if (!dir.empty() || (r.present("axis") && r.present("global_direction")))
-      ctx.fail(entry, path,
+      ctx.fail(entry[r.present("axis") ? "axis" : "global_direction"],
+               path + (r.present("axis") ? ".axis" : ".global_direction"),
                "give one of direction (the node's components), axis or global_direction");
     const MeshNode* m =
         node.from_mesh && structure.mesh ? structure.mesh->find(node.fe_node) : nullptr;
     if (!m)
-      ctx.fail(entry[r.present("axis") ? "axis" : "global_direction"], path,
+      ctx.fail(entry[r.present("axis") ? "axis" : "global_direction"],
+               path + (r.present("axis") ? ".axis" : ".global_direction"),
                "'" + node.name +
                    "' is not a node of the model map (structure.mesh): a global direction needs "
                    "its coordinates and nodal frame; give direction over its components");

@@ -4,6 +4,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <array>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <iomanip>
@@ -206,9 +208,16 @@ std::string format_scene_value(double x) {
     os << static_cast<long long>(x);
     return os.str();
   }
-  std::ostringstream os;
-  os << std::setprecision(17) << x;
-  return os.str();
+  // The shortest text that reads back as x (0.1, 2.5e-05), so that a swept value lands in a
+  // scene variable's text as a user would write it.
+  std::array<char, 64> buffer{};
+  const auto [end, error] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), x);
+  if (error != std::errc()) {
+    std::ostringstream os;
+    os << std::setprecision(17) << x;
+    return os.str();
+  }
+  return std::string(buffer.data(), end);
 }
 
 void set_scene_value(YAML::Node document,  // NOLINT(performance-unnecessary-value-param)

@@ -78,6 +78,9 @@ void substitute(YAML::Node node,  // NOLINT(performance-unnecessary-value-param)
   if (node.IsMap()) {
     for (auto kv : node) {
       const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string("?");
+      if (key.find("${") != std::string::npos)
+        context.fail(kv.first, child(path, key),
+                     "a key cannot hold a variable (`${` in a key): variables go in values");
       if (path.empty() && key == "variables") continue;
       substitute(kv.second, child(path, key), vars, context);
     }

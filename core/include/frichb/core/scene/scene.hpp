@@ -170,8 +170,9 @@ std::vector<std::filesystem::path> resolve_plugin_paths(const std::vector<std::s
 // the scene did not write). Implemented in scene_path.cpp.
 //
 // Sets the scalar at `path` in `document` to `value` (an integral value is written as an
-// integer, any other with 17 significant digits). Throws std::invalid_argument naming the
-// part of the path that does not resolve, or saying that it addresses a map or a list.
+// integer, any other as the shortest text that reads back as the same double: 0.1, 2.5e-05). Throws
+// std::invalid_argument naming the part of the path that does not resolve, or saying that it
+// addresses a map or a list.
 void set_scene_value(YAML::Node document, const std::string& path, double value);
 // The same checks without writing (`document` is left untouched).
 void check_scene_path(const YAML::Node& document, const std::string& path);

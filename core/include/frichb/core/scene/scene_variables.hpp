@@ -6,7 +6,8 @@
 // Substitution is textual and one pass: `${name}` inside any scalar outside `variables` becomes
 // the value exactly as written (a swept number in its shortest form: 16, 2.5e-05); the result
 // is the scalar's new text, read afterwards like any value written by hand. It is never parsed
-// as YAML, nor handed to a shell or an interpreter. A `${` always starts a reference.
+// as YAML, nor handed to a shell or an interpreter. A `${` always starts a reference; keys
+// cannot hold one.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -22,7 +23,7 @@ namespace frichb::core {
 // digits or `_` - to scalars that hold no `${`) and replaces every `${name}` in the other
 // scalars of `root`, in place (the nodes keep their file positions). Returns the variables.
 // Throws SceneError naming the file, line and key path of a malformed `variables` map, an
-// unknown name or an unterminated `${`.
+// unknown name, an unterminated `${` or a key holding `${`.
 std::map<std::string, std::string> substitute_scene_variables(YAML::Node root,
                                                               const YamlContext& context);
 
