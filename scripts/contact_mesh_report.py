@@ -28,11 +28,11 @@ say anything). A run whose peak was not refined (summary.json peak.refined false
 import csv
 import glob
 import json
-import math
 import os
 import shutil
-import subprocess
 import sys
+
+from case_studies_report import gnuplot
 
 CASES = {
     "case1": {"study": "contact_mesh_case1", "free": "contact_mesh_case1_free",
@@ -128,17 +128,6 @@ def order_and_limit(meshes):
     p = 0.5 * (lo + hi)
     c = d23 / (h2 ** p - h3 ** p)
     return p, p3 - c * h3 ** p
-
-
-def gnuplot(script, figure_dir, name):
-    path = os.path.join(figure_dir, name + ".gp")
-    with open(path, "w") as f:
-        f.write(script)
-    if shutil.which("gnuplot") is None:
-        print(f"  gnuplot missing: {path} not drawn")
-        return
-    subprocess.run(["gnuplot", name + ".gp"], cwd=figure_dir, check=True)
-    print(f"  {os.path.join(figure_dir, name + '.png')}")
 
 
 def fmt(x, digits=4):

@@ -605,8 +605,6 @@ void read_harmonic_balance(Scene& scene, YAML::Node root, const YamlContext& ctx
   scene.core_values["harmonic_balance"] = hb.to_json(harmonic_balance_schema());
 }
 
-// excitation: the harmonic point forces, on nodes of the structure and kept harmonics (read
-// after structure and harmonic_balance).
 // The global unit vector an excitation's `axis` or `global_direction` names at `node` (global
 // Cartesian components), or throws at `entry`.
 std::array<double, 3> global_force_direction(const MeshNode& node, const sdk::Params& r,
@@ -618,11 +616,8 @@ std::array<double, 3> global_force_direction(const MeshNode& node, const sdk::Pa
     if (v.size() != 3)
       ctx.fail(entry["global_direction"], path + ".global_direction",
                "give three components [x, y, z]");
-    const double norm = std::hypot(v[0], v[1], v[2]);
-    if (!(norm > 0) || !std::isfinite(norm))
-      ctx.fail(entry["global_direction"], path + ".global_direction",
-               "a zero or non-finite vector");
-    return {v[0] / norm, v[1] / norm, v[2] / norm};
+    const auto u = unit_vector(v, entry["global_direction"], path + ".global_direction", ctx, 3);
+    return {u[0], u[1], u[2]};
   }
   if (axis == "ux") return {1, 0, 0};
   if (axis == "uy") return {0, 1, 0};
@@ -643,17 +638,15 @@ std::vector<double> excitation_direction(const StructureSpec& structure, const N
                                          const sdk::Params& r, YAML::Node entry,
                                          const std::string& path, const YamlContext& ctx) {
   auto dir = r.reals("direction");
-  const bool global = r.present("axis") || r.present("global_direction");
-  if (global) {
+  if (r.present("axis") || r.present("global_direction")) {
+    const char* key = r.present("axis") ? "axis" : "global_direction";
     if (!dir.empty() || (r.present("axis") && r.present("global_direction")))
-      ctx.fail(entry[r.present("axis") ? "axis" : "global_direction"],
-               path + (r.present("axis") ? ".axis" : ".global_direction"),
+      ctx.fail(entry[key], path + "." + key,
                "give one of direction (the node's components), axis or global_direction");
     const MeshNode* m =
         node.from_mesh && structure.mesh ? structure.mesh->find(node.fe_node) : nullptr;
     if (!m)
-      ctx.fail(entry[r.present("axis") ? "axis" : "global_direction"],
-               path + (r.present("axis") ? ".axis" : ".global_direction"),
+      ctx.fail(entry[key], path + "." + key,
                "'" + node.name +
                    "' is not a node of the model map (structure.mesh): a global direction needs "
                    "its coordinates and nodal frame; give direction over its components");
@@ -670,6 +663,8 @@ std::vector<double> excitation_direction(const StructureSpec& structure, const N
                      node.dofs.size());
 }
 
+// excitation: the harmonic point forces, on nodes of the structure and kept harmonics (read
+// after structure and harmonic_balance).
 void read_excitation(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   YAML::Node exn = root["excitation"];
   YAML::Node wrapped;
