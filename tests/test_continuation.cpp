@@ -543,6 +543,77 @@ TEST(Continuation, KeepsTheOrientationWhereAStepLandsPastAFold) {
   EXPECT_EQ(s_curve.reversed_tangents, 0);
 }
 
+TEST(Continuation, GmresTracesTheSameFoldAndKinkCurvesAsTheDenseLu) {
+  // The folds of the S-curve and the circle, the kinks of the zigzag (steps past them) and the
+  // stairs (a tangent reversed by the orientation): GMRES on the kept factorisation of an
+  // earlier matrix, with the orientation inherited where no determinant is formed, gives the
+  // dense path's points, folds, kink steps and reversals.
+  const auto zigzag_f = [](double x) { return x < 0.0 ? x : (x < 1.0 ? -3.0 * x : 5.0 * x - 8.0); };
+  const auto zigzag_slope = [](double x) { return x < 0.0 ? 1.0 : (x < 1.0 ? -3.0 : 5.0); };
+  const ScalarCurve zigzag(
+      [&](double x, double l) { return zigzag_f(x) - l; },
+      [&](double x, double) { return Eigen::Vector2d(zigzag_slope(x), -1.0); });
+  const auto stairs_f = [](double x) {
+    if (x < 0.0) return x;
+    if (x < 0.1) return -3.0 * x;
+    if (x < 0.3) return -0.3 + 5.0 * (x - 0.1);
+    if (x < 0.6) return 0.7 - 3.0 * (x - 0.3);
+    return -0.2 + 5.0 * (x - 0.6);
+  };
+  const auto stairs_slope = [](double x) {
+    if (x < 0.0) return 1.0;
+    if (x < 0.1) return -3.0;
+    if (x < 0.3) return 5.0;
+    if (x < 0.6) return -3.0;
+    return 5.0;
+  };
+  const ScalarCurve stairs(
+      [&](double x, double l) { return stairs_f(x) - l; },
+      [&](double x, double) { return Eigen::Vector2d(stairs_slope(x), -1.0); });
+  ContinuationOptions stairs_options = Sweep(-0.001, 1.0);
+  stairs_options.initial_step = 0.5;
+  stairs_options.max_step = 0.5;
+  stairs_options.lambda_min = -2.0;
+  struct Case {
+    const char* name;
+    const CurveProblem* problem;
+    Eigen::Vector2d guess;
+    ContinuationOptions options;
+  };
+  const ScalarCurve s_curve = SCurve();
+  const std::vector<Case> cases = {
+      {"S-curve", &s_curve, Eigen::Vector2d(-2.0, -6.0), Sweep(-6.0, 6.0)},
+      {"zigzag", &zigzag, Eigen::Vector2d(-1.0, -1.0), Sweep(-1.0, 1.0)},
+      {"stairs", &stairs, Eigen::Vector2d(-0.001, -0.001), stairs_options},
+  };
+  for (const auto& c : cases) {
+    for (const Eigen::Index chord_from : {Eigen::Index{0}, Eigen::Index{1}}) {
+      SCOPED_TRACE(std::string(c.name) + (chord_from > 0 ? ", chord corrector" : ""));
+      ContinuationOptions dense_options = c.options;
+      dense_options.reuse_factorisation_from = chord_from;
+      dense_options.linear_solver = LinearSolverKind::kDenseLu;
+      ContinuationOptions gmres_options = dense_options;
+      gmres_options.linear_solver = LinearSolverKind::kGmres;
+      const auto dense = trace_curve(*c.problem, c.guess, dense_options);
+      const auto gmres = trace_curve(*c.problem, c.guess, gmres_options);
+      ASSERT_TRUE(dense.reached_end()) << dense.message;
+      ASSERT_TRUE(gmres.reached_end()) << gmres.message;
+      EXPECT_EQ(dense.profile.linear_solver, "dense_lu");
+      EXPECT_EQ(gmres.profile.linear_solver, "gmres");
+      EXPECT_GT(gmres.profile.krylov_solves, 0);
+      EXPECT_LT(gmres.profile.factorisations, dense.profile.factorisations);
+      ASSERT_EQ(gmres.points.size(), dense.points.size());
+      EXPECT_EQ(gmres.turning_points, dense.turning_points);
+      EXPECT_EQ(gmres.kink_steps, dense.kink_steps);
+      EXPECT_EQ(gmres.reversed_tangents, dense.reversed_tangents);
+      for (std::size_t i = 0; i < dense.points.size(); ++i) {
+        EXPECT_LE((gmres.points[i].y - dense.points[i].y).norm(), 1e-9) << "point " << i;
+        EXPECT_EQ(gmres.points[i].orientation, dense.points[i].orientation) << "point " << i;
+      }
+    }
+  }
+}
+
 TEST(Continuation, RefusesAResidualFloorPastAFold) {
   // The zigzag of PassesFoldsAtCornersSharperThan90Degrees with its residual scaled by 1e-4
   // (as a scaled friction residual can be), from 1e-5 before its first fold with steps of

@@ -16,6 +16,8 @@
 
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/commands/timesim.hpp"
+#include "frichb/core/model/continuation_setup.hpp"
+#include "frichb/core/model/harmonic_balance.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "test_support.hpp"
 
@@ -350,6 +352,93 @@ std::vector<double> folds(const Curve& c) {
 }
 
 }  // namespace
+
+TEST(Stress, GmresAndDenseLuTraceTheSameFoldingCurve) {
+  // The closing gap's bent resonance (two folds, a refined peak) by `frichb run`, with every
+  // system factorised and with GMRES on kept factorisations: the same folds and peak, the
+  // choice and the GMRES counts in summary.json.
+  TempDir dir;
+  const fs::path file = kStress / "hertz_gap_folds.yaml";
+  const auto with = [&](const char* solver) {
+    return run(bound(file,
+                     [&](YAML::Node& d) {
+                       d["continuation"]["linear_solver"] = solver;
+                       d["output"]["plots"] = false;
+                     }),
+               dir, solver);
+  };
+  const Curve dense = with("dense_lu");
+  const Curve gmres = with("gmres");
+  ASSERT_EQ(dense.outcome.exit_code, kExitOk) << dense.outcome.message;
+  ASSERT_EQ(gmres.outcome.exit_code, kExitOk) << gmres.outcome.message;
+  const auto& solver = gmres.summary["profile"]["linear_solver"];
+  EXPECT_EQ(solver.value("kind", ""), "gmres");
+  EXPECT_GT(solver.value("krylov_solves", 0), 0);
+  EXPECT_LT(gmres.summary["profile"]["continuation"].value("factorisations", 0),
+            dense.summary["profile"]["continuation"].value("factorisations", 0) / 10);
+  EXPECT_EQ(dense.summary["profile"]["linear_solver"].value("kind", ""), "dense_lu");
+  // The updates are solved to 1e-4 only, so the points are not the dense path's (the test
+  // below compares solutions at equal frequencies): the same folds and the same refined peak.
+  EXPECT_EQ(gmres.summary["turning_point_frequencies"].size(),
+            dense.summary["turning_point_frequencies"].size());
+  const auto& dense_peak = dense.summary["peak"]["tip"];
+  const auto& gmres_peak = gmres.summary["peak"]["tip"];
+  ASSERT_TRUE(dense_peak.value("refined", false));
+  ASSERT_TRUE(gmres_peak.value("refined", false));
+  EXPECT_NEAR(gmres_peak.value("amplitude_m", 0.0) / dense_peak.value("amplitude_m", 1.0), 1.0,
+              1e-8);
+  EXPECT_NEAR(gmres_peak.value("frequency_hz", 0.0), dense_peak.value("frequency_hz", 0.0), 1e-6);
+}
+
+TEST(Stress, GmresAndDenseLuSolveTheSameCurve) {
+  // At each frequency the dense path accepted on the closing gap's curve (both folds, the
+  // steep flanks), Newton at fixed frequency from 1 % below the accepted point: with every
+  // system factorised, and with GMRES on the factorisation of the first iteration. The same
+  // solution to 1e-8 of its largest unknown.
+  Scene scene = bound(kStress / "hertz_gap_folds.yaml");
+  StructureInstance structure(scene.structure.plugin, scene.structure.values);
+  HarmonicBalanceModel model(scene, structure);
+  ContinuationOptions dense = derive_continuation(scene, model).options;
+  dense.linear_solver = LinearSolverKind::kDenseLu;
+  ContinuationOptions gmres = dense;
+  gmres.linear_solver = LinearSolverKind::kGmres;
+  const Eigen::Index n = model.equation_count();
+  Eigen::VectorXd y0(n + 1);
+  y0 << model.linear_response(dense.lambda_start), dense.lambda_start;
+  const ContinuationSummary curve = trace_curve(model, y0, dense);
+  ASSERT_TRUE(curve.reached_end()) << curve.message;
+  ASSERT_GE(curve.points.size(), 100u);
+  long krylov_solves = 0;
+  double worst = 0.0;
+  for (const ContinuationPoint& p : curve.points) {
+    Eigen::VectorXd guess = p.y;
+    guess.head(n) *= 0.99;
+    const NewtonResult with_lu = solve_fixed_parameter(model, guess, dense);
+    const NewtonResult with_gmres = solve_fixed_parameter(model, guess, gmres);
+    ASSERT_TRUE(with_lu.converged) << with_lu.message;
+    ASSERT_TRUE(with_gmres.converged) << with_gmres.message;
+    const double size = with_lu.y.head(n).lpNorm<Eigen::Infinity>();
+    worst = std::max(worst, (with_gmres.y - with_lu.y).head(n).lpNorm<Eigen::Infinity>() / size);
+    krylov_solves += with_gmres.profile.krylov_solves;
+  }
+  std::cout << curve.points.size() << " frequencies, " << krylov_solves
+            << " GMRES solves, largest difference " << worst << " of the largest unknown\n";
+  EXPECT_LE(worst, 1e-8);
+  EXPECT_GT(krylov_solves, static_cast<long>(curve.points.size()));
+  // The whole curve: its steps differ (the updates are solved to 1e-4 only), its folds and
+  // points do not: as many folds, and every point a solution (a dense Newton solve at its
+  // frequency from it ends within 1e-8 of it).
+  const ContinuationSummary inexact = trace_curve(model, y0, gmres);
+  ASSERT_TRUE(inexact.reached_end()) << inexact.message;
+  EXPECT_EQ(inexact.turning_points, curve.turning_points);
+  EXPECT_LT(inexact.profile.factorisations, curve.profile.factorisations / 10);
+  for (const ContinuationPoint& p : inexact.points) {
+    const NewtonResult again = solve_fixed_parameter(model, p.y, dense);
+    ASSERT_TRUE(again.converged) << again.message;
+    EXPECT_LE((again.y - p.y).head(n).lpNorm<Eigen::Infinity>(),
+              1e-8 * p.y.head(n).lpNorm<Eigen::Infinity>());
+  }
+}
 
 TEST(Stress, FineControlLocatesTheFoldsOfAClosingGap) {
   // Item 4 of the robustness issue: the same curve traced with the thesis's fine step

@@ -1,5 +1,5 @@
 // frichb-bench, part 2: the cost of the harmonic-balance Jacobian against the number of
-// contacts and harmonics (issue 7), on a generated shroud ring.
+// contacts and harmonics, on a generated shroud ring.
 //
 // The ring: P blades, each a 3-DOF lumped node (0.1 kg per DOF on springs of 4e5, 5e5 and
 // 6e5 N/m to the ground, 0.5 % modal damping), the shroud of blade i in coupled_3d contact
@@ -222,20 +222,24 @@ void BM_NewtonIteration(benchmark::State& state, int contacts, int harmonics) {
   state.counters["peak_memory_mib"] = peak_memory_mib();
 }
 
-// The full response curve of the ring (issue 7: 100 contact pairs, H = 5, 256 samples), as
+// The full response curve of the ring (100 contact pairs, H = 5, 256 samples), as
 // `frichb run` computes it: set-up, continuation with the thesis's step control, peak
 // refinement and output files (no plots), in a temporary folder. Counters from its
 // summary.json: points, Newton iterations, evaluations, factorisations, the profile's parts
 // (seconds), peak memory. FRICHB_BENCH_CURVE_CONTACTS overrides the contacts,
 // FRICHB_BENCH_KEEP_CURVE=1 keeps the run's folder (its path is the label).
-// `chord`: false turns the chord corrector off (continuation.reuse_factorisation_from = 0),
-// so that every corrector iteration is a Newton iteration with its factorisation.
-void BM_ResponseCurve(benchmark::State& state, int contacts, int harmonics, bool chord) {
+// `variant`: "chord" the defaults with the dense LU; "newton" also turns the chord corrector
+// off (continuation.reuse_factorisation_from = 0), so that every corrector iteration is a
+// Newton iteration with its factorisation; "gmres" the defaults with
+// continuation.linear_solver = gmres (GMRES on kept factorisations).
+void BM_ResponseCurve(benchmark::State& state, int contacts, int harmonics,
+                      const std::string& variant) {
   static const Registry registry({FRICHB_PLUGIN_DIR});
   std::string text = ring_scene(contacts, harmonics, true);
   text += "output:\n  response: [b0]\n  plots: false\n";
   YAML::Node root = YAML::Load(text);
-  if (!chord) root["continuation"]["reuse_factorisation_from"] = 0;
+  if (variant == "newton") root["continuation"]["reuse_factorisation_from"] = 0;
+  root["continuation"]["linear_solver"] = variant == "gmres" ? "gmres" : "dense_lu";
   // The window around the ring's first (normal-direction) resonance, about 318 Hz free;
   // FRICHB_BENCH_CURVE_HZ="from,to" overrides it.
   double from = 300.0, to = 340.0;
@@ -277,6 +281,10 @@ void BM_ResponseCurve(benchmark::State& state, int contacts, int harmonics, bool
   state.counters["chord_points"] = profile["continuation"]["chord_points"].get<double>();
   state.counters["chord_iterations"] = profile["continuation"]["chord_iterations"].get<double>();
   state.counters["chord_fallbacks"] = profile["continuation"]["chord_fallbacks"].get<double>();
+  state.counters["krylov_solves"] = profile["linear_solver"]["krylov_solves"].get<double>();
+  state.counters["krylov_iterations"] = profile["linear_solver"]["krylov_iterations"].get<double>();
+  state.counters["krylov_s"] = profile["linear_solver"]["krylov_s"].get<double>();
+  state.counters["krylov_fallbacks"] = profile["linear_solver"]["krylov_fallbacks"].get<double>();
   const auto& last = summary["termination"]["last_point"];
   state.counters["last_hz"] = last.is_null() ? 0.0 : last["frequency"].get<double>();
   state.counters["to_hz"] = to;
@@ -311,12 +319,12 @@ const bool registered = [] {
     }
   int curve_contacts = 100;
   if (const char* v = std::getenv("FRICHB_BENCH_CURVE_CONTACTS")) curve_contacts = std::atoi(v);
-  for (const bool chord : {true, false}) {
+  for (const std::string variant : {"chord", "newton", "gmres"}) {
     const std::string curve =
-        "BM_ResponseCurve/" + std::to_string(curve_contacts) + "/5/" + (chord ? "chord" : "newton");
+        "BM_ResponseCurve/" + std::to_string(curve_contacts) + "/5/" + variant;
     benchmark::RegisterBenchmark(curve.c_str(),
-                                 [curve_contacts, chord](benchmark::State& s) {
-                                   BM_ResponseCurve(s, curve_contacts, 5, chord);
+                                 [curve_contacts, variant](benchmark::State& s) {
+                                   BM_ResponseCurve(s, curve_contacts, 5, variant);
                                  })
         ->Unit(benchmark::kSecond)
         ->UseRealTime()

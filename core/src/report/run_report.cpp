@@ -28,7 +28,8 @@ namespace {
 // share it).
 nlohmann::json profile_json(const ContinuationSummary& summary, const EvaluationStats& stats) {
   const SolveProfile& p = summary.profile;
-  const double other = summary.wall_seconds - p.evaluation_seconds - p.factorisation_seconds;
+  const double other =
+      summary.wall_seconds - p.evaluation_seconds - p.factorisation_seconds - p.krylov_seconds;
   rusage usage{};
   nlohmann::json peak_memory = nullptr;
   if (getrusage(RUSAGE_SELF, &usage) == 0)
@@ -44,6 +45,13 @@ nlohmann::json profile_json(const ContinuationSummary& summary, const Evaluation
             {"chord_iterations", summary.chord_iterations},
             {"chord_fallbacks", summary.chord_fallbacks},
             {"other_s", std::max(0.0, other)}}},
+          {"linear_solver",
+           {{"kind", p.linear_solver},
+            {"reason", p.linear_solver_reason},
+            {"krylov_solves", p.krylov_solves},
+            {"krylov_iterations", p.krylov_iterations},
+            {"krylov_s", p.krylov_seconds},
+            {"krylov_fallbacks", p.krylov_fallbacks}}},
           {"model_evaluations",
            {{"contact_traces_s", stats.contact_seconds},
             {"receptance_s", stats.receptance_seconds},

@@ -175,6 +175,16 @@ const std::vector<frichb_param_spec>& continuation_schema() {
                      "last point's factorisation (full Newton when they stall); 0 = never")
           .defaults_to(1000)
           .at_least(0),
+      Param::text("linear_solver",
+                  "solver of the Newton and tangent systems: dense_lu factorises every matrix; "
+                  "gmres iterates on it, preconditioned by the factorisation of an earlier one "
+                  "(refactorised when the iterations grow); auto: gmres from gmres_from "
+                  "unknowns on")
+          .defaults_to_text("auto")
+          .choices("auto|dense_lu|gmres"),
+      Param::integer("gmres_from", "unknowns from which linear_solver auto picks gmres")
+          .defaults_to(5000)
+          .at_least(0),
   };
   return s;
 }
@@ -922,6 +932,8 @@ void read_continuation(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   C.max_wall_seconds = co.real("max_wall_seconds");
   C.displacement_scale = co.real("displacement_scale");
   C.reuse_factorisation_from = static_cast<int>(co.integer("reuse_factorisation_from"));
+  C.linear_solver = co.text("linear_solver");
+  C.gmres_from = static_cast<int>(co.integer("gmres_from"));
   nlohmann::json cj = cov.to_json(continuation_schema());
   cj["frequency"] = fr.to_json(frequency_schema());
   cj["step"] = st.to_json(step_schema());

@@ -157,7 +157,7 @@ std::optional<Ending> CurveTracer::start(const VectorXd& y_guess) {
   if (y_guess.size() != n_ + 1)
     return Ending{TerminationType::kInvalidOptions, "y_guess must have n + 1 entries"};
   if (!make_scaling(options_, n_, &s, &why)) return Ending{TerminationType::kInvalidOptions, why};
-  problem_.emplace(raw_problem_, std::move(s), &summary_.profile);
+  problem_.emplace(raw_problem_, std::move(s), options_, &summary_.profile);
 
   VectorXd ys0 = problem_->scale(y_guess);
   ys0(n_) = options_.lambda_start / problem_->scaling().unknown(n_);
@@ -170,7 +170,7 @@ std::optional<Ending> CurveTracer::start(const VectorXd& y_guess) {
   ContinuationPoint first;
   first.y = problem_->unscale(start.ys);
   first.y(n_) = options_.lambda_start;
-  if (!first_tangent(start.js, direction_, &summary_.profile, &first.tangent, &first.condition,
+  if (!first_tangent(start.js, direction_, problem_->linear(), &first.tangent, &first.condition,
                      &first.orientation))
     return Ending{TerminationType::kStartFailed,
                   "start point: singular e_x, no tangent at " + format_lambda(first.y(n_))};
@@ -236,7 +236,7 @@ bool CurveTracer::across_corner(const ContinuationPoint& last, const VectorXd& y
   VectorXd landed_tangent;
   const bool repeated = corner_repeats_ >= 2 && ratio <= kMaxCornerRatio;
   const bool corner =
-      repeated || (next_tangent(corr->js, last.tangent, &summary_.profile, &landed_tangent) &&
+      repeated || (next_tangent(corr->js, last.tangent, problem_->linear(), &landed_tangent) &&
                    corner_between(*problem_, newton_, ys_last, last.tangent, corr->ys,
                                   landed_tangent, 1.0 / kMaxCornerRatio));
   if (!corner) corr->message = "corrector jumped away from the predictor";
@@ -275,7 +275,7 @@ std::optional<Ending> CurveTracer::land_on_end(const ContinuationPoint& last,
   summary_.total_newton_iterations += land.iterations;
   ContinuationPoint end;
   if (land.converged && (land.ys - guess_s).norm() <= step &&
-      next_tangent(land.js, p.tangent, &summary_.profile, &end.tangent, &end.condition, nullptr,
+      next_tangent(land.js, p.tangent, problem_->linear(), &end.tangent, &end.condition, nullptr,
                    &end.orientation)) {
     if (keep_orientation(last.orientation, p.tangent, &end, nullptr)) ++summary_.reversed_tangents;
     end.y = problem_->unscale(land.ys);
@@ -345,7 +345,7 @@ std::optional<Ending> CurveTracer::attempt_step() {
   }
   KellerFactor* keep = chord_ ? &candidate_ : nullptr;
   ContinuationPoint p;
-  if (ok && !next_tangent(corr.js, travel, &summary_.profile, &p.tangent, &p.condition, keep,
+  if (ok && !next_tangent(corr.js, travel, problem_->linear(), &p.tangent, &p.condition, keep,
                           &p.orientation)) {
     ok = false;
     corr.message = "singular bordered Jacobian, no tangent";
@@ -454,6 +454,13 @@ bool ContinuationOptions::IsValid(std::string* why) const {
     return Fail(why, "newton tolerances must be positive");
   if (reuse_factorisation_from < 0) return Fail(why, "reuse_factorisation_from must be >= 0");
   if (max_chord_iterations < 1) return Fail(why, "max_chord_iterations must be >= 1");
+  if (gmres_from < 0) return Fail(why, "gmres_from must be >= 0");
+  if (!(gmres_tolerance > 0.0 && gmres_tolerance < 1.0))
+    return Fail(why, "gmres_tolerance must lie in (0, 1)");
+  if (!(gmres_update_tolerance > 0.0 && gmres_update_tolerance < 1.0))
+    return Fail(why, "gmres_update_tolerance must lie in (0, 1)");
+  if (gmres_max_iterations < 1) return Fail(why, "gmres_max_iterations must be >= 1");
+  if (gmres_refresh_iterations < 0) return Fail(why, "gmres_refresh_iterations must be >= 0");
   if (newton.max_line_search_halvings < 0)
     return Fail(why, "newton.max_line_search_halvings must be >= 0");
   return true;
@@ -470,7 +477,7 @@ NewtonResult solve_fixed_parameter(const CurveProblem& problem, const VectorXd& 
     return result;
   }
   if (!make_scaling(options, n, &s, &result.message)) return result;
-  const ScaledProblem scaled(problem, std::move(s), &result.profile);
+  const ScaledProblem scaled(problem, std::move(s), options, &result.profile);
   const Correction core = newton_correct(scaled, scaled.scale(y_guess), options.newton);
   result.converged = core.converged;
   result.iterations = core.iterations;

@@ -71,7 +71,7 @@ bool step_past_kink(const ScaledProblem& problem, const NewtonOptions& newton,
   MatrixXd j_q;
   std::string message;
   if (!problem.evaluate(q, &e_q, &j_q, &message)) return false;
-  const std::unique_ptr<LinearSolver> past = make_linear_solver(problem.profile());
+  const std::unique_ptr<LinearSolver> past = make_linear_solver(problem.linear());
   past->factorise_bordered(j_q, v);
   if (!past->invertible()) return false;
   // [J2; v^T] t = e_n: J2 t = 0, and det [J2; t^T] has the sign of det [J2; v^T] (t . t > 0).

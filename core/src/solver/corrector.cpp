@@ -55,7 +55,7 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
   bool floor_brackets_root = false;
   double floor_residual = out.residual_norm;
   VectorXd floor_ys = out.ys;
-  const std::unique_ptr<LinearSolver> lu = make_linear_solver(problem.profile());
+  const std::unique_ptr<LinearSolver> lu = make_linear_solver(problem.linear());
   MatrixXd trial_js, best_js;
   while (out.iterations < opt.max_iterations) {
     if (keller)
@@ -66,7 +66,7 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
       out.message = "singular Jacobian at " + format_lambda(problem.lambda_of(out.ys));
       return out;
     }
-    VectorXd dz = lu->solve(-r);
+    VectorXd dz = lu->solve_update(-r);
     if (!dz.allFinite()) {
       out.message = "non-finite Newton update at " + format_lambda(problem.lambda_of(out.ys));
       return out;

@@ -42,7 +42,7 @@ struct KellerFactor {
   Eigen::VectorXd d;
   double denominator = 1.0;
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const {
-    const Eigen::VectorXd x = lu->solve(b);
+    const Eigen::VectorXd x = lu->solve_update(b);
     return x - t * (d.dot(x) / denominator);
   }
 };

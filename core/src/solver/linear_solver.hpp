@@ -1,13 +1,13 @@
 // The seam between the continuation and its linear algebra: every square system the corrector
 // and the tangent solve - the Newton matrix e_x at fixed lambda, the bordered Keller matrix
-// [e_y; v^T] - goes through a LinearSolver. make_linear_solver returns a dense one
-// (DenseLuSolver); another (an iterative solver on the Jacobian's structure, say) implements the
-// same interface and is returned by make_linear_solver without touching the corrector or the
-// driver.
+// [e_y; v^T] - goes through a LinearSolver made by make_linear_solver from the solve's
+// LinearSolverContext: a dense LU of every matrix (DenseLuSolver), or GMRES preconditioned by
+// the LU of an earlier matrix that the context keeps between systems (GmresSolver).
 #pragma once
 
 #include <Eigen/Dense>
 #include <memory>
+#include <string>
 
 #include "frichb/core/numerics/dense_lu.hpp"
 #include "frichb/core/solver/continuation.hpp"
@@ -24,16 +24,61 @@ class LinearSolver {
   // Prepares to solve with the bordered matrix [top; last_row^T] (top n x (n + 1)).
   virtual void factorise_bordered(const Eigen::Ref<const Eigen::MatrixXd>& top,
                                   const Eigen::Ref<const Eigen::VectorXd>& last_row) = 0;
-  // x with A x = b, for the matrix last prepared.
+  // x with A x = b, for the matrix last prepared; non-finite entries when it cannot be solved.
   virtual Eigen::VectorXd solve(const Eigen::VectorXd& b) const = 0;
+  // A Newton or chord update: x with A x = b to the accuracy an update needs (an iterative
+  // solver stops at ContinuationOptions::gmres_update_tolerance); the same as solve() for a
+  // direct one.
+  virtual Eigen::VectorXd solve_update(const Eigen::VectorXd& b) const { return solve(b); }
   // False when the matrix is singular to working precision (its reciprocal condition estimate
-  // is below machine epsilon or not finite); solve() must not be used then.
+  // is below machine epsilon or not finite); solve() must not be used then. For a solver that
+  // does not factorise every matrix, of the factorised matrix it works from.
   virtual bool invertible() const = 0;
-  // Estimate of the 1-norm condition number (infinite when the estimate of its reciprocal is 0).
+  // Estimate of the 1-norm condition number (infinite when the estimate of its reciprocal is
+  // 0), of the factorised matrix the solver works from.
   virtual double condition() const = 0;
-  // Sign of the determinant (+1 or -1; 0 when exactly singular): the curve's orientation comes
-  // from it.
+  // True when the prepared matrix itself is factorised, so that determinant_sign() is free.
+  virtual bool determinant_known() const = 0;
+  // Sign of the determinant of the prepared matrix (+1 or -1; 0 when exactly singular): the
+  // curve's orientation comes from it. Factorises the matrix when determinant_known() is false.
   virtual int determinant_sign() const = 0;
+};
+
+// What the linear solvers of one solve (a curve, a fixed-parameter Newton) share: the kind,
+// the GMRES settings, the LUs kept as preconditioners (one per size: the n x n Newton matrix
+// and the (n + 1) x (n + 1) Keller matrix), and the SolveProfile every factorisation and
+// solve is counted in (may be null; must outlive the context). Not thread-safe; one per solve.
+class LinearSolverContext {
+ public:
+  // `options.linear_solver` resolved for n equations: kAuto becomes kGmres from
+  // options.gmres_from equations on. Writes the choice and its reason into the profile.
+  LinearSolverContext(const ContinuationOptions& options, Eigen::Index n, SolveProfile* profile);
+
+  LinearSolverKind kind() const { return kind_; }
+  SolveProfile* profile() const { return profile_; }
+  double tolerance() const { return tolerance_; }
+  double update_tolerance() const { return update_tolerance_; }
+  int max_iterations() const { return max_iterations_; }
+  int refresh_iterations() const { return refresh_iterations_; }
+
+  // An LU kept to precondition the systems of one size. `generation` counts its
+  // factorisations, so that a solver knows whether the LU is still that of its own matrix.
+  struct KeptFactor {
+    DenseLu lu;
+    long generation = 0;
+    bool stale = true;  // refactorise at the next matrix of this size (none yet, or too slow)
+  };
+  KeptFactor& kept(Eigen::Index size) { return size == square_size_ ? square_ : bordered_; }
+
+ private:
+  LinearSolverKind kind_;
+  SolveProfile* profile_;
+  double tolerance_;
+  double update_tolerance_;
+  int max_iterations_;
+  int refresh_iterations_;
+  Eigen::Index square_size_ = 0;
+  KeptFactor square_, bordered_;
 };
 
 // Dense LU with partial pivoting (numerics/dense_lu: blocked, OpenBLAS when built with it) and
@@ -48,6 +93,7 @@ class DenseLuSolver final : public LinearSolver {
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const override;
   bool invertible() const override;
   double condition() const override;
+  bool determinant_known() const override { return true; }
   int determinant_sign() const override { return lu_.determinant_sign(); }
 
  private:
@@ -55,7 +101,39 @@ class DenseLuSolver final : public LinearSolver {
   DenseLu lu_;
 };
 
-// The solver the continuation uses for its systems, counting into `profile` (may be null).
-std::unique_ptr<LinearSolver> make_linear_solver(SolveProfile* profile);
+// GMRES (right-preconditioned, no restart, classical Gram-Schmidt applied twice) on a copy of
+// the prepared matrix, preconditioned by the context's kept LU of that size. The kept LU is
+// refactorised from the prepared matrix when it is stale or singular, and when a solve does
+// not converge (ContinuationOptions::gmres_*). Converged solves satisfy
+// |b - A x|_2 <= tolerance |b|_2 (gmres_tolerance, or gmres_update_tolerance for an update),
+// checked on the true residual. Holds a reference to the
+// context, which must outlive it.
+class GmresSolver final : public LinearSolver {
+ public:
+  explicit GmresSolver(LinearSolverContext& context) : context_(context) {}
+  void factorise(const Eigen::Ref<const Eigen::MatrixXd>& a) override;
+  void factorise_bordered(const Eigen::Ref<const Eigen::MatrixXd>& top,
+                          const Eigen::Ref<const Eigen::VectorXd>& last_row) override;
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const override;
+  Eigen::VectorXd solve_update(const Eigen::VectorXd& b) const override;
+  bool invertible() const override;
+  double condition() const override;
+  bool determinant_known() const override;
+  int determinant_sign() const override;
+
+ private:
+  LinearSolverContext::KeptFactor& kept() const { return context_.kept(matrix_.rows()); }
+  void prepare();
+  void refactorise() const;  // the kept LU becomes that of matrix_
+  bool iterate(const Eigen::VectorXd& b, double tolerance, Eigen::VectorXd* x) const;
+  Eigen::VectorXd solve_to(const Eigen::VectorXd& b, double tolerance) const;
+
+  LinearSolverContext& context_;
+  Eigen::MatrixXd matrix_;
+  mutable long own_generation_ = -1;  // the kept LU's generation when it was matrix_'s
+};
+
+// The solver for one system of the solve that owns `context`.
+std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverContext& context);
 
 }  // namespace frichb::core

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "frichb/core/solver/continuation.hpp"
+#include "solver/linear_solver.hpp"
 
 namespace frichb::core {
 
@@ -28,17 +29,24 @@ std::string format_lambda(double lambda);
 // Wall seconds since `start`.
 double seconds_since(std::chrono::steady_clock::time_point start);
 
-// The problem in scaled variables ys = y / scaling.unknown, es = e / scaling.residual. Holds
-// references: `problem` and `profile` must outlive it. `profile` may be null (nothing counted).
-// Not thread-safe (it counts into the profile); one per solve.
+// The problem in scaled variables ys = y / scaling.unknown, es = e / scaling.residual, with
+// the linear-solver context of its solve (the kind from `options`, the kept preconditioners).
+// Holds references: `problem` and `profile` must outlive it. `profile` may be null (nothing
+// counted). Not thread-safe (it counts into the profile); one per solve.
 class ScaledProblem {
  public:
-  ScaledProblem(const CurveProblem& problem, Scaling scaling, SolveProfile* profile)
-      : problem_(problem), scaling_(std::move(scaling)), profile_(profile) {}
+  ScaledProblem(const CurveProblem& problem, Scaling scaling, const ContinuationOptions& options,
+                SolveProfile* profile)
+      : problem_(problem),
+        scaling_(std::move(scaling)),
+        profile_(profile),
+        linear_(options, scaling_.residual.size(), profile) {}
 
   Eigen::Index equations() const { return scaling_.residual.size(); }
   const Scaling& scaling() const { return scaling_; }
   SolveProfile* profile() const { return profile_; }
+  // The context every linear solver of this solve is made from (make_linear_solver).
+  LinearSolverContext& linear() const { return linear_; }
   Eigen::VectorXd unscale(const Eigen::VectorXd& ys) const {
     return ys.cwiseProduct(scaling_.unknown);
   }
@@ -61,6 +69,7 @@ class ScaledProblem {
   const CurveProblem& problem_;
   Scaling scaling_;
   SolveProfile* profile_;
+  mutable LinearSolverContext linear_;
 };
 
 }  // namespace frichb::core

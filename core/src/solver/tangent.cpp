@@ -9,10 +9,16 @@ using Eigen::Index;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-bool first_tangent(const MatrixXd& js, double direction, SolveProfile* profile, VectorXd* v,
+namespace {
+// The cosine between a new tangent and the direction of travel below which the orientation is
+// checked (keep_orientation): a turn of more than about 26 degrees.
+constexpr double kKeepOrientationCosine = 0.9;
+}  // namespace
+
+bool first_tangent(const MatrixXd& js, double direction, LinearSolverContext& linear, VectorXd* v,
                    double* condition, int* orientation) {
   const Index n = js.rows();
-  const std::unique_ptr<LinearSolver> lu = make_linear_solver(profile);
+  const std::unique_ptr<LinearSolver> lu = make_linear_solver(linear);
   lu->factorise(js.leftCols(n));
   *condition = lu->condition();
   if (!lu->invertible()) return false;
@@ -27,12 +33,12 @@ bool first_tangent(const MatrixXd& js, double direction, SolveProfile* profile, 
   return v->allFinite();
 }
 
-bool next_tangent(const MatrixXd& js, const VectorXd& previous, SolveProfile* profile, VectorXd* v,
-                  double* condition, KellerFactor* keep, int* orientation) {
+bool next_tangent(const MatrixXd& js, const VectorXd& previous, LinearSolverContext& linear,
+                  VectorXd* v, double* condition, KellerFactor* keep, int* orientation) {
   const Index n = js.rows();
   KellerFactor local;
   KellerFactor& f = keep != nullptr ? *keep : local;
-  if (!f.lu) f.lu = make_linear_solver(profile);
+  if (!f.lu) f.lu = make_linear_solver(linear);
   f.lu->factorise_bordered(js, previous);
   if (condition != nullptr) *condition = f.lu->condition();
   if (!f.lu->invertible()) return false;
@@ -40,7 +46,10 @@ bool next_tangent(const MatrixXd& js, const VectorXd& previous, SolveProfile* pr
   *v = f.t / f.t.norm();
   if (!v->allFinite()) return false;
   // [J; v^T] = [J; p^T] + e_n (v - p)^T has determinant det [J; p^T] |t| (v . t = |t|).
-  if (orientation != nullptr) *orientation = f.lu->determinant_sign();
+  if (orientation != nullptr)
+    *orientation = f.lu->determinant_known() || v->dot(previous) < kKeepOrientationCosine
+                       ? f.lu->determinant_sign()
+                       : 0;
   f.d = *v - previous;
   f.denominator = 1.0 + f.d.dot(f.t);
   return std::isfinite(f.denominator) && std::abs(f.denominator) > 0.0;
@@ -57,8 +66,11 @@ void reverse_tangent(VectorXd* v, KellerFactor* keep) {
 
 bool keep_orientation(int reference, const VectorXd& along, ContinuationPoint* point,
                       KellerFactor* keep) {
-  constexpr double kKeepOrientationCosine = 0.9;
-  if (reference == 0 || point->orientation == 0 || point->orientation == reference ||
+  if (point->orientation == 0) {
+    point->orientation = reference;
+    return false;
+  }
+  if (reference == 0 || point->orientation == reference ||
       point->tangent.dot(along) >= kKeepOrientationCosine)
     return false;
   reverse_tangent(&point->tangent, keep);

@@ -55,6 +55,10 @@ class CurveProblem {
                         Eigen::MatrixXd* jacobian, std::string* message) const = 0;
 };
 
+// The linear solver of the continuation's systems (ContinuationOptions::linear_solver).
+enum class LinearSolverKind { kAuto, kDenseLu, kGmres };
+const char* to_string(LinearSolverKind kind);
+
 struct NewtonOptions {
   int max_iterations = 25;
   // Converged when the scaled residual's infinity norm is <= residual_tolerance AND the
@@ -128,6 +132,32 @@ struct ContinuationOptions {
   Eigen::Index reuse_factorisation_from = 1000;
   int max_chord_iterations = 16;
 
+  // How the Newton and tangent systems are solved (ContinuationSummary::profile says which,
+  // and why):
+  //   kDenseLu  every matrix is factorised (dense LU): O(n^3) per Newton iteration and per
+  //             point's tangent;
+  //   kGmres    GMRES on the matrix, right-preconditioned by the LU of an earlier matrix of
+  //             the same size, kept while it works: a solve costs a few matrix-vector products
+  //             and triangular solves (O(n^2) each). A solve that takes more than
+  //             gmres_refresh_iterations iterations has the next matrix factorised afresh; one
+  //             that has not converged in gmres_max_iterations is solved by factorising its own
+  //             matrix (counted as a fallback). Its tolerance: the true residual |b - A x|_2 at
+  //             most gmres_tolerance |b|_2, so that a Newton update is the dense one to within
+  //             that fraction; a Newton or chord update is solved to gmres_update_tolerance
+  //             only (an inexact Newton step: the corrector's acceptance tests the evaluated
+  //             residual, so accepted points meet the same residual bound either way);
+  //   kAuto     kGmres from gmres_from equations on, kDenseLu below.
+  // Orientation: where the matrix of a point's tangent was not factorised, the point keeps
+  // its predecessor's sign det [e_y; v^T] unless its tangent turned by more than about 26
+  // degrees (the case where the orientation can change): then the matrix is factorised and
+  // the determinant decides, as on the dense path.
+  LinearSolverKind linear_solver = LinearSolverKind::kAuto;
+  Eigen::Index gmres_from = 5000;
+  double gmres_tolerance = 1e-10;
+  double gmres_update_tolerance = 1e-4;
+  int gmres_max_iterations = 60;
+  int gmres_refresh_iterations = 12;
+
   // The curve ends (kLeftBounds) at a corrected point with lambda outside
   // [lambda_min, lambda_max]; that point is not kept. E.g. lambda_min = 0 for a frequency: a
   // curve that walks its branch backwards down to zero frequency stops there with a reason.
@@ -152,6 +182,16 @@ struct SolveProfile {
   long factorisations = 0;
   double factorisation_seconds = 0.0;
   long residual_only_evaluations = 0;  // of the evaluations, those without Jacobian
+  // The linear solver used (to_string(LinearSolverKind), never "auto") and why.
+  std::string linear_solver;
+  std::string linear_solver_reason;
+  // kGmres: solves by GMRES, their iterations in total and their wall time (products,
+  // preconditioner solves, orthogonalisation; the factorisations are counted above), and the
+  // solves that did not converge and were solved by a factorisation of their own matrix.
+  long krylov_solves = 0;
+  long krylov_iterations = 0;
+  double krylov_seconds = 0.0;
+  long krylov_fallbacks = 0;
 };
 
 struct ContinuationPoint {
@@ -164,12 +204,15 @@ struct ContinuationPoint {
   bool passed_corner = false;      // reached across a corner of the branch (trace_curve)
   bool passed_kink = false;        // of those, along the next piece's tangent (kink_steps)
   // Sign of det [e_x e_lambda; tangent^T] (scaled): the curve's orientation, the same on all
-  // its pieces between branch points; 0 if unknown.
+  // its pieces between branch points; 0 if unknown. With linear_solver gmres, inherited from
+  // the last point where the matrix was not factorised (ContinuationOptions::linear_solver).
   int orientation = 0;
   // Estimate of the 1-norm condition number of the Newton matrix at the point, in scaled
   // variables: the bordered Keller matrix [e_x e_lambda; tangent^T] (e_x alone at the start
   // point), from the factorisation that gives the tangent. About log10(condition) of the
-  // 16 significant digits are lost in a Newton update there; infinite when singular.
+  // 16 significant digits are lost in a Newton update there; infinite when singular. With
+  // linear_solver gmres, of the kept factorisation the tangent was solved with (that of an
+  // earlier point's matrix unless this one was factorised).
   double condition = 0.0;
 };
 

@@ -1,0 +1,166 @@
+// The continuation's linear solvers: GMRES preconditioned by a kept LU against the dense LU.
+#include "solver/linear_solver.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace frichb::core {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+// A diagonally dominant random matrix (well conditioned, either determinant sign by `sign`).
+MatrixXd RandomMatrix(Eigen::Index n, unsigned seed, double sign = 1.0) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  MatrixXd a(n, n);
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (Eigen::Index i = 0; i < n; ++i) a(i, j) = u(gen);
+  a.diagonal().array() += 2.0 * std::sqrt(static_cast<double>(n));
+  a.row(0) *= sign;
+  return a;
+}
+
+ContinuationOptions Gmres() {
+  ContinuationOptions o;
+  o.linear_solver = LinearSolverKind::kGmres;
+  return o;
+}
+
+TEST(LinearSolver, AutoPicksByTheNumberOfEquations) {
+  ContinuationOptions o;
+  o.gmres_from = 100;
+  SolveProfile small_profile, large_profile;
+  EXPECT_EQ(LinearSolverContext(o, 99, &small_profile).kind(), LinearSolverKind::kDenseLu);
+  EXPECT_EQ(LinearSolverContext(o, 100, &large_profile).kind(), LinearSolverKind::kGmres);
+  EXPECT_EQ(small_profile.linear_solver, "dense_lu");
+  EXPECT_EQ(large_profile.linear_solver, "gmres");
+  EXPECT_NE(large_profile.linear_solver_reason.find("100"), std::string::npos);
+  o.linear_solver = LinearSolverKind::kDenseLu;
+  EXPECT_EQ(LinearSolverContext(o, 5000, nullptr).kind(), LinearSolverKind::kDenseLu);
+}
+
+TEST(LinearSolver, GmresOnAnEarlierFactorisationMeetsItsTolerance) {
+  const Eigen::Index n = 200;
+  SolveProfile profile;
+  LinearSolverContext context(Gmres(), n, &profile);
+  const MatrixXd first = RandomMatrix(n, 1);
+  // A later matrix: the first with a 5 % perturbation (a Jacobian a few steps on).
+  const MatrixXd later = first + 0.05 * RandomMatrix(n, 2) / std::sqrt(static_cast<double>(n));
+  const VectorXd b = VectorXd::LinSpaced(n, -1.0, 2.0);
+  const auto prepared = make_linear_solver(context);
+  prepared->factorise(first);  // no kept LU yet: factorised
+  EXPECT_TRUE(prepared->determinant_known());
+  EXPECT_EQ(profile.factorisations, 1);
+  const auto solver = make_linear_solver(context);
+  solver->factorise(later);  // kept LU of `first` preconditions it
+  EXPECT_FALSE(solver->determinant_known());
+  EXPECT_EQ(profile.factorisations, 1);
+  const VectorXd x = solver->solve(b);
+  EXPECT_LE((b - later * x).norm(), context.tolerance() * b.norm());
+  const VectorXd dense = later.partialPivLu().solve(b);
+  EXPECT_LE((x - dense).norm(), 1e-8 * dense.norm());
+  EXPECT_EQ(profile.krylov_solves, 1);
+  EXPECT_GE(profile.krylov_iterations, 2);
+  EXPECT_LE(profile.krylov_iterations, 12);
+  EXPECT_EQ(profile.krylov_fallbacks, 0);
+  EXPECT_EQ(profile.factorisations, 1);
+  // An update is solved to gmres_update_tolerance only, in fewer iterations.
+  const long iterations = profile.krylov_iterations;
+  const VectorXd update = solver->solve_update(b);
+  EXPECT_LE((b - later * update).norm(), context.update_tolerance() * b.norm());
+  EXPECT_LT(profile.krylov_iterations - iterations, iterations);
+  // The determinant's sign is formed on demand, by a factorisation of the matrix itself.
+  EXPECT_EQ(solver->determinant_sign(), 1);
+  EXPECT_TRUE(solver->determinant_known());
+  EXPECT_EQ(profile.factorisations, 2);
+  // The first solver's LU is no longer kept: it iterates now, on the later matrix's LU.
+  EXPECT_FALSE(prepared->determinant_known());
+  const VectorXd y = prepared->solve(b);
+  EXPECT_LE((b - first * y).norm(), context.tolerance() * b.norm());
+}
+
+TEST(LinearSolver, DeterminantSignAgreesWithTheDenseLu) {
+  const Eigen::Index n = 50;
+  LinearSolverContext context(Gmres(), n, nullptr);
+  const auto solver = make_linear_solver(context);
+  solver->factorise(RandomMatrix(n, 3));
+  for (const double sign : {1.0, -1.0}) {
+    const MatrixXd a = RandomMatrix(n, 4, sign);
+    solver->factorise(a);
+    DenseLuSolver dense(nullptr);
+    dense.factorise(a);
+    EXPECT_EQ(solver->determinant_sign(), dense.determinant_sign());
+    EXPECT_EQ(dense.determinant_sign(), sign > 0 ? 1 : -1);
+  }
+}
+
+TEST(LinearSolver, BorderedSystemsKeepTheirOwnPreconditioner) {
+  const Eigen::Index n = 80;
+  SolveProfile profile;
+  LinearSolverContext context(Gmres(), n, &profile);
+  const MatrixXd top = RandomMatrix(n + 1, 5).topRows(n);
+  const VectorXd row = VectorXd::Ones(n + 1) / std::sqrt(static_cast<double>(n + 1));
+  MatrixXd bordered(n + 1, n + 1);
+  bordered << top, row.transpose();
+  const auto square = make_linear_solver(context);
+  square->factorise(top.leftCols(n));
+  const auto keller = make_linear_solver(context);
+  keller->factorise_bordered(top, row);
+  EXPECT_EQ(profile.factorisations, 2);  // one LU kept per size
+  const VectorXd e = VectorXd::Unit(n + 1, n);
+  const VectorXd t = keller->solve(e);
+  EXPECT_LE((bordered * t - e).norm(), 1e-12);
+  // A nearby bordered matrix iterates on the kept one.
+  const auto next = make_linear_solver(context);
+  next->factorise_bordered(top + 1e-3 * MatrixXd::Ones(n, n + 1), row);
+  EXPECT_EQ(profile.factorisations, 2);
+  EXPECT_TRUE(next->solve(e).allFinite());
+  EXPECT_EQ(profile.krylov_fallbacks, 0);
+}
+
+TEST(LinearSolver, AStalledSolveFallsBackToItsOwnFactorisation) {
+  const Eigen::Index n = 120;
+  ContinuationOptions o = Gmres();
+  o.gmres_max_iterations = 3;
+  SolveProfile profile;
+  LinearSolverContext context(o, n, &profile);
+  const auto solver = make_linear_solver(context);
+  solver->factorise(RandomMatrix(n, 6));
+  // An unrelated matrix: three iterations on the first one's LU do not reach 1e-10.
+  const MatrixXd other = RandomMatrix(n, 7, -1.0);
+  solver->factorise(other);
+  const VectorXd b = VectorXd::Ones(n);
+  const VectorXd x = solver->solve(b);
+  EXPECT_EQ(profile.krylov_fallbacks, 1);
+  EXPECT_EQ(profile.factorisations, 2);
+  EXPECT_LE((b - other * x).norm(), 1e-12 * b.norm());
+  EXPECT_TRUE(solver->determinant_known());
+}
+
+TEST(LinearSolver, ASlowSolveRefreshesTheKeptFactorisation) {
+  const Eigen::Index n = 120;
+  ContinuationOptions o = Gmres();
+  o.gmres_refresh_iterations = 2;
+  SolveProfile profile;
+  LinearSolverContext context(o, n, &profile);
+  const auto solver = make_linear_solver(context);
+  solver->factorise(RandomMatrix(n, 8));
+  const MatrixXd later = RandomMatrix(n, 8) + 0.3 * RandomMatrix(n, 9) / std::sqrt(120.0);
+  solver->factorise(later);
+  const VectorXd b = VectorXd::Ones(n);
+  const VectorXd x = solver->solve(b);
+  EXPECT_GT(profile.krylov_iterations, 2);
+  EXPECT_EQ(profile.krylov_fallbacks, 0);
+  EXPECT_LE((b - later * x).norm(), context.tolerance() * b.norm());
+  // More than two iterations: the next matrix is factorised afresh.
+  const auto next = make_linear_solver(context);
+  next->factorise(later);
+  EXPECT_TRUE(next->determinant_known());
+  EXPECT_EQ(profile.factorisations, 2);
+}
+
+}  // namespace
+}  // namespace frichb::core
