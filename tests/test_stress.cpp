@@ -355,8 +355,8 @@ std::vector<double> folds(const Curve& c) {
 
 TEST(Stress, GmresAndDenseLuTraceTheSameFoldingCurve) {
   // The closing gap's bent resonance (two folds, a refined peak) by `frichb run`, with every
-  // system factorised and with GMRES on kept factorisations: the same folds and peak, the
-  // choice and the GMRES counts in summary.json.
+  // system factorised and with GMRES on kept factorisations: as many folds, the same refined
+  // peak, the choice and the GMRES counts in summary.json.
   TempDir dir;
   const fs::path file = kStress / "hertz_gap_folds.yaml";
   const auto with = [&](const char* solver) {

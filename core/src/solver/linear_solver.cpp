@@ -219,6 +219,8 @@ Eigen::VectorXd GmresSolver::solve_to(const Eigen::VectorXd& b, double tolerance
   if (converged) return x;
   if (profile != nullptr) ++profile->krylov_fallbacks;
   refactorise();
+  if (!invertible_lu(kept().lu))
+    return Eigen::VectorXd::Constant(b.size(), std::numeric_limits<double>::quiet_NaN());
   const auto direct = std::chrono::steady_clock::now();
   x = kept().lu.solve(b);
   account(profile, direct, false);

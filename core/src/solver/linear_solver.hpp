@@ -103,8 +103,10 @@ class DenseLuSolver final : public LinearSolver {
 
 // GMRES (right-preconditioned, no restart, classical Gram-Schmidt applied twice) on a copy of
 // the prepared matrix, preconditioned by the context's kept LU of that size. The kept LU is
-// refactorised from the prepared matrix when it is stale or singular, and when a solve does
-// not converge (ContinuationOptions::gmres_*). Converged solves satisfy
+// refactorised from the prepared matrix when it is stale or singular, when a solve does not
+// converge (ContinuationOptions::gmres_*; a singular matrix then gives non-finite entries),
+// and by determinant_sign() when it is not that of the prepared matrix. Refactorising
+// replaces the LU every solver of that size in the context works from. Converged solves satisfy
 // |b - A x|_2 <= tolerance |b|_2 (gmres_tolerance, or gmres_update_tolerance for an update),
 // checked on the true residual. Holds a reference to the
 // context, which must outlive it.

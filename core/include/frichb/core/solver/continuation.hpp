@@ -141,16 +141,21 @@ struct ContinuationOptions {
   //             and triangular solves (O(n^2) each). A solve that takes more than
   //             gmres_refresh_iterations iterations has the next matrix factorised afresh; one
   //             that has not converged in gmres_max_iterations is solved by factorising its own
-  //             matrix (counted as a fallback). Its tolerance: the true residual |b - A x|_2 at
-  //             most gmres_tolerance |b|_2, so that a Newton update is the dense one to within
-  //             that fraction; a Newton or chord update is solved to gmres_update_tolerance
-  //             only (an inexact Newton step: the corrector's acceptance tests the evaluated
-  //             residual, so accepted points meet the same residual bound either way);
-  //   kAuto     kGmres from gmres_from equations on, kDenseLu below.
-  // Orientation: where the matrix of a point's tangent was not factorised, the point keeps
-  // its predecessor's sign det [e_y; v^T] unless its tangent turned by more than about 26
-  // degrees (the case where the orientation can change): then the matrix is factorised and
-  // the determinant decides, as on the dense path.
+  //             matrix (counted as a fallback; a singular one gives no solution). Its
+  //             tolerance: a tangent's true residual |b - A x|_2 is at most
+  //             gmres_tolerance |b|_2; a Newton or chord update's at most
+  //             gmres_update_tolerance |b|_2 (an inexact Newton step: the corrector's
+  //             acceptance tests the evaluated residual, so accepted points meet the same
+  //             residual bound either way);
+  //   kAuto     kGmres from gmres_from equations (the summary's unknowns, lambda excluded)
+  //             on, kDenseLu below.
+  // Orientation: a point whose tangent's matrix was not factorised inherits its predecessor's
+  // sign det [e_y; v^T] unless its tangent turned by more than about 26 degrees, where
+  // keep_orientation compares signs: then its matrix is factorised and its own sign is
+  // compared, as on the dense path. Limitation: the sign also changes, with a small turn, at
+  // a branch point or inside a kink surface; the dense path records the new sign there, the
+  // gmres path keeps the old one, so a later comparison past a jumped fold, or a step past a
+  // kink, may take the wrong orientation on a curve that passed a branch point.
   LinearSolverKind linear_solver = LinearSolverKind::kAuto;
   Eigen::Index gmres_from = 5000;
   double gmres_tolerance = 1e-10;
@@ -204,8 +209,9 @@ struct ContinuationPoint {
   bool passed_corner = false;      // reached across a corner of the branch (trace_curve)
   bool passed_kink = false;        // of those, along the next piece's tangent (kink_steps)
   // Sign of det [e_x e_lambda; tangent^T] (scaled): the curve's orientation, the same on all
-  // its pieces between branch points; 0 if unknown. With linear_solver gmres, inherited from
-  // the last point where the matrix was not factorised (ContinuationOptions::linear_solver).
+  // its pieces between branch points; 0 if unknown. With linear_solver gmres, a point whose
+  // matrix was not factorised inherits it from its predecessor
+  // (ContinuationOptions::linear_solver).
   int orientation = 0;
   // Estimate of the 1-norm condition number of the Newton matrix at the point, in scaled
   // variables: the bordered Keller matrix [e_x e_lambda; tangent^T] (e_x alone at the start
