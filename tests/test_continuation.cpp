@@ -75,6 +75,40 @@ ScalarCurve Line() {
                      [](double, double) { return Eigen::Vector2d(1.0, -2.0); });
 }
 
+// lambda = ZigzagLambda(x), piecewise linear: x up to x = 0, then -3 x up to x = 1, then
+// -3 + 5 (x - 1); two kinks, both folds.
+double ZigzagLambda(double x) {
+  return x < 0.0 ? x : (x < 1.0 ? -3.0 * x : 5.0 * x - 8.0);
+}
+double ZigzagSlope(double x) {
+  return x < 0.0 ? 1.0 : (x < 1.0 ? -3.0 : 5.0);
+}
+ScalarCurve Zigzag() {
+  return ScalarCurve([](double x, double l) { return ZigzagLambda(x) - l; },
+                     [](double x, double) { return Eigen::Vector2d(ZigzagSlope(x), -1.0); });
+}
+
+// lambda = StairsLambda(x), piecewise linear with slopes 1, -3, 5, -3, 5 (kinks at x = 0, 0.1,
+// 0.3, 0.6).
+double StairsLambda(double x) {
+  if (x < 0.0) return x;
+  if (x < 0.1) return -3.0 * x;
+  if (x < 0.3) return -0.3 + 5.0 * (x - 0.1);
+  if (x < 0.6) return 0.7 - 3.0 * (x - 0.3);
+  return -0.2 + 5.0 * (x - 0.6);
+}
+double StairsSlope(double x) {
+  if (x < 0.0) return 1.0;
+  if (x < 0.1) return -3.0;
+  if (x < 0.3) return 5.0;
+  if (x < 0.6) return -3.0;
+  return 5.0;
+}
+ScalarCurve Stairs() {
+  return ScalarCurve([](double x, double l) { return StairsLambda(x) - l; },
+                     [](double x, double) { return Eigen::Vector2d(StairsSlope(x), -1.0); });
+}
+
 // Real root of x^3 - x - c = 0 for c > 2/(3 sqrt 3), by Cardano (independent of Newton).
 double CubicRoot(double c) {
   const double d = std::sqrt(c * c / 4.0 - 1.0 / 27.0);
@@ -450,10 +484,8 @@ TEST(Continuation, PassesFoldsAtCornersSharperThan90Degrees) {
   // x = 1, so no Keller hyperplane ahead of a point before a kink meets the branch and the
   // corrector fails at every step; the branch goes on along the next piece's tangent, taken
   // from the Jacobian past the kink. The curve reaches lambda = 1 at x = 1.8.
-  const auto f = [](double x) { return x < 0.0 ? x : (x < 1.0 ? -3.0 * x : 5.0 * x - 8.0); };
-  const auto slope = [](double x) { return x < 0.0 ? 1.0 : (x < 1.0 ? -3.0 : 5.0); };
-  const ScalarCurve zigzag([&](double x, double l) { return f(x) - l; },
-                           [&](double x, double) { return Eigen::Vector2d(slope(x), -1.0); });
+  const auto f = ZigzagLambda;
+  const ScalarCurve zigzag = Zigzag();
   const auto summary = trace_curve(zigzag, Eigen::Vector2d(-1.0, -1.0), Sweep(-1.0, 1.0));
   ASSERT_TRUE(summary.reached_end()) << summary.message;
   EXPECT_EQ(summary.kink_steps, 2);
@@ -488,22 +520,8 @@ TEST(Continuation, KeepsTheOrientationWhereAStepLandsPastAFold) {
   // 116.6 degrees), and the curve would be walked backwards down to lambda_min. The
   // orientation sign det [e_y; v^T] tells them apart: the tangent is reversed, the fold
   // control retraces the folds with fine steps, and the curve reaches lambda = 1 at x = 0.84.
-  const auto f = [](double x) {
-    if (x < 0.0) return x;
-    if (x < 0.1) return -3.0 * x;
-    if (x < 0.3) return -0.3 + 5.0 * (x - 0.1);
-    if (x < 0.6) return 0.7 - 3.0 * (x - 0.3);
-    return -0.2 + 5.0 * (x - 0.6);
-  };
-  const auto slope = [](double x) {
-    if (x < 0.0) return 1.0;
-    if (x < 0.1) return -3.0;
-    if (x < 0.3) return 5.0;
-    if (x < 0.6) return -3.0;
-    return 5.0;
-  };
-  const ScalarCurve stairs([&](double x, double l) { return f(x) - l; },
-                           [&](double x, double) { return Eigen::Vector2d(slope(x), -1.0); });
+  const auto f = StairsLambda;
+  const ScalarCurve stairs = Stairs();
   ContinuationOptions o = Sweep(-0.001, 1.0);
   o.initial_step = 0.5;
   o.max_step = 0.5;
@@ -548,28 +566,8 @@ TEST(Continuation, GmresTracesTheSameFoldAndKinkCurvesAsTheDenseLu) {
   // stairs (a tangent reversed by the orientation): GMRES on the kept factorisation of an
   // earlier matrix, with the orientation inherited where no determinant is formed, gives the
   // dense path's points, folds, kink steps and reversals.
-  const auto zigzag_f = [](double x) { return x < 0.0 ? x : (x < 1.0 ? -3.0 * x : 5.0 * x - 8.0); };
-  const auto zigzag_slope = [](double x) { return x < 0.0 ? 1.0 : (x < 1.0 ? -3.0 : 5.0); };
-  const ScalarCurve zigzag(
-      [&](double x, double l) { return zigzag_f(x) - l; },
-      [&](double x, double) { return Eigen::Vector2d(zigzag_slope(x), -1.0); });
-  const auto stairs_f = [](double x) {
-    if (x < 0.0) return x;
-    if (x < 0.1) return -3.0 * x;
-    if (x < 0.3) return -0.3 + 5.0 * (x - 0.1);
-    if (x < 0.6) return 0.7 - 3.0 * (x - 0.3);
-    return -0.2 + 5.0 * (x - 0.6);
-  };
-  const auto stairs_slope = [](double x) {
-    if (x < 0.0) return 1.0;
-    if (x < 0.1) return -3.0;
-    if (x < 0.3) return 5.0;
-    if (x < 0.6) return -3.0;
-    return 5.0;
-  };
-  const ScalarCurve stairs(
-      [&](double x, double l) { return stairs_f(x) - l; },
-      [&](double x, double) { return Eigen::Vector2d(stairs_slope(x), -1.0); });
+  const ScalarCurve zigzag = Zigzag();
+  const ScalarCurve stairs = Stairs();
   ContinuationOptions stairs_options = Sweep(-0.001, 1.0);
   stairs_options.initial_step = 0.5;
   stairs_options.max_step = 0.5;
@@ -622,12 +620,10 @@ TEST(Continuation, RefusesAResidualFloorPastAFold) {
   // Taken as a point, it is off the curve, and the curve is walked into the region past the
   // fold until the floor exceeds the tolerance (step_too_small). Refused, the step is
   // shortened and the fold passed along the next piece.
-  const auto f = [](double x) { return x < 0.0 ? x : (x < 1.0 ? -3.0 * x : 5.0 * x - 8.0); };
-  const auto slope = [](double x) { return x < 0.0 ? 1.0 : (x < 1.0 ? -3.0 : 5.0); };
   const double scale = 1e-4;
   const ScalarCurve zigzag(
-      [&](double x, double l) { return scale * (f(x) - l); },
-      [&](double x, double) { return Eigen::Vector2d(scale * slope(x), -scale); });
+      [&](double x, double l) { return scale * (ZigzagLambda(x) - l); },
+      [&](double x, double) { return Eigen::Vector2d(scale * ZigzagSlope(x), -scale); });
   ContinuationOptions o = Sweep(-1e-5, 1.0);
   o.initial_step = 1e-6;
   o.min_step = 1e-7;
@@ -636,7 +632,7 @@ TEST(Continuation, RefusesAResidualFloorPastAFold) {
   EXPECT_EQ(summary.residual_floor_points, 0);
   EXPECT_EQ(summary.kink_steps, 2);
   EXPECT_NEAR(summary.points.back().y(0), 1.8, 1e-12);
-  for (const auto& p : summary.points) EXPECT_NEAR(p.y(1), f(p.y(0)), 1e-12);
+  for (const auto& p : summary.points) EXPECT_NEAR(p.y(1), ZigzagLambda(p.y(0)), 1e-12);
   // The fixed-lambda solve still accepts a floor within the tolerance
   // (NewtonAcceptsTheFloorOfANonSmoothResidual).
 }
