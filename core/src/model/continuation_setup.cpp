@@ -58,9 +58,10 @@ ContinuationSetup derive_continuation(const Scene& scene, const HarmonicBalanceM
   options.max_points = C.max_points;
   options.max_wall_seconds = C.max_wall_seconds;
   options.reuse_factorisation_from = C.reuse_factorisation_from;
-  options.linear_solver = C.linear_solver == "gmres"      ? LinearSolverKind::kGmres
-                          : C.linear_solver == "dense_lu" ? LinearSolverKind::kDenseLu
-                                                          : LinearSolverKind::kAuto;
+  options.linear_solver = C.linear_solver == "gmres"         ? LinearSolverKind::kGmres
+                          : C.linear_solver == "matrix_free" ? LinearSolverKind::kMatrixFree
+                          : C.linear_solver == "dense_lu"    ? LinearSolverKind::kDenseLu
+                                                             : LinearSolverKind::kAuto;
   options.gmres_from = C.gmres_from;
   options.turning_point_control = C.turning_point_control;
   options.steep_branch_alpha = C.steep_branch_alpha;

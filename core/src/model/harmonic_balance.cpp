@@ -1,6 +1,7 @@
 #include "frichb/core/model/harmonic_balance.hpp"
 
 #include "frichb/core/numerics/dense_products.hpp"
+#include "model/harmonic_jacobian.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -325,6 +326,19 @@ void HarmonicBalanceModel::assemble_jacobian(Eigen::MatrixXd& jacobian) const {
 
 bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
                                     Eigen::MatrixXd* jacobian, std::string* message) const {
+  return evaluate_into(y, residual, jacobian, nullptr, message);
+}
+
+bool HarmonicBalanceModel::evaluate_operator(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
+                                             std::shared_ptr<const JacobianOperator>* jacobian,
+                                             std::string* message) const {
+  return evaluate_into(y, residual, nullptr, jacobian, message);
+}
+
+bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
+                                         Eigen::MatrixXd* jacobian,
+                                         std::shared_ptr<const JacobianOperator>* op,
+                                         std::string* message) const {
   using Clock = std::chrono::steady_clock;
   const auto elapsed = [](Clock::time_point since) {
     return std::chrono::duration<double>(Clock::now() - since).count();
@@ -332,12 +346,13 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
   const int c = layout_.coefficient_count();
   const Eigen::Index n = unknown_count_;
   const double w = y(n);
+  const bool derivatives = jacobian != nullptr || op != nullptr;
   ++stats_.residual_evaluations;
-  if (jacobian) ++stats_.jacobian_evaluations;
+  if (derivatives) ++stats_.jacobian_evaluations;
   Workspace& ws = work_;
   auto t_part = Clock::now();
   bool ok = true;
-  gather_forces(y, ws.forces, jacobian != nullptr, message, ok);
+  gather_forces(y, ws.forces, derivatives, message, ok);
   stats_.contact_seconds += elapsed(t_part);
   if (!ok) return false;
   const Eigen::VectorXd& forces = ws.forces;
@@ -357,6 +372,9 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
   }
   const auto& h = layout_.harmonics();
   const std::complex<double> imaginary_unit(0.0, 1.0);
+  std::vector<HarmonicReceptance> receptances(op != nullptr ? h.size() : 0);
+  Eigen::VectorXd parameter_column;
+  if (op != nullptr) parameter_column.setZero(n);
   for (std::size_t k = 0; k < h.size(); ++k) {
     const int hn = h[k];
     const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
@@ -389,28 +407,48 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
         ws.motion.noalias() += cr.flexibility * ws.force;
         ws.motion -= cr.flexible_motion;
       }
-      if (jacobian) {
+      if (derivatives)
         ws.motion_derivative.noalias() = cr.projected * ws.dinv_z.cwiseProduct(ws.modal);
+      if (jacobian) {
         form_modal_receptance(cr, ws, rc);
         if (cr.flexibility.size()) rc += cr.flexibility;
       }
+      if (op != nullptr) {
+        receptances[k].projected = &cr.projected;
+        receptances[k].flexibility = cr.flexibility.size() ? &cr.flexibility : nullptr;
+        receptances[k].inv_z = ws.inv_z;
+      }
     } else {
       structure_->receptance(harmonic_index_[k], hn * w, ws.receptance,
-                             jacobian ? &ws.receptance_derivative : nullptr);
+                             derivatives ? &ws.receptance_derivative : nullptr);
       const Eigen::MatrixXcd& g = gather_[k];
       ws.modal.noalias() = g.adjoint() * ws.force;  // G^H F - f over the kept DOFs
       ws.modal -= excitation_[k];
       ws.motion.noalias() = g * (ws.receptance * ws.modal);
-      if (jacobian) {
+      if (derivatives) {
         ws.motion_derivative.noalias() =
             static_cast<double>(hn) * (g * (ws.receptance_derivative * ws.modal));
         ws.scaled.resize(components_, g.cols());
         multiply(1.0, g, MatrixOperation::kNone, ws.receptance, MatrixOperation::kNone, 0.0,
                  ws.scaled);
+      }
+      if (jacobian)
         multiply(1.0, ws.scaled, MatrixOperation::kNone, g, MatrixOperation::kAdjoint, 0.0, rc);
+      if (op != nullptr) {
+        receptances[k].formed.resize(components_, components_);
+        multiply(1.0, ws.scaled, MatrixOperation::kNone, g, MatrixOperation::kAdjoint, 0.0,
+                 receptances[k].formed);
       }
     }
-    if (!ws.motion.allFinite() || (jacobian && !rc.allFinite())) {
+    if (op != nullptr) {
+      receptances[k].harmonic = hn;
+      receptances[k].cos_index = ci;
+      receptances[k].sin_index = si;
+    }
+    const bool receptance_finite =
+        (!jacobian || rc.allFinite()) &&
+        (op == nullptr || (receptances[k].formed.allFinite() && receptances[k].inv_z.allFinite()));
+    if (!ws.motion.allFinite() || !receptance_finite) {
       if (message)
         *message = "receptance at harmonic " + std::to_string(hn) + " is singular (" +
                    (hn == 0 ? "a rigid-body mode: drop harmonic 0 or ground the structure"
@@ -423,16 +461,35 @@ bool HarmonicBalanceModel::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
       residual(a * c + ci) += ws.motion(a).real();
       if (hn > 0) residual(a * c + si) -= ws.motion(a).imag();
     }
-    if (!jacobian) continue;
+    if (!derivatives) continue;
+    Eigen::Ref<Eigen::VectorXd> column = jacobian != nullptr
+                                             ? Eigen::Ref<Eigen::VectorXd>(jacobian->col(n))
+                                             : Eigen::Ref<Eigen::VectorXd>(parameter_column);
     for (int a = 0; a < components_; ++a) {
-      (*jacobian)(a * c + ci, n) += ws.motion_derivative(a).real();
-      if (hn > 0) (*jacobian)(a * c + si, n) -= ws.motion_derivative(a).imag();
+      column(a * c + ci) += ws.motion_derivative(a).real();
+      if (hn > 0) column(a * c + si) -= ws.motion_derivative(a).imag();
     }
   }
   stats_.receptance_seconds += elapsed(t_part);
   if (!residual.allFinite()) {
     if (message) *message = "the residual is not finite at w = " + std::to_string(w) + " rad/s";
     return false;
+  }
+  if (op != nullptr) {
+    t_part = Clock::now();
+    std::vector<ContactTangent> tangents(contacts_.size());
+    for (std::size_t i = 0; i < contacts_.size(); ++i) {
+      tangents[i].first = static_cast<Eigen::Index>(contacts_[i].offset) * c;
+      tangents[i].block = traces_[i].jacobian;
+      if (!tangents[i].block.allFinite()) {
+        if (message) *message = "the Jacobian is not finite at w = " + std::to_string(w) + " rad/s";
+        return false;
+      }
+    }
+    *op = std::make_shared<HarmonicJacobian>(c, components_, std::move(receptances),
+                                             std::move(tangents), std::move(parameter_column));
+    stats_.assembly_seconds += elapsed(t_part);
+    return true;
   }
   if (!jacobian) return true;
 

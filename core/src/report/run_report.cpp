@@ -28,8 +28,8 @@ namespace {
 // share it).
 nlohmann::json profile_json(const ContinuationSummary& summary, const EvaluationStats& stats) {
   const SolveProfile& p = summary.profile;
-  const double other =
-      summary.wall_seconds - p.evaluation_seconds - p.factorisation_seconds - p.krylov_seconds;
+  const double other = summary.wall_seconds - p.evaluation_seconds - p.factorisation_seconds -
+                       p.krylov_seconds - p.preconditioner_seconds;
   rusage usage{};
   nlohmann::json peak_memory = nullptr;
   if (getrusage(RUSAGE_SELF, &usage) == 0)
@@ -51,7 +51,10 @@ nlohmann::json profile_json(const ContinuationSummary& summary, const Evaluation
             {"krylov_solves", p.krylov_solves},
             {"krylov_iterations", p.krylov_iterations},
             {"krylov_s", p.krylov_seconds},
-            {"krylov_fallbacks", p.krylov_fallbacks}}},
+            {"krylov_fallbacks", p.krylov_fallbacks},
+            {"preconditioner_builds", p.preconditioner_builds},
+            {"preconditioner_s", p.preconditioner_seconds},
+            {"formed_matrices", p.formed_matrices}}},
           {"model_evaluations",
            {{"contact_traces_s", stats.contact_seconds},
             {"receptance_s", stats.receptance_seconds},

@@ -178,11 +178,15 @@ const std::vector<frichb_param_spec>& continuation_schema() {
       Param::text("linear_solver",
                   "solver of the Newton and tangent systems: dense_lu factorises every matrix; "
                   "gmres iterates on it, preconditioned by the factorisation of an earlier one "
-                  "(refactorised when the iterations grow); auto: gmres from gmres_from "
-                  "unknowns on")
+                  "(refactorised when the iterations grow); matrix_free iterates on the "
+                  "harmonic-balance Jacobian applied as receptances times contact tangents, "
+                  "never formed, preconditioned by its harmonic-decoupled approximation; auto: "
+                  "matrix_free from gmres_from unknowns on")
           .defaults_to_text("auto")
-          .choices("auto|dense_lu|gmres"),
-      Param::integer("gmres_from", "unknowns from which linear_solver auto picks gmres")
+          .choices("auto|dense_lu|gmres|matrix_free"),
+      Param::integer("gmres_from",
+                     "unknowns from which linear_solver auto iterates (matrix_free) instead of "
+                     "factorising every matrix")
           .defaults_to(5000)
           .at_least(0),
   };

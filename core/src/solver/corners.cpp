@@ -7,7 +7,6 @@
 
 namespace frichb::core {
 
-using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
 bool corner_between(const ScaledProblem& problem, const NewtonOptions& newton, const VectorXd& y1,
@@ -68,18 +67,18 @@ bool step_past_kink(const ScaledProblem& problem, const NewtonOptions& newton,
   if (!reference.usable) return false;
   const VectorXd q = ys_last + step * v;
   VectorXd e_q;
-  MatrixXd j_q;
+  Jacobian j_q;
   std::string message;
   if (!problem.evaluate(q, &e_q, &j_q, &message)) return false;
   const std::unique_ptr<LinearSolver> past = make_linear_solver(problem.linear());
-  past->factorise_bordered(j_q, v);
+  past->prepare_bordered(j_q, v);
   if (!past->invertible()) return false;
   // [J2; v^T] t = e_n: J2 t = 0, and det [J2; t^T] has the sign of det [J2; v^T] (t . t > 0).
   const VectorXd t = past->solve(VectorXd::Unit(v.size(), v.size() - 1));
   if (!t.allFinite() || t.norm() == 0.0) return false;
   const VectorXd direction =
       (past->determinant_sign() == reference.orientation ? 1.0 : -1.0) * t / t.norm();
-  const VectorXd growth = j_q * v;  // J2 v
+  const VectorXd growth = j_q.apply(v);  // J2 v
   const double growth_squared = growth.squaredNorm();
   double beyond =
       growth_squared > 0.0 ? growth.dot(e_q - reference.residual) / growth_squared : 0.0;

@@ -7,7 +7,6 @@
 namespace frichb::core {
 
 using Eigen::Index;
-using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
 namespace {
@@ -22,7 +21,7 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
   const Index m = keller ? n + 1 : n;
 
   // Residual of the system being solved and the full scaled Jacobian, from one evaluation.
-  auto system = [&](const VectorXd& ys, VectorXd* r, MatrixXd* js, std::string* msg) {
+  auto system = [&](const VectorXd& ys, VectorXd* r, Jacobian* js, std::string* msg) {
     VectorXd es;
     if (!problem.evaluate(ys, &es, js, msg)) return false;
     r->resize(m);
@@ -56,12 +55,12 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
   double floor_residual = out.residual_norm;
   VectorXd floor_ys = out.ys;
   const std::unique_ptr<LinearSolver> lu = make_linear_solver(problem.linear());
-  MatrixXd trial_js, best_js;
+  Jacobian trial_js, best_js;
   while (out.iterations < opt.max_iterations) {
     if (keller)
-      lu->factorise_bordered(out.js, *tangent);
+      lu->prepare_bordered(out.js, *tangent);
     else
-      lu->factorise(out.js.leftCols(n));
+      lu->prepare(out.js);
     if (!lu->invertible()) {
       out.message = "singular Jacobian at " + format_lambda(problem.lambda_of(out.ys));
       return out;

@@ -26,7 +26,7 @@ struct Correction {
   double residual_norm = std::numeric_limits<double>::infinity();
   bool at_residual_floor = false;  // accepted on the residual alone (NewtonOptions)
   Eigen::VectorXd ys;              // scaled, lambda last
-  Eigen::MatrixXd js;              // scaled full Jacobian at ys
+  Jacobian js;                     // scaled full Jacobian at ys
   std::string message;
 };
 

@@ -27,6 +27,69 @@ double condition_of(const DenseLu& lu) {
   return lu.rcond() > 0.0 ? 1.0 / lu.rcond() : std::numeric_limits<double>::infinity();
 }
 
+// Right-preconditioned GMRES from x = 0 for A x = b, with products `multiply` (A z) and
+// `precondition` (M^-1 z): the Krylov basis V of A M^-1 with the Hessenberg matrix reduced by
+// Givens rotations as it grows, x = M^-1 V y at the end. At most context.max_iterations();
+// counted into the context's profile; a solve of more than refresh_iterations() marks the
+// preconditioner for refreshing (*slow). Converged when the true residual |b - A x| is at most
+// tolerance |b|.
+template <typename Multiply, typename Precondition>
+bool right_preconditioned_gmres(const Multiply& multiply, const Precondition& precondition,
+                                const Eigen::VectorXd& b, double tolerance,
+                                const LinearSolverContext& context, Eigen::VectorXd* x,
+                                bool* slow = nullptr) {
+  const Eigen::Index n = b.size();
+  const int max_k = context.max_iterations();
+  const double beta = b.norm();
+  SolveProfile* profile = context.profile();
+  if (profile != nullptr) ++profile->krylov_solves;
+  if (slow != nullptr) *slow = false;
+  if (beta == 0.0) {
+    x->setZero(n);
+    return true;
+  }
+  const double target = tolerance * beta;
+  Eigen::MatrixXd v(n, max_k + 1);
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(max_k + 1, max_k);
+  Eigen::VectorXd cs(max_k), sn(max_k), g = Eigen::VectorXd::Zero(max_k + 1);
+  v.col(0) = b / beta;
+  g(0) = beta;
+  int k = 0;
+  while (k < max_k) {
+    Eigen::VectorXd w = multiply(precondition(v.col(k)));
+    for (int pass = 0; pass < 2; ++pass) {  // classical Gram-Schmidt, twice
+      const Eigen::VectorXd c = v.leftCols(k + 1).transpose() * w;
+      w.noalias() -= v.leftCols(k + 1) * c;
+      h.col(k).head(k + 1) += c;
+    }
+    h(k + 1, k) = w.norm();
+    if (h(k + 1, k) > 0.0) v.col(k + 1) = w / h(k + 1, k);
+    for (int i = 0; i < k; ++i) {
+      const double t = cs(i) * h(i, k) + sn(i) * h(i + 1, k);
+      h(i + 1, k) = -sn(i) * h(i, k) + cs(i) * h(i + 1, k);
+      h(i, k) = t;
+    }
+    const double r = std::hypot(h(k, k), h(k + 1, k));
+    if (!(r > 0.0)) break;
+    cs(k) = h(k, k) / r;
+    sn(k) = h(k + 1, k) / r;
+    h(k, k) = r;
+    h(k + 1, k) = 0.0;
+    g(k + 1) = -sn(k) * g(k);
+    g(k) *= cs(k);
+    ++k;
+    if (std::abs(g(k)) <= target) break;
+  }
+  if (profile != nullptr) profile->krylov_iterations += k;
+  if (k == 0) return false;
+  const Eigen::VectorXd y = h.topLeftCorner(k, k).triangularView<Eigen::Upper>().solve(g.head(k));
+  *x = precondition(v.leftCols(k) * y);
+  if (!x->allFinite()) return false;
+  const double true_residual = (b - multiply(*x)).norm();
+  if (slow != nullptr) *slow = k > context.refresh_iterations();
+  return true_residual <= target;
+}
+
 }  // namespace
 
 const char* to_string(LinearSolverKind kind) {
@@ -37,24 +100,36 @@ const char* to_string(LinearSolverKind kind) {
       return "dense_lu";
     case LinearSolverKind::kGmres:
       return "gmres";
+    case LinearSolverKind::kMatrixFree:
+      return "matrix_free";
   }
   return "unknown";
 }
 
 LinearSolverContext::LinearSolverContext(const ContinuationOptions& options, Eigen::Index n,
-                                         SolveProfile* profile)
+                                         SolveProfile* profile, bool has_operator)
     : kind_(options.linear_solver),
       profile_(profile),
       tolerance_(options.gmres_tolerance),
       update_tolerance_(options.gmres_update_tolerance),
       max_iterations_(options.gmres_max_iterations),
       refresh_iterations_(options.gmres_refresh_iterations),
-      square_size_(n) {
+      square_size_(n),
+      dense_limit_(options.matrix_free_dense_limit) {
   std::ostringstream why;
   if (kind_ == LinearSolverKind::kAuto) {
-    kind_ = n >= options.gmres_from ? LinearSolverKind::kGmres : LinearSolverKind::kDenseLu;
-    why << "auto: " << n << " equations, " << (n >= options.gmres_from ? ">= " : "< ")
-        << options.gmres_from << " (gmres_from)";
+    const bool iterative = n >= options.gmres_from;
+    kind_ = !iterative     ? LinearSolverKind::kDenseLu
+            : has_operator ? LinearSolverKind::kMatrixFree
+                           : LinearSolverKind::kGmres;
+    why << "auto: " << n << " equations, " << (iterative ? ">= " : "< ") << options.gmres_from
+        << " (gmres_from)";
+    if (iterative)
+      why << (has_operator ? ", the model applies its Jacobian as an operator"
+                           : ", the model has no Jacobian operator");
+  } else if (kind_ == LinearSolverKind::kMatrixFree && !has_operator) {
+    kind_ = LinearSolverKind::kGmres;
+    why << "matrix_free chosen by the scene, but the model has no Jacobian operator: gmres";
   } else {
     why << "chosen by the scene";
   }
@@ -62,6 +137,24 @@ LinearSolverContext::LinearSolverContext(const ContinuationOptions& options, Eig
     profile_->linear_solver = to_string(kind_);
     profile_->linear_solver_reason = why.str();
   }
+}
+
+void LinearSolver::prepare(const Jacobian& j) {
+  const Eigen::Index n = j.rows();
+  if (!j.is_operator()) {
+    factorise(j.dense().leftCols(n));
+    return;
+  }
+  const Eigen::MatrixXd formed = j.formed();
+  factorise(formed.leftCols(n));
+}
+
+void LinearSolver::prepare_bordered(const Jacobian& j, const Eigen::VectorXd& last_row) {
+  if (!j.is_operator()) {
+    factorise_bordered(j.dense(), last_row);
+    return;
+  }
+  factorise_bordered(j.formed(), last_row);
 }
 
 void DenseLuSolver::factorise(const Eigen::Ref<const Eigen::MatrixXd>& a) {
@@ -140,60 +233,15 @@ double GmresSolver::condition() const {
   return condition_of(kept().lu);
 }
 
-// Right-preconditioned GMRES from x = 0: the Krylov basis V of A M^-1 with the Hessenberg
-// matrix reduced by Givens rotations as it grows, x = M^-1 V y at the end. The residual the
-// rotations give is checked against the true one, b - A x.
 bool GmresSolver::iterate(const Eigen::VectorXd& b, double tolerance, Eigen::VectorXd* x) const {
   const DenseLu& m = kept().lu;
-  const Eigen::Index n = b.size();
-  const int max_k = context_.max_iterations();
-  const double beta = b.norm();
-  SolveProfile* profile = context_.profile();
-  if (profile != nullptr) ++profile->krylov_solves;
-  if (beta == 0.0) {
-    x->setZero(n);
-    return true;
-  }
-  const double target = tolerance * beta;
-  Eigen::MatrixXd v(n, max_k + 1);
-  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(max_k + 1, max_k);
-  Eigen::VectorXd cs(max_k), sn(max_k), g = Eigen::VectorXd::Zero(max_k + 1);
-  v.col(0) = b / beta;
-  g(0) = beta;
-  int k = 0;
-  while (k < max_k) {
-    Eigen::VectorXd w = matrix_ * m.solve(v.col(k));
-    for (int pass = 0; pass < 2; ++pass) {  // classical Gram-Schmidt, twice
-      const Eigen::VectorXd c = v.leftCols(k + 1).transpose() * w;
-      w.noalias() -= v.leftCols(k + 1) * c;
-      h.col(k).head(k + 1) += c;
-    }
-    h(k + 1, k) = w.norm();
-    if (h(k + 1, k) > 0.0) v.col(k + 1) = w / h(k + 1, k);
-    for (int i = 0; i < k; ++i) {
-      const double t = cs(i) * h(i, k) + sn(i) * h(i + 1, k);
-      h(i + 1, k) = -sn(i) * h(i, k) + cs(i) * h(i + 1, k);
-      h(i, k) = t;
-    }
-    const double r = std::hypot(h(k, k), h(k + 1, k));
-    if (!(r > 0.0)) break;
-    cs(k) = h(k, k) / r;
-    sn(k) = h(k + 1, k) / r;
-    h(k, k) = r;
-    h(k + 1, k) = 0.0;
-    g(k + 1) = -sn(k) * g(k);
-    g(k) *= cs(k);
-    ++k;
-    if (std::abs(g(k)) <= target) break;
-  }
-  if (profile != nullptr) profile->krylov_iterations += k;
-  if (k == 0) return false;
-  const Eigen::VectorXd y = h.topLeftCorner(k, k).triangularView<Eigen::Upper>().solve(g.head(k));
-  *x = m.solve(v.leftCols(k) * y);
-  if (!x->allFinite()) return false;
-  const double true_residual = (b - matrix_ * *x).norm();
-  if (k > context_.refresh_iterations()) kept().stale = true;
-  return true_residual <= target;
+  bool slow = false;
+  const bool converged = right_preconditioned_gmres(
+      [&](const Eigen::VectorXd& z) -> Eigen::VectorXd { return matrix_ * z; },
+      [&](const Eigen::VectorXd& z) -> Eigen::VectorXd { return m.solve(z); }, b, tolerance,
+      context_, x, &slow);
+  if (slow) kept().stale = true;
+  return converged;
 }
 
 Eigen::VectorXd GmresSolver::solve(const Eigen::VectorXd& b) const {
@@ -227,7 +275,175 @@ Eigen::VectorXd GmresSolver::solve_to(const Eigen::VectorXd& b, double tolerance
   return x;
 }
 
+// MatrixFreeSolver. Dense matrices (factorise, or a Jacobian in formed form) go to the dense LU.
+void MatrixFreeSolver::factorise(const Eigen::Ref<const Eigen::MatrixXd>& a) {
+  const auto start = std::chrono::steady_clock::now();
+  dense_.compute(a);
+  account(context_.profile(), start, true);
+  dense_ready_ = true;
+}
+
+void MatrixFreeSolver::factorise_bordered(const Eigen::Ref<const Eigen::MatrixXd>& top,
+                                          const Eigen::Ref<const Eigen::VectorXd>& last_row) {
+  const auto start = std::chrono::steady_clock::now();
+  dense_.compute_bordered(top, last_row);
+  account(context_.profile(), start, true);
+  dense_ready_ = true;
+}
+
+void MatrixFreeSolver::prepare(const Jacobian& j) {
+  if (!j.is_operator()) {
+    factorise(j.dense().leftCols(j.rows()));
+    return;
+  }
+  prepare_operator(j, nullptr);
+}
+
+void MatrixFreeSolver::prepare_bordered(const Jacobian& j, const Eigen::VectorXd& last_row) {
+  if (!j.is_operator()) {
+    factorise_bordered(j.dense(), last_row);
+    return;
+  }
+  prepare_operator(j, &last_row);
+}
+
+void MatrixFreeSolver::prepare_operator(const Jacobian& j, const Eigen::VectorXd* last_row) {
+  jacobian_ = j;
+  bordered_ = last_row != nullptr;
+  if (bordered_) last_row_ = *last_row;
+  dense_ready_ = false;
+  own_generation_ = -1;
+  bordering_generation_ = -1;
+  LinearSolverContext::KeptPreconditioner& k = context_.kept_preconditioner();
+  if (k.stale || !k.preconditioner || !std::isfinite(k.preconditioner->condition()))
+    refresh_preconditioner();
+}
+
+void MatrixFreeSolver::refresh_preconditioner() const {
+  LinearSolverContext::KeptPreconditioner& k = context_.kept_preconditioner();
+  const auto start = std::chrono::steady_clock::now();
+  k.preconditioner = jacobian_.make_preconditioner();
+  SolveProfile* profile = context_.profile();
+  if (profile != nullptr) {
+    ++profile->preconditioner_builds;
+    profile->preconditioner_seconds += seconds_since(start);
+  }
+  ++k.generation;
+  k.stale = false;
+  own_generation_ = k.generation;
+}
+
+bool MatrixFreeSolver::form_dense() const {
+  if (dense_ready_) return true;
+  const Eigen::Index n = jacobian_.rows();
+  if (n > context_.dense_limit()) return false;
+  SolveProfile* profile = context_.profile();
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::MatrixXd formed = jacobian_.formed();
+  if (bordered_)
+    dense_.compute_bordered(formed, last_row_);
+  else
+    dense_.compute(formed.leftCols(n));
+  account(profile, start, true);
+  if (profile != nullptr) ++profile->formed_matrices;
+  dense_ready_ = true;
+  return true;
+}
+
+Eigen::VectorXd MatrixFreeSolver::multiply(const Eigen::VectorXd& x) const {
+  const Eigen::Index n = jacobian_.rows();
+  if (!bordered_) return jacobian_.apply_square(x);
+  Eigen::VectorXd y(n + 1);
+  y.head(n) = jacobian_.apply(x);
+  y(n) = last_row_.dot(x);
+  return y;
+}
+
+// M^-1 b, or for the Keller matrix P^-1 [r; rho] with P = [M, g; v_x^T, v_lambda]:
+// x = a - c mu, a = M^-1 r, c = M^-1 g, mu = (rho - v_x . a) / (v_lambda - v_x . c).
+Eigen::VectorXd MatrixFreeSolver::precondition(const Eigen::VectorXd& b) const {
+  const LinearSolverContext::KeptPreconditioner& k = context_.kept_preconditioner();
+  const Eigen::Index n = jacobian_.rows();
+  if (!bordered_) return k.preconditioner->solve(b);
+  if (bordering_generation_ != k.generation) {
+    bordering_solution_ = k.preconditioner->solve(jacobian_.parameter_column());
+    bordering_denominator_ = last_row_(n) - last_row_.head(n).dot(bordering_solution_);
+    bordering_generation_ = k.generation;
+  }
+  Eigen::VectorXd x(n + 1);
+  x.head(n) = k.preconditioner->solve(b.head(n));
+  double mu = 0.0;
+  if (bordering_denominator_ != 0.0 && std::isfinite(bordering_denominator_))
+    mu = (b(n) - last_row_.head(n).dot(x.head(n))) / bordering_denominator_;
+  x.head(n) -= bordering_solution_ * mu;
+  x(n) = mu;
+  return x;
+}
+
+Eigen::VectorXd MatrixFreeSolver::solve(const Eigen::VectorXd& b) const {
+  return solve_to(b, context_.tolerance());
+}
+
+Eigen::VectorXd MatrixFreeSolver::solve_update(const Eigen::VectorXd& b) const {
+  return solve_to(b, context_.update_tolerance());
+}
+
+Eigen::VectorXd MatrixFreeSolver::solve_to(const Eigen::VectorXd& b, double tolerance) const {
+  SolveProfile* profile = context_.profile();
+  if (dense_ready_) {
+    const auto start = std::chrono::steady_clock::now();
+    Eigen::VectorXd x = dense_.solve(b);
+    account(profile, start, false);
+    return x;
+  }
+  Eigen::VectorXd x;
+  bool slow = false;
+  const auto gmres = [&] {
+    const auto start = std::chrono::steady_clock::now();
+    const bool converged =
+        right_preconditioned_gmres([&](const Eigen::VectorXd& z) { return multiply(z); },
+                                   [&](const Eigen::VectorXd& z) { return precondition(z); }, b,
+                                   tolerance, context_, &x, &slow);
+    if (profile != nullptr) profile->krylov_seconds += seconds_since(start);
+    return converged;
+  };
+  bool converged = gmres();
+  if (!converged && own_generation_ != context_.kept_preconditioner().generation) {
+    refresh_preconditioner();
+    converged = gmres();
+  }
+  if (slow) context_.kept_preconditioner().stale = true;
+  if (converged) return x;
+  if (profile != nullptr) ++profile->krylov_fallbacks;
+  if (!form_dense() || !invertible_lu(dense_))
+    return Eigen::VectorXd::Constant(b.size(), std::numeric_limits<double>::quiet_NaN());
+  const auto direct = std::chrono::steady_clock::now();
+  x = dense_.solve(b);
+  account(profile, direct, false);
+  return x;
+}
+
+bool MatrixFreeSolver::invertible() const {
+  if (dense_ready_) return invertible_lu(dense_);
+  const auto& p = context_.kept_preconditioner().preconditioner;
+  return p && std::isfinite(p->condition()) &&
+         p->condition() < 1.0 / std::numeric_limits<double>::epsilon();
+}
+
+double MatrixFreeSolver::condition() const {
+  if (dense_ready_) return condition_of(dense_);
+  const auto& p = context_.kept_preconditioner().preconditioner;
+  return p ? p->condition() : std::numeric_limits<double>::infinity();
+}
+
+int MatrixFreeSolver::determinant_sign() const {
+  if (!form_dense()) return 0;
+  return dense_.determinant_sign();
+}
+
 std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverContext& context) {
+  if (context.kind() == LinearSolverKind::kMatrixFree)
+    return std::make_unique<MatrixFreeSolver>(context);
   if (context.kind() == LinearSolverKind::kGmres) return std::make_unique<GmresSolver>(context);
   return std::make_unique<DenseLuSolver>(context.profile());
 }

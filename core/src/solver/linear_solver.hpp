@@ -1,8 +1,10 @@
 // The seam between the continuation and its linear algebra: every square system the corrector
 // and the tangent solve - the Newton matrix e_x at fixed lambda, the bordered Keller matrix
 // [e_y; v^T] - goes through a LinearSolver made by make_linear_solver from the solve's
-// LinearSolverContext: a dense LU of every matrix (DenseLuSolver), or GMRES preconditioned by
-// the LU of an earlier matrix that the context keeps between systems (GmresSolver).
+// LinearSolverContext: a dense LU of every matrix (DenseLuSolver), GMRES preconditioned by
+// the LU of an earlier matrix that the context keeps between systems (GmresSolver), or GMRES on
+// the problem's Jacobian operator preconditioned by the operator's own approximate inverse,
+// also kept between systems (MatrixFreeSolver).
 #pragma once
 
 #include <Eigen/Dense>
@@ -11,6 +13,7 @@
 
 #include "frichb/core/numerics/dense_lu.hpp"
 #include "frichb/core/solver/continuation.hpp"
+#include "solver/jacobian.hpp"
 
 namespace frichb::core {
 
@@ -24,6 +27,10 @@ class LinearSolver {
   // Prepares to solve with the bordered matrix [top; last_row^T] (top n x (n + 1)).
   virtual void factorise_bordered(const Eigen::Ref<const Eigen::MatrixXd>& top,
                                   const Eigen::Ref<const Eigen::VectorXd>& last_row) = 0;
+  // Prepares to solve with e_x of the scaled Jacobian `j`, or with the Keller matrix
+  // [j; last_row^T]. A solver that works on matrices forms an operator's (Jacobian::formed).
+  virtual void prepare(const Jacobian& j);
+  virtual void prepare_bordered(const Jacobian& j, const Eigen::VectorXd& last_row);
   // x with A x = b, for the matrix last prepared; non-finite entries when it cannot be solved.
   virtual Eigen::VectorXd solve(const Eigen::VectorXd& b) const = 0;
   // A Newton or chord update: x with A x = b to the accuracy an update needs (an iterative
@@ -52,7 +59,10 @@ class LinearSolverContext {
  public:
   // `options.linear_solver` resolved for n equations: kAuto becomes kGmres from
   // options.gmres_from equations on. Writes the choice and its reason into the profile.
-  LinearSolverContext(const ContinuationOptions& options, Eigen::Index n, SolveProfile* profile);
+  // kMatrixFree (chosen or by auto) needs `has_operator` (the problem's
+  // has_jacobian_operator()); without it kGmres is used, and the reason says so.
+  LinearSolverContext(const ContinuationOptions& options, Eigen::Index n, SolveProfile* profile,
+                      bool has_operator = false);
 
   LinearSolverKind kind() const { return kind_; }
   SolveProfile* profile() const { return profile_; }
@@ -69,6 +79,15 @@ class LinearSolverContext {
     bool stale = true;  // refactorise at the next matrix of this size (none yet, or too slow)
   };
   KeptFactor& kept(Eigen::Index size) { return size == square_size_ ? square_ : bordered_; }
+  // The operator preconditioner kept for the matrix-free path (shared by both sizes: the
+  // bordered system is preconditioned through it, MatrixFreeSolver).
+  struct KeptPreconditioner {
+    std::shared_ptr<const ScaledPreconditioner> preconditioner;
+    long generation = 0;
+    bool stale = true;
+  };
+  KeptPreconditioner& kept_preconditioner() { return kept_preconditioner_; }
+  Eigen::Index dense_limit() const { return dense_limit_; }
 
  private:
   LinearSolverKind kind_;
@@ -78,7 +97,9 @@ class LinearSolverContext {
   int max_iterations_;
   int refresh_iterations_;
   Eigen::Index square_size_ = 0;
+  Eigen::Index dense_limit_ = 0;
   KeptFactor square_, bordered_;
+  KeptPreconditioner kept_preconditioner_;
 };
 
 // Dense LU with partial pivoting (numerics/dense_lu: blocked, OpenBLAS when built with it) and
@@ -133,6 +154,53 @@ class GmresSolver final : public LinearSolver {
   LinearSolverContext& context_;
   Eigen::MatrixXd matrix_;
   mutable long own_generation_ = -1;  // the kept LU's generation when it was matrix_'s
+};
+
+// GMRES on the scaled Jacobian operator (Jacobian in operator form): products cost what the
+// operator's structure allows and nothing is formed. Preconditioned by the context's kept
+// operator preconditioner (M of an earlier point; the Keller matrix through the bordering
+// [M, g; v_x^T, v_lambda] with this matrix's g = e_lambda), made afresh when stale and marked
+// stale after a solve of more than gmres_refresh_iterations iterations. A solve that has not
+// converged in gmres_max_iterations is repeated with this point's own preconditioner; if that
+// fails too, the matrix is formed and factorised when it has at most
+// matrix_free_dense_limit equations (counted in krylov_fallbacks), else the solution is
+// non-finite. invertible() and condition() are of the preconditioner; determinant_sign()
+// forms and factorises the matrix (0 above the limit). Given a dense Jacobian it behaves as
+// DenseLuSolver. Holds a reference to the context, which must outlive it.
+class MatrixFreeSolver final : public LinearSolver {
+ public:
+  explicit MatrixFreeSolver(LinearSolverContext& context) : context_(context) {}
+  void factorise(const Eigen::Ref<const Eigen::MatrixXd>& a) override;
+  void factorise_bordered(const Eigen::Ref<const Eigen::MatrixXd>& top,
+                          const Eigen::Ref<const Eigen::VectorXd>& last_row) override;
+  void prepare(const Jacobian& j) override;
+  void prepare_bordered(const Jacobian& j, const Eigen::VectorXd& last_row) override;
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const override;
+  Eigen::VectorXd solve_update(const Eigen::VectorXd& b) const override;
+  bool invertible() const override;
+  double condition() const override;
+  bool determinant_known() const override { return dense_ready_; }
+  int determinant_sign() const override;
+
+ private:
+  void prepare_operator(const Jacobian& j, const Eigen::VectorXd* last_row);
+  void refresh_preconditioner() const;  // the kept preconditioner becomes this point's
+  bool form_dense() const;              // dense_ becomes the LU of this matrix, if it fits
+  Eigen::VectorXd multiply(const Eigen::VectorXd& x) const;
+  Eigen::VectorXd precondition(const Eigen::VectorXd& b) const;
+  Eigen::VectorXd solve_to(const Eigen::VectorXd& b, double tolerance) const;
+
+  LinearSolverContext& context_;
+  Jacobian jacobian_;  // operator form (shares the operator)
+  bool bordered_ = false;
+  Eigen::VectorXd last_row_;
+  // The bordering of the kept preconditioner: b = M^-1 g and v_lambda - v_x . b.
+  mutable Eigen::VectorXd bordering_solution_;
+  mutable double bordering_denominator_ = 1.0;
+  mutable long bordering_generation_ = -1;
+  mutable long own_generation_ = -1;  // the kept preconditioner's generation when it was made here
+  mutable DenseLu dense_;
+  mutable bool dense_ready_ = false;
 };
 
 // The solver for one system of the solve that owns `context`.

@@ -33,15 +33,19 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-bool ScaledProblem::evaluate(const VectorXd& ys, VectorXd* es, MatrixXd* js,
+bool ScaledProblem::evaluate(const VectorXd& ys, VectorXd* es, Jacobian* js,
                              std::string* message) const {
   const Index n = equations();
   const VectorXd y = ys.cwiseProduct(scaling_.unknown);
   VectorXd e(n);
-  if (js != nullptr) js->resize(n, n + 1);
+  const bool as_operator = js != nullptr && linear_.kind() == LinearSolverKind::kMatrixFree;
+  MatrixXd* formed = js != nullptr && !as_operator ? &js->dense() : nullptr;
+  std::shared_ptr<const JacobianOperator> op;
+  if (formed != nullptr) formed->resize(n, n + 1);
   std::string why;
   const auto start = std::chrono::steady_clock::now();
-  const bool evaluated = problem_.evaluate(y, e, js, &why);
+  const bool evaluated = as_operator ? problem_.evaluate_operator(y, e, &op, &why)
+                                     : problem_.evaluate(y, e, formed, &why);
   if (profile_ != nullptr) {
     ++profile_->evaluations;
     profile_->evaluation_seconds += seconds_since(start);
@@ -51,20 +55,24 @@ bool ScaledProblem::evaluate(const VectorXd& ys, VectorXd* es, MatrixXd* js,
     *message = "evaluation failed at " + format_lambda(y(n)) + (why.empty() ? "" : ": " + why);
     return false;
   }
-  if (e.size() != n || (js != nullptr && (js->rows() != n || js->cols() != n + 1))) {
+  if (e.size() != n || (formed != nullptr && (formed->rows() != n || formed->cols() != n + 1)) ||
+      (as_operator && (!op || op->rows() != n || op->parameter_column().size() != n))) {
     *message = "evaluate() returned wrongly sized residual or Jacobian";
     return false;
   }
-  if (!e.allFinite() || (js != nullptr && !js->allFinite())) {
+  if (!e.allFinite() || (formed != nullptr && !formed->allFinite()) ||
+      (as_operator && !op->parameter_column().allFinite())) {
     *message = "non-finite residual or Jacobian at " + format_lambda(y(n));
     return false;
   }
   *es = e.cwiseQuotient(scaling_.residual);
-  if (js != nullptr) {
+  if (as_operator) {
+    js->set_operator(std::move(op), scaling_);
+  } else if (formed != nullptr) {
     // Rows by the residual scales and columns by the unknown scales, in one pass.
     const VectorXd inverse_residual_scale = scaling_.residual.cwiseInverse();
     for (Index c = 0; c <= n; ++c)
-      js->col(c) = js->col(c).cwiseProduct(inverse_residual_scale) * scaling_.unknown(c);
+      formed->col(c) = formed->col(c).cwiseProduct(inverse_residual_scale) * scaling_.unknown(c);
   }
   return true;
 }

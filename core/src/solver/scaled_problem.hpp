@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "frichb/core/solver/continuation.hpp"
+#include "solver/jacobian.hpp"
 #include "solver/linear_solver.hpp"
 
 namespace frichb::core {
@@ -40,7 +41,7 @@ class ScaledProblem {
       : problem_(problem),
         scaling_(std::move(scaling)),
         profile_(profile),
-        linear_(options, scaling_.residual.size(), profile) {}
+        linear_(options, scaling_.residual.size(), profile, problem.has_jacobian_operator()) {}
 
   Eigen::Index equations() const { return scaling_.residual.size(); }
   const Scaling& scaling() const { return scaling_; }
@@ -59,10 +60,12 @@ class ScaledProblem {
   }
 
   // The scaled residual `es` (size n) and, when `js` is not null, the scaled n x (n + 1)
-  // Jacobian at scaled unknowns `ys`, written into js's own storage. False, with `message`,
+  // Jacobian at scaled unknowns `ys`: formed into js's own storage, or as the problem's
+  // operator on the matrix-free path (LinearSolverKind::kMatrixFree). False, with `message`,
   // when the problem fails, returns wrong sizes, or returns a non-finite value: NaN never
-  // reaches an accepted point.
-  bool evaluate(const Eigen::VectorXd& ys, Eigen::VectorXd* es, Eigen::MatrixXd* js,
+  // reaches an accepted point (an operator's entries are not checked; its products are, by
+  // the solver that uses them).
+  bool evaluate(const Eigen::VectorXd& ys, Eigen::VectorXd* es, Jacobian* js,
                 std::string* message) const;
 
  private:

@@ -6,7 +6,6 @@
 namespace frichb::core {
 
 using Eigen::Index;
-using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
 namespace {
@@ -15,14 +14,14 @@ namespace {
 constexpr double kKeepOrientationCosine = 0.9;
 }  // namespace
 
-bool first_tangent(const MatrixXd& js, double direction, LinearSolverContext& linear, VectorXd* v,
+bool first_tangent(const Jacobian& js, double direction, LinearSolverContext& linear, VectorXd* v,
                    double* condition, int* orientation) {
   const Index n = js.rows();
   const std::unique_ptr<LinearSolver> lu = make_linear_solver(linear);
-  lu->factorise(js.leftCols(n));
+  lu->prepare(js);
   *condition = lu->condition();
   if (!lu->invertible()) return false;
-  const VectorXd w = lu->solve(js.col(n));
+  const VectorXd w = lu->solve(js.parameter_column());
   VectorXd t(n + 1);
   t.head(n) = -w;
   t(n) = 1.0;
@@ -33,13 +32,13 @@ bool first_tangent(const MatrixXd& js, double direction, LinearSolverContext& li
   return v->allFinite();
 }
 
-bool next_tangent(const MatrixXd& js, const VectorXd& previous, LinearSolverContext& linear,
+bool next_tangent(const Jacobian& js, const VectorXd& previous, LinearSolverContext& linear,
                   VectorXd* v, double* condition, KellerFactor* keep, int* orientation) {
   const Index n = js.rows();
   KellerFactor local;
   KellerFactor& f = keep != nullptr ? *keep : local;
   if (!f.lu) f.lu = make_linear_solver(linear);
-  f.lu->factorise_bordered(js, previous);
+  f.lu->prepare_bordered(js, previous);
   if (condition != nullptr) *condition = f.lu->condition();
   if (!f.lu->invertible()) return false;
   f.t = f.lu->solve(VectorXd::Unit(n + 1, n));

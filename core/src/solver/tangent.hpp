@@ -13,7 +13,7 @@ namespace frichb::core {
 // Eq. 4.9: w = e_x^-1 e_lambda, v = direction * (-w, 1) / |(1, w)|. `condition`: estimate of
 // the 1-norm condition number of e_x; `orientation` (optional): sign det [e_y; v^T]. False when
 // e_x is singular or v is not finite.
-bool first_tangent(const Eigen::MatrixXd& js, double direction, LinearSolverContext& linear,
+bool first_tangent(const Jacobian& js, double direction, LinearSolverContext& linear,
                    Eigen::VectorXd* v, double* condition, int* orientation);
 
 // Eq. 4.10: [A; v_prev^T] v = [0; 1]; the last row keeps v . v_prev > 0, i.e. no reversal.
@@ -24,9 +24,9 @@ bool first_tangent(const Eigen::MatrixXd& js, double direction, LinearSolverCont
 // bordered matrix and the tangent turned from `previous` by less than keep_orientation's angle
 // (the point then inherits its predecessor's orientation in keep_orientation); past that
 // angle the matrix is factorised for its determinant.
-bool next_tangent(const Eigen::MatrixXd& js, const Eigen::VectorXd& previous,
-                  LinearSolverContext& linear, Eigen::VectorXd* v, double* condition = nullptr,
-                  KellerFactor* keep = nullptr, int* orientation = nullptr);
+bool next_tangent(const Jacobian& js, const Eigen::VectorXd& previous, LinearSolverContext& linear,
+                  Eigen::VectorXd* v, double* condition = nullptr, KellerFactor* keep = nullptr,
+                  int* orientation = nullptr);
 
 // Reverses a tangent from next_tangent (and the Sherman-Morrison terms kept with it).
 void reverse_tangent(Eigen::VectorXd* v, KellerFactor* keep);

@@ -60,6 +60,13 @@ class HarmonicBalanceModel final : public CurveProblem {
   Eigen::Index equation_count() const override { return unknown_count_; }
   bool evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
                 std::string* message) const override;
+  // The Jacobian as an operator (model/harmonic_jacobian: I + Rc dF/dU applied, never formed,
+  // with a harmonic-decoupled preconditioner). The operator shares the model's projected
+  // modes and residual flexibilities: the model must outlive it.
+  bool has_jacobian_operator() const override { return true; }
+  bool evaluate_operator(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
+                         std::shared_ptr<const JacobianOperator>* jacobian,
+                         std::string* message) const override;
 
   const HarmonicLayout& layout() const { return layout_; }
   const std::vector<ContactModel>& contacts() const { return contacts_; }
@@ -90,6 +97,11 @@ class HarmonicBalanceModel final : public CurveProblem {
   // contact's block dF/dU into traces_[i].jacobian.
   void gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces, bool with_jacobian,
                      std::string* message, bool& ok) const;
+
+  // evaluate and evaluate_operator: the Jacobian formed into `jacobian`, or as an operator
+  // into `op` (at most one of them not null).
+  bool evaluate_into(const Eigen::VectorXd& y, Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
+                     std::shared_ptr<const JacobianOperator>* op, std::string* message) const;
 
   struct ContactReceptance;
   struct Workspace;

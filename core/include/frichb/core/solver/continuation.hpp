@@ -36,10 +36,42 @@
 #include <Eigen/Dense>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace frichb::core {
+
+// An approximate inverse M^-1 of a JacobianOperator's square part e_x (n x n), made once and
+// applied to any number of vectors. Immutable after construction, so that one made at an
+// earlier point may precondition later systems; solve() may be called concurrently.
+class JacobianPreconditioner {
+ public:
+  virtual ~JacobianPreconditioner() = default;
+  // x = M^-1 b (both of size n, unscaled: b in residual units, x in unknown units).
+  virtual void solve(const Eigen::Ref<const Eigen::VectorXd>& b,
+                     Eigen::Ref<Eigen::VectorXd> x) const = 0;
+  // Estimate of M's 1-norm condition number (infinite when M is singular to working precision).
+  virtual double condition() const = 0;
+};
+
+// The Jacobian [e_x, e_lambda] of one point, applied rather than formed: for problems whose e_x
+// has a structure that makes products and an approximate inverse cheap (O(n) to O(n^2) where a
+// dense LU is O(n^3)). Immutable once made, unscaled; it owns the point's data it needs and may
+// share read-only data with the problem that made it, which must outlive it.
+class JacobianOperator {
+ public:
+  virtual ~JacobianOperator() = default;
+  // n, the number of equations.
+  virtual Eigen::Index rows() const = 0;
+  // y = e_x x for the columns of the n x k block x (y: n x k, not aliasing x).
+  virtual void apply(const Eigen::Ref<const Eigen::MatrixXd>& x,
+                     Eigen::Ref<Eigen::MatrixXd> y) const = 0;
+  // e_lambda (size n).
+  virtual const Eigen::VectorXd& parameter_column() const = 0;
+  // An approximation of e_x and its inverse, owning all it needs (it may outlive this object).
+  virtual std::unique_ptr<JacobianPreconditioner> make_preconditioner() const = 0;
+};
 
 // n equations in n + 1 unknowns; the continuation parameter is the LAST unknown.
 class CurveProblem {
@@ -53,10 +85,22 @@ class CurveProblem {
   // as a failed step.
   virtual bool evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
                         Eigen::MatrixXd* jacobian, std::string* message) const = 0;
+  // True when evaluate_operator is implemented (LinearSolverKind::kMatrixFree can be used).
+  virtual bool has_jacobian_operator() const { return false; }
+  // As evaluate, with the Jacobian as an operator instead of a dense matrix.
+  virtual bool evaluate_operator(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
+                                 std::shared_ptr<const JacobianOperator>* jacobian,
+                                 std::string* message) const {
+    (void)y;
+    (void)residual;
+    (void)jacobian;
+    if (message != nullptr) *message = "this problem cannot apply its Jacobian as an operator";
+    return false;
+  }
 };
 
 // The linear solver of the continuation's systems (ContinuationOptions::linear_solver).
-enum class LinearSolverKind { kAuto, kDenseLu, kGmres };
+enum class LinearSolverKind { kAuto, kDenseLu, kGmres, kMatrixFree };
 const char* to_string(LinearSolverKind kind);
 
 struct NewtonOptions {
@@ -147,21 +191,35 @@ struct ContinuationOptions {
   //             gmres_update_tolerance |b|_2 (an inexact Newton step: the corrector's
   //             acceptance tests the evaluated residual, so accepted points meet the same
   //             residual bound either way);
-  //   kAuto     kGmres from gmres_from equations (the summary's unknowns, lambda excluded)
-  //             on, kDenseLu below.
+  //   kMatrixFree  GMRES as kGmres, on the problem's JacobianOperator
+  //             (CurveProblem::evaluate_operator): e_y is never formed; each product costs
+  //             what the operator's structure allows, and the preconditioner is the
+  //             operator's own approximate inverse (JacobianPreconditioner), made from an
+  //             earlier point's operator and kept while solves take at most
+  //             gmres_refresh_iterations iterations. A solve that has not converged in
+  //             gmres_max_iterations is tried again with the preconditioner of its own point;
+  //             if that fails too, the matrix is formed and factorised when it fits in
+  //             matrix_free_dense_limit equations (counted as a fallback), else there is no
+  //             solution (non-finite entries: the corrector fails with a message). A problem
+  //             without an operator is solved by kGmres instead (the profile says so);
+  //   kAuto     from gmres_from equations (the summary's unknowns, lambda excluded) on,
+  //             kMatrixFree where the problem has an operator, else kGmres; kDenseLu below.
   // Orientation: a point whose tangent's matrix was not factorised inherits its predecessor's
   // sign det [e_y; v^T] unless its tangent turned by more than about 26 degrees, where
   // keep_orientation compares signs: then its matrix is factorised and its own sign is
   // compared, as on the dense path. Limitation: the sign also changes, with a small turn, at
   // a branch point or inside a kink surface; the dense path records the new sign there, the
   // gmres path keeps the old one, so a later comparison past a jumped fold, or a step past a
-  // kink, may take the wrong orientation on a curve that passed a branch point.
+  // kink, may take the wrong orientation on a curve that passed a branch point. On the
+  // matrix_free path the determinant is that of the formed matrix (formed for it, when it fits
+  // in matrix_free_dense_limit equations); above that limit a point always inherits.
   LinearSolverKind linear_solver = LinearSolverKind::kAuto;
   Eigen::Index gmres_from = 5000;
   double gmres_tolerance = 1e-10;
   double gmres_update_tolerance = 1e-4;
   int gmres_max_iterations = 60;
   int gmres_refresh_iterations = 12;
+  Eigen::Index matrix_free_dense_limit = 12000;
 
   // The curve ends (kLeftBounds) at a corrected point with lambda outside
   // [lambda_min, lambda_max]; that point is not kept. E.g. lambda_min = 0 for a frequency: a
@@ -197,6 +255,11 @@ struct SolveProfile {
   long krylov_iterations = 0;
   double krylov_seconds = 0.0;
   long krylov_fallbacks = 0;
+  // kMatrixFree: preconditioners made (JacobianOperator::make_preconditioner) and their wall
+  // time, and the matrices formed from an operator (for a fallback or a determinant).
+  long preconditioner_builds = 0;
+  double preconditioner_seconds = 0.0;
+  long formed_matrices = 0;
 };
 
 struct ContinuationPoint {

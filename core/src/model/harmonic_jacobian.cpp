@@ -1,0 +1,175 @@
+// The harmonic-balance Jacobian as an operator, and its harmonic-decoupled preconditioner
+// (harmonic_jacobian.hpp).
+#include "model/harmonic_jacobian.hpp"
+
+#include <algorithm>
+#include <complex>
+#include <limits>
+#include <utility>
+
+namespace frichb::core {
+
+using Eigen::Index;
+using Eigen::MatrixXcd;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace {
+
+const std::complex<double> kImaginaryUnit(0.0, 1.0);
+
+// Rows a * c + cos - i (a * c + sin) of x as the m x k complex amplitudes of harmonic r.
+MatrixXcd gather_harmonic(const HarmonicReceptance& r, int coefficients, int components,
+                          const Eigen::Ref<const MatrixXd>& x) {
+  MatrixXcd z(components, x.cols());
+  for (int a = 0; a < components; ++a) {
+    const Index row = static_cast<Index>(a) * coefficients;
+    if (r.harmonic > 0)
+      z.row(a) = x.row(row + r.cos_index).cast<std::complex<double>>() -
+                 kImaginaryUnit * x.row(row + r.sin_index);
+    else
+      z.row(a) = x.row(row + r.cos_index).cast<std::complex<double>>();
+  }
+  return z;
+}
+
+// y's rows of harmonic r += the real coefficients of the amplitudes w (m x k).
+void scatter_harmonic(const HarmonicReceptance& r, int coefficients, int components,
+                      const MatrixXcd& w, Eigen::Ref<MatrixXd> y) {
+  for (int a = 0; a < components; ++a) {
+    const Index row = static_cast<Index>(a) * coefficients;
+    y.row(row + r.cos_index) += w.row(a).real();
+    if (r.harmonic > 0) y.row(row + r.sin_index) -= w.row(a).imag();
+  }
+}
+
+// I + Rc_n D0 of every kept harmonic, LU-factorised (complex, partial pivoting).
+class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
+ public:
+  HarmonicDecoupledPreconditioner(int coefficients, int components,
+                                  std::vector<HarmonicReceptance> layout,
+                                  std::vector<Eigen::PartialPivLU<MatrixXcd>> factors)
+      : coefficients_(coefficients),
+        components_(components),
+        layout_(std::move(layout)),
+        factors_(std::move(factors)) {
+    condition_ = 1.0;
+    for (const auto& f : factors_) {
+      const double rcond = f.rcond();
+      condition_ =
+          std::max(condition_, rcond > 0.0 ? 1.0 / rcond : std::numeric_limits<double>::infinity());
+      if (!std::isfinite(rcond)) condition_ = std::numeric_limits<double>::infinity();
+    }
+  }
+
+  void solve(const Eigen::Ref<const VectorXd>& b, Eigen::Ref<VectorXd> x) const override {
+    x.setZero();
+    for (std::size_t k = 0; k < layout_.size(); ++k) {
+      const MatrixXcd rhs = gather_harmonic(layout_[k], coefficients_, components_, b);
+      MatrixXcd solution = factors_[k].solve(rhs);
+      if (layout_[k].harmonic == 0) solution.imag().setZero();
+      scatter_harmonic(layout_[k], coefficients_, components_, solution, x);
+    }
+  }
+  double condition() const override { return condition_; }
+
+ private:
+  int coefficients_;
+  int components_;
+  std::vector<HarmonicReceptance> layout_;  // harmonic and indices only
+  std::vector<Eigen::PartialPivLU<MatrixXcd>> factors_;
+  double condition_ = 1.0;
+};
+
+}  // namespace
+
+void HarmonicReceptance::apply(const MatrixXcd& x, MatrixXcd& y) const {
+  if (projected == nullptr) {
+    y.noalias() = formed * x;
+    return;
+  }
+  const MatrixXcd modal = inv_z.asDiagonal() * (projected->adjoint() * x);
+  y.noalias() = *projected * modal;
+  if (flexibility != nullptr && flexibility->size() > 0) y.noalias() += *flexibility * x;
+}
+
+MatrixXcd HarmonicReceptance::matrix() const {
+  if (projected == nullptr) return formed;
+  MatrixXcd rc = (*projected * inv_z.asDiagonal()) * projected->adjoint();
+  if (flexibility != nullptr && flexibility->size() > 0) rc += *flexibility;
+  return rc;
+}
+
+HarmonicJacobian::HarmonicJacobian(int coefficients, int components,
+                                   std::vector<HarmonicReceptance> receptances,
+                                   std::vector<ContactTangent> tangents, VectorXd parameter_column)
+    : coefficients_(coefficients),
+      components_(components),
+      receptances_(std::move(receptances)),
+      tangents_(std::move(tangents)),
+      parameter_column_(std::move(parameter_column)) {}
+
+void HarmonicJacobian::apply(const Eigen::Ref<const MatrixXd>& x, Eigen::Ref<MatrixXd> y) const {
+  // D x, contact by contact.
+  MatrixXd dx(x.rows(), x.cols());
+  for (const ContactTangent& t : tangents_) {
+    const Index p = t.block.rows();
+    dx.middleRows(t.first, p).noalias() = t.block * x.middleRows(t.first, p);
+  }
+  y = x;
+  MatrixXcd w;
+  for (const HarmonicReceptance& r : receptances_) {
+    r.apply(gather_harmonic(r, coefficients_, components_, dx), w);
+    if (r.harmonic == 0) w.imag().setZero();
+    scatter_harmonic(r, coefficients_, components_, w, y);
+  }
+}
+
+std::unique_ptr<JacobianPreconditioner> HarmonicJacobian::make_preconditioner() const {
+  // D0 of each contact, d x d: the static-static block, or the mean of the cos-cos and
+  // sin-sin blocks of the first kept harmonic (both equal the time-averaged tangent plus or
+  // minus half its 2n-th cosine coefficient).
+  if (receptances_.empty()) return nullptr;
+  const auto with_static =
+      std::find_if(receptances_.begin(), receptances_.end(),
+                   [](const HarmonicReceptance& r) { return r.harmonic == 0; });
+  const HarmonicReceptance& basis =
+      with_static != receptances_.end() ? *with_static : receptances_.front();
+  MatrixXd mean = MatrixXd::Zero(components_, components_);
+  for (const ContactTangent& t : tangents_) {
+    const Index d = t.block.rows() / coefficients_;
+    const Index first = t.first / coefficients_;
+    for (Index b = 0; b < d; ++b)
+      for (Index e = 0; e < d; ++e) {
+        const Index rb = b * coefficients_, re = e * coefficients_;
+        mean(first + b, first + e) =
+            basis.harmonic == 0 ? t.block(rb + basis.cos_index, re + basis.cos_index)
+                                : 0.5 * (t.block(rb + basis.cos_index, re + basis.cos_index) +
+                                         t.block(rb + basis.sin_index, re + basis.sin_index));
+      }
+  }
+  std::vector<HarmonicReceptance> layout;
+  std::vector<Eigen::PartialPivLU<MatrixXcd>> factors;
+  for (const HarmonicReceptance& r : receptances_) {
+    MatrixXcd rc = r.matrix();
+    if (r.harmonic == 0) rc.imag().setZero();
+    MatrixXcd m = MatrixXcd::Identity(components_, components_);
+    // Rc D0 contact by contact (D0 is block diagonal).
+    for (const ContactTangent& t : tangents_) {
+      const Index d = t.block.rows() / coefficients_;
+      const Index first = t.first / coefficients_;
+      m.middleCols(first, d).noalias() +=
+          rc.middleCols(first, d) * mean.block(first, first, d, d).cast<std::complex<double>>();
+    }
+    factors.emplace_back(m);
+    HarmonicReceptance slot;
+    slot.harmonic = r.harmonic;
+    slot.cos_index = r.cos_index;
+    slot.sin_index = r.sin_index;
+    layout.push_back(std::move(slot));
+  }
+  return std::make_unique<HarmonicDecoupledPreconditioner>(coefficients_, components_,
+                                                           std::move(layout), std::move(factors));
+}
+
+}  // namespace frichb::core
