@@ -187,7 +187,7 @@ double DenseLuSolver::condition() const {
 
 void GmresSolver::factorise(const Eigen::Ref<const Eigen::MatrixXd>& a) {
   matrix_ = a;
-  prepare();
+  keep_or_refactorise();
 }
 
 void GmresSolver::factorise_bordered(const Eigen::Ref<const Eigen::MatrixXd>& top,
@@ -196,11 +196,11 @@ void GmresSolver::factorise_bordered(const Eigen::Ref<const Eigen::MatrixXd>& to
   matrix_.resize(n + 1, n + 1);
   matrix_.topRows(n) = top.leftCols(n + 1);
   matrix_.row(n) = last_row.transpose();
-  prepare();
+  keep_or_refactorise();
 }
 
 // A stale or singular kept LU is replaced by this matrix's; otherwise it is kept.
-void GmresSolver::prepare() {
+void GmresSolver::keep_or_refactorise() {
   own_generation_ = -1;
   LinearSolverContext::KeptFactor& k = kept();
   if (k.stale || k.lu.size() != matrix_.rows() || !invertible_lu(k.lu)) refactorise();

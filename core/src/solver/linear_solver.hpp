@@ -146,7 +146,7 @@ class GmresSolver final : public LinearSolver {
 
  private:
   LinearSolverContext::KeptFactor& kept() const { return context_.kept(matrix_.rows()); }
-  void prepare();
+  void keep_or_refactorise();
   void refactorise() const;  // the kept LU becomes that of matrix_
   bool iterate(const Eigen::VectorXd& b, double tolerance, Eigen::VectorXd* x) const;
   Eigen::VectorXd solve_to(const Eigen::VectorXd& b, double tolerance) const;
