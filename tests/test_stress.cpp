@@ -458,6 +458,10 @@ TEST(Stress, JacobianOperatorAppliesTheFormedJacobian) {
     EXPECT_LE((product - expected).norm(), 1e-12 * expected.norm());
     EXPECT_LE((at.op->parameter_column() - at.formed.col(n)).norm(),
               1e-12 * at.formed.col(n).norm());
+    Eigen::MatrixXd formed_by_operator(n, n);
+    at.op->form(formed_by_operator);
+    EXPECT_LE((formed_by_operator - at.formed.leftCols(n)).norm(),
+              1e-12 * at.formed.leftCols(n).norm());
     EXPECT_GT((expected - x).norm(), 1e-3 * x.norm());  // the contacts are felt
   }
 }

@@ -66,7 +66,11 @@ class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
     x.setZero();
     for (std::size_t k = 0; k < layout_.size(); ++k) {
       const MatrixXcd rhs = gather_harmonic(layout_[k], coefficients_, components_, b);
-      MatrixXcd solution = factors_[k].solve(rhs);
+      MatrixXcd solution(rhs.rows(), rhs.cols());
+      if (rhs.cols() == 1)
+        solution.col(0) = factors_[k].solve(rhs.col(0));
+      else
+        solution = factors_[k].solve(rhs);
       if (layout_[k].harmonic == 0) solution.imag().setZero();
       scatter_harmonic(layout_[k], coefficients_, components_, solution, x);
     }
@@ -84,6 +88,19 @@ class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
 }  // namespace
 
 void HarmonicReceptance::apply(const MatrixXcd& x, MatrixXcd& y) const {
+  y.resize(x.rows(), x.cols());
+  if (x.cols() == 1) {
+    // One vector: matrix-vector products (a matrix product would pack Rc or F every call).
+    if (projected == nullptr) {
+      y.col(0).noalias() = formed * x.col(0);
+      return;
+    }
+    const Eigen::VectorXcd modal = inv_z.cwiseProduct(projected->adjoint() * x.col(0));
+    y.col(0).noalias() = *projected * modal;
+    if (flexibility != nullptr && flexibility->size() > 0)
+      y.col(0).noalias() += *flexibility * x.col(0);
+    return;
+  }
   if (projected == nullptr) {
     y.noalias() = formed * x;
     return;
@@ -123,6 +140,30 @@ void HarmonicJacobian::apply(const Eigen::Ref<const MatrixXd>& x, Eigen::Ref<Mat
     if (r.harmonic == 0) w.imag().setZero();
     scatter_harmonic(r, coefficients_, components_, w, y);
   }
+}
+
+void HarmonicJacobian::form(Eigen::Ref<MatrixXd> out) const {
+  out.setZero();
+  MatrixXcd force_block, product;
+  for (const HarmonicReceptance& r : receptances_) {
+    const MatrixXcd rc = r.matrix();
+    for (const ContactTangent& t : tangents_) {
+      const Index p = t.block.rows();
+      const Index d = p / coefficients_;
+      force_block.resize(d, p);
+      for (Index b = 0; b < d; ++b) {
+        const Index row = b * coefficients_;
+        if (r.harmonic > 0)
+          force_block.row(b) = t.block.row(row + r.cos_index).cast<std::complex<double>>() -
+                               kImaginaryUnit * t.block.row(row + r.sin_index);
+        else
+          force_block.row(b) = t.block.row(row + r.cos_index).cast<std::complex<double>>();
+      }
+      product.noalias() = rc.middleCols(t.first / coefficients_, d) * force_block;
+      scatter_harmonic(r, coefficients_, components_, product, out.middleCols(t.first, p));
+    }
+  }
+  out.diagonal().array() += 1.0;
 }
 
 std::unique_ptr<JacobianPreconditioner> HarmonicJacobian::make_preconditioner() const {

@@ -54,6 +54,9 @@ class HarmonicJacobian final : public JacobianOperator {
   Eigen::Index rows() const override { return parameter_column_.size(); }
   void apply(const Eigen::Ref<const Eigen::MatrixXd>& x,
              Eigen::Ref<Eigen::MatrixXd> y) const override;
+  // I + Rc D contact by contact: Rc's columns of a contact's components times its tangent
+  // block, m x d x p per harmonic and contact (the product with the identity would cost m^2 n).
+  void form(Eigen::Ref<Eigen::MatrixXd> out) const override;
   const Eigen::VectorXd& parameter_column() const override { return parameter_column_; }
   std::unique_ptr<JacobianPreconditioner> make_preconditioner() const override;
 

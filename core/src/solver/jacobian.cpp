@@ -48,8 +48,9 @@ MatrixXd Jacobian::formed() const {
   if (!op_) return dense_;
   const Index n = op_->rows();
   MatrixXd j(n, n + 1);
-  op_->apply(MatrixXd(scaling_->unknown.head(n).asDiagonal()), j.leftCols(n));
-  j.leftCols(n) = scaling_->residual.cwiseInverse().asDiagonal() * j.leftCols(n);
+  op_->form(j.leftCols(n));
+  j.leftCols(n) = scaling_->residual.cwiseInverse().asDiagonal() * j.leftCols(n) *
+                  scaling_->unknown.head(n).asDiagonal();
   j.col(n) = parameter_column();
   return j;
 }

@@ -67,6 +67,11 @@ class JacobianOperator {
   // y = e_x x for the columns of the n x k block x (y: n x k, not aliasing x).
   virtual void apply(const Eigen::Ref<const Eigen::MatrixXd>& x,
                      Eigen::Ref<Eigen::MatrixXd> y) const = 0;
+  // e_x formed into `out` (n x n): by default e_x applied to the identity; an operator whose
+  // structure allows it forms the matrix at less cost.
+  virtual void form(Eigen::Ref<Eigen::MatrixXd> out) const {
+    apply(Eigen::MatrixXd::Identity(rows(), rows()), out);
+  }
   // e_lambda (size n).
   virtual const Eigen::VectorXd& parameter_column() const = 0;
   // An approximation of e_x and its inverse, owning all it needs (it may outlive this object).
