@@ -1,9 +1,12 @@
-// The continuation's linear solvers: GMRES preconditioned by a kept LU against the dense LU.
+// The continuation's linear solvers: GMRES preconditioned by a kept LU, and GMRES on a Jacobian
+// operator, against the dense LU.
 #include "solver/linear_solver.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
+
+#include "solver/scaled_problem.hpp"
 
 namespace frichb::core {
 namespace {
@@ -166,6 +169,165 @@ TEST(LinearSolver, ASlowSolveRefreshesTheKeptFactorisation) {
   next->factorise(later);
   EXPECT_TRUE(next->determinant_known());
   EXPECT_EQ(profile.factorisations, 2);
+}
+
+// ---- GMRES on an operator ----
+
+// e_x = a applied as an operator, preconditioned by the LU of `approximation` (that of a
+// nearby matrix, or an unrelated one to make GMRES stall).
+class MatrixOperator final : public JacobianOperator {
+ public:
+  MatrixOperator(MatrixXd a, VectorXd g, MatrixXd approximation)
+      : a_(std::move(a)), g_(std::move(g)), approximation_(std::move(approximation)) {}
+  Eigen::Index rows() const override { return a_.rows(); }
+  void apply(const Eigen::Ref<const MatrixXd>& x, Eigen::Ref<MatrixXd> y) const override {
+    y.noalias() = a_ * x;
+  }
+  const VectorXd& parameter_column() const override { return g_; }
+  std::unique_ptr<JacobianPreconditioner> make_preconditioner() const override {
+    return std::make_unique<Lu>(approximation_);
+  }
+
+ private:
+  class Lu final : public JacobianPreconditioner {
+   public:
+    explicit Lu(const MatrixXd& m) : lu_(m) {}
+    void solve(const Eigen::Ref<const VectorXd>& b, Eigen::Ref<VectorXd> x) const override {
+      x = lu_.solve(b);
+    }
+    double condition() const override { return 1.0 / lu_.rcond(); }
+
+   private:
+    Eigen::PartialPivLU<MatrixXd> lu_;
+  };
+  MatrixXd a_;
+  VectorXd g_;
+  MatrixXd approximation_;
+};
+
+ContinuationOptions MatrixFree() {
+  ContinuationOptions o;
+  o.linear_solver = LinearSolverKind::kMatrixFree;
+  return o;
+}
+
+// Scales far from one, as the continuation's (displacements of 1e-5 m, a frequency of 1e3).
+Scaling UnevenScaling(Eigen::Index n) {
+  Scaling s;
+  s.unknown = VectorXd::LinSpaced(n + 1, 1e-5, 2e-5);
+  s.unknown(n) = 1e3;
+  s.residual = VectorXd::LinSpaced(n, 1e-5, 3e-5);
+  return s;
+}
+
+Jacobian OperatorJacobian(const MatrixXd& a, const VectorXd& g, const MatrixXd& approximation,
+                          const Scaling& scaling) {
+  Jacobian j;
+  j.set_operator(std::make_shared<MatrixOperator>(a, g, approximation), scaling);
+  return j;
+}
+
+TEST(LinearSolver, MatrixFreeNeedsAnOperatorAndAutoPicksItWhereThereIsOne) {
+  ContinuationOptions o = MatrixFree();
+  SolveProfile profile;
+  EXPECT_EQ(LinearSolverContext(o, 10, &profile, false).kind(), LinearSolverKind::kGmres);
+  EXPECT_NE(profile.linear_solver_reason.find("no Jacobian operator"), std::string::npos);
+  EXPECT_EQ(LinearSolverContext(o, 10, nullptr, true).kind(), LinearSolverKind::kMatrixFree);
+  o.linear_solver = LinearSolverKind::kAuto;
+  o.gmres_from = 100;
+  EXPECT_EQ(LinearSolverContext(o, 100, nullptr, true).kind(), LinearSolverKind::kMatrixFree);
+  EXPECT_EQ(LinearSolverContext(o, 100, nullptr, false).kind(), LinearSolverKind::kGmres);
+  EXPECT_EQ(LinearSolverContext(o, 99, nullptr, true).kind(), LinearSolverKind::kDenseLu);
+}
+
+TEST(LinearSolver, MatrixFreeSolvesSquareAndBorderedSystemsInScaledVariables) {
+  const Eigen::Index n = 150;
+  const Scaling scaling = UnevenScaling(n);
+  SolveProfile profile;
+  LinearSolverContext context(MatrixFree(), n, &profile, true);
+  const MatrixXd first = RandomMatrix(n, 11, -1.0);
+  const MatrixXd later = first + 0.05 * RandomMatrix(n, 12) / std::sqrt(static_cast<double>(n));
+  const VectorXd g = VectorXd::LinSpaced(n, 1.0, -1.0);
+  // The first point makes the preconditioner; the later one iterates on it.
+  const auto at_first = make_linear_solver(context);
+  at_first->prepare(OperatorJacobian(first, g, first, scaling));
+  EXPECT_EQ(profile.preconditioner_builds, 1);
+  const Jacobian j = OperatorJacobian(later, g, later, scaling);
+  const MatrixXd formed = j.formed();  // the scaled matrix, oracle
+  ASSERT_EQ(formed.cols(), n + 1);
+  const auto solver = make_linear_solver(context);
+  solver->prepare(j);
+  EXPECT_EQ(profile.preconditioner_builds, 1);
+  EXPECT_FALSE(solver->determinant_known());
+  const VectorXd b = VectorXd::LinSpaced(n, -2.0, 1.0);
+  const VectorXd x = solver->solve(b);
+  EXPECT_LE((formed.leftCols(n) * x - b).norm(), context.tolerance() * b.norm());
+  EXPECT_GT(profile.krylov_iterations, 1);  // the kept preconditioner is not this matrix's
+  // The Keller matrix, through the bordered preconditioner.
+  const VectorXd row = VectorXd::LinSpaced(n + 1, 0.5, 1.0).normalized();
+  MatrixXd bordered(n + 1, n + 1);
+  bordered << formed, row.transpose();
+  const auto keller = make_linear_solver(context);
+  keller->prepare_bordered(j, row);
+  const VectorXd e = VectorXd::Unit(n + 1, n);
+  const VectorXd t = keller->solve(e);
+  EXPECT_LE((bordered * t - e).norm(), context.tolerance());
+  EXPECT_EQ(profile.krylov_fallbacks, 0);
+  EXPECT_EQ(profile.factorisations, 0);
+  // The orientation: the formed matrix's determinant sign.
+  const int dense_sign = bordered.partialPivLu().determinant() > 0.0 ? 1 : -1;
+  EXPECT_EQ(keller->determinant_sign(), dense_sign);
+  EXPECT_EQ(profile.formed_matrices, 1);
+  EXPECT_TRUE(keller->determinant_known());
+}
+
+TEST(LinearSolver, MatrixFreeStallRetriesItsOwnPreconditionerThenFormsTheMatrix) {
+  const Eigen::Index n = 120;
+  const Scaling scaling = UnevenScaling(n);
+  ContinuationOptions o = MatrixFree();
+  o.gmres_max_iterations = 3;
+  const MatrixXd a = RandomMatrix(n, 13);
+  const MatrixXd unrelated = RandomMatrix(n, 14, -1.0);
+  const VectorXd g = VectorXd::Ones(n);
+  const VectorXd b = VectorXd::LinSpaced(n, 1.0, 3.0);
+  {
+    // Kept from an unrelated point: three iterations stall, this point's own (exact) one solves.
+    SolveProfile profile;
+    LinearSolverContext context(o, n, &profile, true);
+    make_linear_solver(context)->prepare(OperatorJacobian(unrelated, g, unrelated, scaling));
+    const Jacobian j = OperatorJacobian(a, g, a, scaling);
+    const auto solver = make_linear_solver(context);
+    solver->prepare(j);
+    const VectorXd x = solver->solve(b);
+    EXPECT_EQ(profile.preconditioner_builds, 2);
+    EXPECT_EQ(profile.krylov_fallbacks, 0);
+    EXPECT_LE((j.formed().leftCols(n) * x - b).norm(), context.tolerance() * b.norm());
+  }
+  {
+    // A preconditioner that never fits: the matrix is formed and factorised.
+    SolveProfile profile;
+    LinearSolverContext context(o, n, &profile, true);
+    const Jacobian j = OperatorJacobian(a, g, unrelated, scaling);
+    const auto solver = make_linear_solver(context);
+    solver->prepare(j);
+    const VectorXd x = solver->solve(b);
+    EXPECT_EQ(profile.krylov_fallbacks, 1);
+    EXPECT_EQ(profile.formed_matrices, 1);
+    EXPECT_LE((j.formed().leftCols(n) * x - b).norm(), 1e-12 * b.norm());
+  }
+  {
+    // ... unless it has more equations than matrix_free_dense_limit: no solution.
+    o.matrix_free_dense_limit = n - 1;
+    SolveProfile profile;
+    LinearSolverContext context(o, n, &profile, true);
+    const auto solver = make_linear_solver(context);
+    solver->prepare(OperatorJacobian(a, g, unrelated, scaling));
+    EXPECT_FALSE(solver->solve(b).allFinite());
+    EXPECT_NE(solver->failure().find("matrix_free_dense_limit"), std::string::npos)
+        << solver->failure();
+    EXPECT_EQ(solver->determinant_sign(), 0);
+    EXPECT_EQ(profile.formed_matrices, 0);
+  }
 }
 
 }  // namespace

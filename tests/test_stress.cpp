@@ -480,10 +480,12 @@ TEST(Stress, HarmonicDecoupledPreconditionerIsExactForATimeInvariantTangent) {
     m->solve(at.formed.leftCols(n) * x, back);
     return (back - x).norm() / x.norm();
   };
-  EXPECT_LE(residual_of_inverse(bound(kStress / "never_slips_coupled_3d.yaml"), 1.0), 1e-12);
+  // The factors are kept in single precision (unit roundoff 6e-8): exact to that.
+  const double stuck = residual_of_inverse(bound(kStress / "never_slips_coupled_3d.yaml"), 1.0);
   const double hertz = residual_of_inverse(bound(kStress / "hertz_gap_folds.yaml"), 5.0);
-  std::cout << "Hertz gap: |M^-1 J x - x| / |x| = " << hertz << "\n";
-  EXPECT_GT(hertz, 1e-6);
+  std::cout << "|M^-1 J x - x| / |x|: never slips " << stuck << ", Hertz gap " << hertz << "\n";
+  EXPECT_LE(stuck, 1e-6);
+  EXPECT_GT(hertz, 1e-4);
 }
 
 TEST(Stress, IterativePathsAndDenseLuSolveTheSameCurve) {
@@ -532,6 +534,7 @@ TEST(Stress, IterativePathsAndDenseLuSolveTheSameCurve) {
     ASSERT_TRUE(inexact.reached_end()) << inexact.message;
     EXPECT_EQ(inexact.turning_points, curve.turning_points);
     EXPECT_LT(inexact.profile.factorisations, curve.profile.factorisations / 10);
+    EXPECT_EQ(inexact.profile.krylov_fallbacks, 0);
     for (const ContinuationPoint& p : inexact.points) {
       const NewtonResult again = solve_fixed_parameter(model, p.y, dense);
       ASSERT_TRUE(again.converged) << again.message;

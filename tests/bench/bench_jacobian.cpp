@@ -231,7 +231,8 @@ void BM_NewtonIteration(benchmark::State& state, int contacts, int harmonics) {
 // `variant`: "chord" the defaults with the dense LU; "newton" also turns the chord corrector
 // off (continuation.reuse_factorisation_from = 0), so that every corrector iteration is a
 // Newton iteration with its factorisation; "gmres" the defaults with
-// continuation.linear_solver = gmres (GMRES on kept factorisations).
+// continuation.linear_solver = gmres (GMRES on kept factorisations); "matrix_free" with
+// continuation.linear_solver = matrix_free (GMRES on the Jacobian operator, never formed).
 void BM_ResponseCurve(benchmark::State& state, int contacts, int harmonics,
                       const std::string& variant) {
   static const Registry registry({FRICHB_PLUGIN_DIR});
@@ -239,7 +240,8 @@ void BM_ResponseCurve(benchmark::State& state, int contacts, int harmonics,
   text += "output:\n  response: [b0]\n  plots: false\n";
   YAML::Node root = YAML::Load(text);
   if (variant == "newton") root["continuation"]["reuse_factorisation_from"] = 0;
-  root["continuation"]["linear_solver"] = variant == "gmres" ? "gmres" : "dense_lu";
+  root["continuation"]["linear_solver"] =
+      variant == "gmres" || variant == "matrix_free" ? variant : std::string("dense_lu");
   // The window around the ring's first (normal-direction) resonance, about 318 Hz free;
   // FRICHB_BENCH_CURVE_HZ="from,to" overrides it.
   double from = 300.0, to = 340.0;
@@ -319,7 +321,7 @@ const bool registered = [] {
     }
   int curve_contacts = 100;
   if (const char* v = std::getenv("FRICHB_BENCH_CURVE_CONTACTS")) curve_contacts = std::atoi(v);
-  for (const std::string variant : {"chord", "newton", "gmres"}) {
+  for (const std::string variant : {"chord", "newton", "gmres", "matrix_free"}) {
     const std::string curve =
         "BM_ResponseCurve/" + std::to_string(curve_contacts) + "/5/" + variant;
     benchmark::RegisterBenchmark(curve.c_str(),

@@ -63,6 +63,7 @@ ContinuationSetup derive_continuation(const Scene& scene, const HarmonicBalanceM
                           : C.linear_solver == "dense_lu"    ? LinearSolverKind::kDenseLu
                                                              : LinearSolverKind::kAuto;
   options.gmres_from = C.gmres_from;
+  options.matrix_free_from = C.matrix_free_from;
   options.turning_point_control = C.turning_point_control;
   options.steep_branch_alpha = C.steep_branch_alpha;
   options.newton.max_iterations = C.max_newton_iterations;

@@ -43,12 +43,16 @@ void scatter_harmonic(const HarmonicReceptance& r, int coefficients, int compone
   }
 }
 
-// I + Rc_n D0 of every kept harmonic, LU-factorised (complex, partial pivoting).
+// I + Rc_n D0 of every kept harmonic, LU-factorised (complex, partial pivoting) in single
+// precision: a preconditioner needs no more digits than its approximation has, and each GMRES
+// iteration streams these factors from memory (half the bytes of double precision).
+using PreconditionerFactor = Eigen::PartialPivLU<Eigen::MatrixXcf>;
+
 class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
  public:
   HarmonicDecoupledPreconditioner(int coefficients, int components,
                                   std::vector<HarmonicReceptance> layout,
-                                  std::vector<Eigen::PartialPivLU<MatrixXcd>> factors)
+                                  std::vector<PreconditionerFactor> factors)
       : coefficients_(coefficients),
         components_(components),
         layout_(std::move(layout)),
@@ -68,9 +72,10 @@ class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
       const MatrixXcd rhs = gather_harmonic(layout_[k], coefficients_, components_, b);
       MatrixXcd solution(rhs.rows(), rhs.cols());
       if (rhs.cols() == 1)
-        solution.col(0) = factors_[k].solve(rhs.col(0));
+        solution.col(0) =
+            factors_[k].solve(rhs.col(0).cast<std::complex<float>>()).cast<std::complex<double>>();
       else
-        solution = factors_[k].solve(rhs);
+        solution = factors_[k].solve(rhs.cast<std::complex<float>>()).cast<std::complex<double>>();
       if (layout_[k].harmonic == 0) solution.imag().setZero();
       scatter_harmonic(layout_[k], coefficients_, components_, solution, x);
     }
@@ -81,7 +86,7 @@ class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
   int coefficients_;
   int components_;
   std::vector<HarmonicReceptance> layout_;  // harmonic and indices only
-  std::vector<Eigen::PartialPivLU<MatrixXcd>> factors_;
+  std::vector<PreconditionerFactor> factors_;
   double condition_ = 1.0;
 };
 
@@ -97,8 +102,9 @@ void HarmonicReceptance::apply(const MatrixXcd& x, MatrixXcd& y) const {
     }
     const Eigen::VectorXcd modal = inv_z.cwiseProduct(projected->adjoint() * x.col(0));
     y.col(0).noalias() = *projected * modal;
+    // F = G F0 G^H is Hermitian: its lower triangle is read once (half the bytes).
     if (flexibility != nullptr && flexibility->size() > 0)
-      y.col(0).noalias() += *flexibility * x.col(0);
+      y.col(0).noalias() += flexibility->selfadjointView<Eigen::Lower>() * x.col(0);
     return;
   }
   if (projected == nullptr) {
@@ -190,7 +196,7 @@ std::unique_ptr<JacobianPreconditioner> HarmonicJacobian::make_preconditioner() 
       }
   }
   std::vector<HarmonicReceptance> layout;
-  std::vector<Eigen::PartialPivLU<MatrixXcd>> factors;
+  std::vector<PreconditionerFactor> factors;
   for (const HarmonicReceptance& r : receptances_) {
     MatrixXcd rc = r.matrix();
     if (r.harmonic == 0) rc.imag().setZero();
@@ -202,7 +208,7 @@ std::unique_ptr<JacobianPreconditioner> HarmonicJacobian::make_preconditioner() 
       m.middleCols(first, d).noalias() +=
           rc.middleCols(first, d) * mean.block(first, first, d, d).cast<std::complex<double>>();
     }
-    factors.emplace_back(m);
+    factors.emplace_back(m.cast<std::complex<float>>());
     HarmonicReceptance slot;
     slot.harmonic = r.harmonic;
     slot.cos_index = r.cos_index;

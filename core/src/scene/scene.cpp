@@ -181,12 +181,17 @@ const std::vector<frichb_param_spec>& continuation_schema() {
                   "(refactorised when the iterations grow); matrix_free iterates on the "
                   "harmonic-balance Jacobian applied as receptances times contact tangents, "
                   "never formed, preconditioned by its harmonic-decoupled approximation; auto: "
-                  "matrix_free from gmres_from unknowns on")
+                  "matrix_free from matrix_free_from unknowns on")
           .defaults_to_text("auto")
           .choices("auto|dense_lu|gmres|matrix_free"),
+      Param::integer("matrix_free_from",
+                     "unknowns from which linear_solver auto picks matrix_free (measured faster "
+                     "from about 500 unknowns: docs/performance.md)")
+          .defaults_to(500)
+          .at_least(0),
       Param::integer("gmres_from",
-                     "unknowns from which linear_solver auto iterates (matrix_free) instead of "
-                     "factorising every matrix")
+                     "unknowns from which linear_solver auto picks gmres for a model that cannot "
+                     "apply its Jacobian as an operator")
           .defaults_to(5000)
           .at_least(0),
   };
@@ -938,6 +943,7 @@ void read_continuation(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   C.reuse_factorisation_from = static_cast<int>(co.integer("reuse_factorisation_from"));
   C.linear_solver = co.text("linear_solver");
   C.gmres_from = static_cast<int>(co.integer("gmres_from"));
+  C.matrix_free_from = static_cast<int>(co.integer("matrix_free_from"));
   nlohmann::json cj = cov.to_json(continuation_schema());
   cj["frequency"] = fr.to_json(frequency_schema());
   cj["step"] = st.to_json(step_schema());

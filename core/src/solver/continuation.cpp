@@ -461,6 +461,7 @@ bool ContinuationOptions::IsValid(std::string* why) const {
     return Fail(why, "gmres_update_tolerance must lie in (0, 1)");
   if (gmres_max_iterations < 1) return Fail(why, "gmres_max_iterations must be >= 1");
   if (gmres_refresh_iterations < 0) return Fail(why, "gmres_refresh_iterations must be >= 0");
+  if (matrix_free_from < 0) return Fail(why, "matrix_free_from must be >= 0");
   if (matrix_free_dense_limit < 0) return Fail(why, "matrix_free_dense_limit must be >= 0");
   if (newton.max_line_search_halvings < 0)
     return Fail(why, "newton.max_line_search_halvings must be >= 0");

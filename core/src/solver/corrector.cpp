@@ -68,6 +68,7 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
     VectorXd dz = lu->solve_update(-r);
     if (!dz.allFinite()) {
       out.message = "non-finite Newton update at " + format_lambda(problem.lambda_of(out.ys));
+      if (!lu->failure().empty()) out.message += " (" + lu->failure() + ")";
       return out;
     }
     ++out.iterations;

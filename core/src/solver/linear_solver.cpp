@@ -28,8 +28,11 @@ double condition_of(const DenseLu& lu) {
 }
 
 // Right-preconditioned GMRES from x = 0 for A x = b, with products `multiply` (A z) and
-// `precondition` (M^-1 z): the Krylov basis V of A M^-1 with the Hessenberg matrix reduced by
-// Givens rotations as it grows, x = M^-1 V y at the end. At most context.max_iterations();
+// `precondition` (M^-1 z), in its flexible form: the Krylov basis V of A M^-1 with the
+// Hessenberg matrix reduced by Givens rotations as it grows, and the preconditioned vectors
+// Z = M^-1 V kept, x = Z y at the end. Kept rather than recomputed as M^-1 (V y), so that a
+// preconditioner applied with rounding errors of its own (single precision) still gives
+// A x = V H y to double precision. At most context.max_iterations();
 // counted into the context's profile; a solve of more than refresh_iterations() marks the
 // preconditioner for refreshing (*slow). Converged when the true residual |b - A x| is at most
 // tolerance |b|.
@@ -50,13 +53,15 @@ bool right_preconditioned_gmres(const Multiply& multiply, const Precondition& pr
   }
   const double target = tolerance * beta;
   Eigen::MatrixXd v(n, max_k + 1);
+  Eigen::MatrixXd z(n, max_k);
   Eigen::MatrixXd h = Eigen::MatrixXd::Zero(max_k + 1, max_k);
   Eigen::VectorXd cs(max_k), sn(max_k), g = Eigen::VectorXd::Zero(max_k + 1);
   v.col(0) = b / beta;
   g(0) = beta;
   int k = 0;
   while (k < max_k) {
-    Eigen::VectorXd w = multiply(precondition(v.col(k)));
+    z.col(k) = precondition(v.col(k));
+    Eigen::VectorXd w = multiply(z.col(k));
     for (int pass = 0; pass < 2; ++pass) {  // classical Gram-Schmidt, twice
       const Eigen::VectorXd c = v.leftCols(k + 1).transpose() * w;
       w.noalias() -= v.leftCols(k + 1) * c;
@@ -83,7 +88,7 @@ bool right_preconditioned_gmres(const Multiply& multiply, const Precondition& pr
   if (profile != nullptr) profile->krylov_iterations += k;
   if (k == 0) return false;
   const Eigen::VectorXd y = h.topLeftCorner(k, k).triangularView<Eigen::Upper>().solve(g.head(k));
-  *x = precondition(v.leftCols(k) * y);
+  *x = z.leftCols(k) * y;
   if (!x->allFinite()) return false;
   const double true_residual = (b - multiply(*x)).norm();
   if (slow != nullptr) *slow = k > context.refresh_iterations();
@@ -390,6 +395,7 @@ Eigen::VectorXd MatrixFreeSolver::solve_update(const Eigen::VectorXd& b) const {
 
 Eigen::VectorXd MatrixFreeSolver::solve_to(const Eigen::VectorXd& b, double tolerance) const {
   SolveProfile* profile = context_.profile();
+  failure_.clear();
   if (dense_ready_) {
     const auto start = std::chrono::steady_clock::now();
     Eigen::VectorXd x = dense_.solve(b);
@@ -415,8 +421,17 @@ Eigen::VectorXd MatrixFreeSolver::solve_to(const Eigen::VectorXd& b, double tole
   if (slow) context_.kept_preconditioner().stale = true;
   if (converged) return x;
   if (profile != nullptr) ++profile->krylov_fallbacks;
-  if (!form_dense() || !invertible_lu(dense_))
+  if (!form_dense() || !invertible_lu(dense_)) {
+    std::ostringstream why;
+    why << "GMRES did not converge in " << context_.max_iterations() << " iterations, and ";
+    if (dense_ready_)
+      why << "the formed matrix is singular";
+    else
+      why << "the matrix of " << jacobian_.rows() << " equations is not formed above "
+          << context_.dense_limit() << " (ContinuationOptions::matrix_free_dense_limit)";
+    failure_ = why.str();
     return Eigen::VectorXd::Constant(b.size(), std::numeric_limits<double>::quiet_NaN());
+  }
   const auto direct = std::chrono::steady_clock::now();
   x = dense_.solve(b);
   account(profile, direct, false);

@@ -49,6 +49,8 @@ class LinearSolver {
   // Sign of the determinant of the prepared matrix (+1 or -1; 0 when exactly singular): the
   // curve's orientation comes from it. Factorises the matrix when determinant_known() is false.
   virtual int determinant_sign() const = 0;
+  // Why the last solve gave no solution (empty when it did, or when there is nothing to add).
+  virtual std::string failure() const { return {}; }
 };
 
 // What the linear solvers of one solve (a curve, a fixed-parameter Newton) share: the kind,
@@ -181,6 +183,7 @@ class MatrixFreeSolver final : public LinearSolver {
   double condition() const override;
   bool determinant_known() const override { return dense_ready_; }
   int determinant_sign() const override;
+  std::string failure() const override { return failure_; }
 
  private:
   void prepare_operator(const Jacobian& j, const Eigen::VectorXd* last_row);
@@ -201,6 +204,7 @@ class MatrixFreeSolver final : public LinearSolver {
   mutable long own_generation_ = -1;  // the kept preconditioner's generation when it was made here
   mutable DenseLu dense_;
   mutable bool dense_ready_ = false;
+  mutable std::string failure_;
 };
 
 // The solver for one system of the solve that owns `context`.

@@ -105,7 +105,8 @@ struct ContinuationSpec {
   double displacement_scale = 0;        // m; 0: automatic
   int reuse_factorisation_from = 1000;  // unknowns; chord corrector from there on, 0: never
   std::string linear_solver = "auto";   // auto, dense_lu or gmres (ContinuationOptions)
-  int gmres_from = 5000;                // unknowns; auto picks gmres from there on
+  int gmres_from = 5000;                // unknowns; auto picks gmres from there on (no operator)
+  int matrix_free_from = 500;           // unknowns; auto picks matrix_free from there on
   // Factor from `unit` to rad/s.
   double to_rad_per_s() const;
 };

@@ -207,8 +207,9 @@ struct ContinuationOptions {
   //             matrix_free_dense_limit equations (counted as a fallback), else there is no
   //             solution (non-finite entries: the corrector fails with a message). A problem
   //             without an operator is solved by kGmres instead (the profile says so);
-  //   kAuto     from gmres_from equations (the summary's unknowns, lambda excluded) on,
-  //             kMatrixFree where the problem has an operator, else kGmres; kDenseLu below.
+  //   kAuto     where the problem has an operator, kMatrixFree from matrix_free_from
+  //             equations (the summary's unknowns, lambda excluded) on; without one, kGmres
+  //             from gmres_from on; kDenseLu below.
   // Orientation: a point whose tangent's matrix was not factorised inherits its predecessor's
   // sign det [e_y; v^T] unless its tangent turned by more than about 26 degrees, where
   // keep_orientation compares signs: then its matrix is factorised and its own sign is
@@ -220,6 +221,7 @@ struct ContinuationOptions {
   // in matrix_free_dense_limit equations); above that limit a point always inherits.
   LinearSolverKind linear_solver = LinearSolverKind::kAuto;
   Eigen::Index gmres_from = 5000;
+  Eigen::Index matrix_free_from = 500;
   double gmres_tolerance = 1e-10;
   double gmres_update_tolerance = 1e-4;
   int gmres_max_iterations = 60;
