@@ -70,7 +70,9 @@ class JacobianOperator {
   // e_x formed into `out` (n x n): by default e_x applied to the identity; an operator whose
   // structure allows it forms the matrix at less cost.
   virtual void form(Eigen::Ref<Eigen::MatrixXd> out) const {
-    apply(Eigen::MatrixXd::Identity(rows(), rows()), out);
+    Eigen::MatrixXd formed(rows(), rows());
+    apply(Eigen::MatrixXd::Identity(rows(), rows()), formed);
+    out = formed;
   }
   // e_lambda (size n).
   virtual const Eigen::VectorXd& parameter_column() const = 0;
@@ -279,8 +281,8 @@ struct ContinuationPoint {
   bool passed_corner = false;      // reached across a corner of the branch (trace_curve)
   bool passed_kink = false;        // of those, along the next piece's tangent (kink_steps)
   // Sign of det [e_x e_lambda; tangent^T] (scaled): the curve's orientation, the same on all
-  // its pieces between branch points; 0 if unknown. With linear_solver gmres, a point whose
-  // matrix was not factorised inherits it from its predecessor
+  // its pieces between branch points; 0 if unknown. With linear_solver gmres or matrix_free, a
+  // point whose matrix was not factorised inherits it from its predecessor
   // (ContinuationOptions::linear_solver).
   int orientation = 0;
   // Estimate of the 1-norm condition number of the Newton matrix at the point, in scaled
@@ -288,7 +290,8 @@ struct ContinuationPoint {
   // point), from the factorisation that gives the tangent. About log10(condition) of the
   // 16 significant digits are lost in a Newton update there; infinite when singular. With
   // linear_solver gmres, of the kept factorisation the tangent was solved with (that of an
-  // earlier point's matrix unless this one was factorised).
+  // earlier point's matrix unless this one was factorised); with matrix_free, of the kept
+  // preconditioner (JacobianPreconditioner::condition) unless the matrix was formed.
   double condition = 0.0;
 };
 
