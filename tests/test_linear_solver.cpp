@@ -233,11 +233,19 @@ TEST(LinearSolver, MatrixFreeNeedsAnOperatorAndAutoPicksItWhereThereIsOne) {
   EXPECT_EQ(LinearSolverContext(o, 10, &profile, false).kind(), LinearSolverKind::kGmres);
   EXPECT_NE(profile.linear_solver_reason.find("no Jacobian operator"), std::string::npos);
   EXPECT_EQ(LinearSolverContext(o, 10, nullptr, true).kind(), LinearSolverKind::kMatrixFree);
+  // auto: matrix_free from matrix_free_from where there is an operator, gmres from
+  // gmres_from where there is none, dense LU below either.
   o.linear_solver = LinearSolverKind::kAuto;
   o.gmres_from = 100;
-  EXPECT_EQ(LinearSolverContext(o, 100, nullptr, true).kind(), LinearSolverKind::kMatrixFree);
+  o.matrix_free_from = 50;
+  SolveProfile with_operator;
+  EXPECT_EQ(LinearSolverContext(o, 50, &with_operator, true).kind(),
+            LinearSolverKind::kMatrixFree);
+  EXPECT_NE(with_operator.linear_solver_reason.find("matrix_free_from"), std::string::npos);
+  EXPECT_EQ(LinearSolverContext(o, 49, nullptr, true).kind(), LinearSolverKind::kDenseLu);
+  EXPECT_EQ(LinearSolverContext(o, 99, nullptr, false).kind(), LinearSolverKind::kDenseLu);
   EXPECT_EQ(LinearSolverContext(o, 100, nullptr, false).kind(), LinearSolverKind::kGmres);
-  EXPECT_EQ(LinearSolverContext(o, 99, nullptr, true).kind(), LinearSolverKind::kDenseLu);
+  EXPECT_EQ(LinearSolverContext(o, 5000, nullptr, true).kind(), LinearSolverKind::kMatrixFree);
 }
 
 TEST(LinearSolver, MatrixFreeSolvesSquareAndBorderedSystemsInScaledVariables) {

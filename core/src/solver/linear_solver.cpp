@@ -123,15 +123,14 @@ LinearSolverContext::LinearSolverContext(const ContinuationOptions& options, Eig
       dense_limit_(options.matrix_free_dense_limit) {
   std::ostringstream why;
   if (kind_ == LinearSolverKind::kAuto) {
-    const bool iterative = n >= options.gmres_from;
+    const Eigen::Index from = has_operator ? options.matrix_free_from : options.gmres_from;
+    const bool iterative = n >= from;
     kind_ = !iterative     ? LinearSolverKind::kDenseLu
             : has_operator ? LinearSolverKind::kMatrixFree
                            : LinearSolverKind::kGmres;
-    why << "auto: " << n << " equations, " << (iterative ? ">= " : "< ") << options.gmres_from
-        << " (gmres_from)";
-    if (iterative)
-      why << (has_operator ? ", the model applies its Jacobian as an operator"
-                           : ", the model has no Jacobian operator");
+    why << "auto: " << n << " equations, " << (iterative ? ">= " : "< ") << from
+        << (has_operator ? " (matrix_free_from; the model applies its Jacobian as an operator)"
+                         : " (gmres_from; the model has no Jacobian operator)");
   } else if (kind_ == LinearSolverKind::kMatrixFree && !has_operator) {
     kind_ = LinearSolverKind::kGmres;
     why << "matrix_free chosen by the scene, but the model has no Jacobian operator: gmres";

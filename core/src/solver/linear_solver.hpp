@@ -59,10 +59,11 @@ class LinearSolver {
 // solve is counted in (may be null; must outlive the context). Not thread-safe; one per solve.
 class LinearSolverContext {
  public:
-  // `options.linear_solver` resolved for n equations: kAuto becomes kGmres from
-  // options.gmres_from equations on. Writes the choice and its reason into the profile.
-  // kMatrixFree (chosen or by auto) needs `has_operator` (the problem's
-  // has_jacobian_operator()); without it kGmres is used, and the reason says so.
+  // `options.linear_solver` resolved for n equations: kAuto becomes kMatrixFree from
+  // options.matrix_free_from equations on where `has_operator` (the problem's
+  // has_jacobian_operator()), kGmres from options.gmres_from on where not, kDenseLu below.
+  // Writes the choice and its reason into the profile. kMatrixFree chosen by the scene
+  // without an operator becomes kGmres, and the reason says so.
   LinearSolverContext(const ContinuationOptions& options, Eigen::Index n, SolveProfile* profile,
                       bool has_operator = false);
 
