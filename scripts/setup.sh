@@ -8,7 +8,7 @@ packages=(
   libeigen3-dev libspectra-dev
   libboost-dev libboost-program-options-dev libboost-filesystem-dev
   libyaml-cpp-dev libspdlog-dev libfmt-dev
-  libfftw3-dev libopenblas-dev
+  libfftw3-dev libopenblas-dev libsuitesparse-dev
   nlohmann-json3-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox

@@ -239,13 +239,32 @@ TEST(LinearSolver, MatrixFreeNeedsAnOperatorAndAutoPicksItWhereThereIsOne) {
   o.gmres_from = 100;
   o.matrix_free_from = 50;
   SolveProfile with_operator;
-  EXPECT_EQ(LinearSolverContext(o, 50, &with_operator, true).kind(),
-            LinearSolverKind::kMatrixFree);
+  EXPECT_EQ(LinearSolverContext(o, 50, &with_operator, true).kind(), LinearSolverKind::kMatrixFree);
   EXPECT_NE(with_operator.linear_solver_reason.find("matrix_free_from"), std::string::npos);
   EXPECT_EQ(LinearSolverContext(o, 49, nullptr, true).kind(), LinearSolverKind::kDenseLu);
   EXPECT_EQ(LinearSolverContext(o, 99, nullptr, false).kind(), LinearSolverKind::kDenseLu);
   EXPECT_EQ(LinearSolverContext(o, 100, nullptr, false).kind(), LinearSolverKind::kGmres);
   EXPECT_EQ(LinearSolverContext(o, 5000, nullptr, true).kind(), LinearSolverKind::kMatrixFree);
+}
+
+TEST(LinearSolver, MemoryEstimateFollowsThePath) {
+  // 1000 contact pairs at H = 5: m = 3000 components, n = 33 000 unknowns, six receptance
+  // blocks. The dense paths hold three (n + 1)^2 double matrices (26 GB); the matrix-free path
+  // six single-precision complex m x m LUs, one double-precision block, and two GMRES bases of
+  // 61 vectors; below matrix_free_dense_limit also the formed matrix and its LU.
+  ContinuationOptions o;
+  const double n = 33000.0, m = 3000.0;
+  EXPECT_DOUBLE_EQ(linear_solver_bytes(o, LinearSolverKind::kDenseLu, 33000, 3000, 6),
+                   24.0 * (n + 1) * (n + 1));
+  EXPECT_DOUBLE_EQ(linear_solver_bytes(o, LinearSolverKind::kGmres, 33000, 3000, 6),
+                   24.0 * (n + 1) * (n + 1));
+  const double matrix_free = (6 * 8.0 + 16.0) * m * m + 16.0 * (n + 1) * 61;
+  EXPECT_DOUBLE_EQ(linear_solver_bytes(o, LinearSolverKind::kMatrixFree, 33000, 3000, 6),
+                   matrix_free);
+  EXPECT_LT(matrix_free, 1e9);
+  // 300 pairs (9900 unknowns) is below the limit: the formed matrix and its LU count.
+  EXPECT_DOUBLE_EQ(linear_solver_bytes(o, LinearSolverKind::kMatrixFree, 9900, 900, 6),
+                   64.0 * 900 * 900 + 16.0 * 9901 * 61 + 16.0 * 9901.0 * 9901.0);
 }
 
 TEST(LinearSolver, MatrixFreeSolvesSquareAndBorderedSystemsInScaledVariables) {

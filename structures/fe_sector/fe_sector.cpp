@@ -17,6 +17,7 @@
 // hash of the matrix files' contents and the solver inputs (see README.md).
 #include <Spectra/MatOp/SparseSymMatProd.h>
 #include <Spectra/SymGEigsShiftSolver.h>
+#include <Eigen/CholmodSupport>
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 
@@ -770,28 +771,39 @@ class FeSector final : public frichb::sdk::StructureProvider {
   }
 
   // [K_h^{-1}] at the kept DOFs, S K_h^{-1} S^H with S the kept rows of T_h (row i: factor_i
-  // at column cols_i), by a sparse LDL^T of K_h; empty when K_h is not positive definite.
+  // at column cols_i), by CHOLMOD's supernodal Cholesky factorisation of K_h (its solves with
+  // a block of right-hand sides are matrix-matrix products: the kept DOFs of a meshed contact
+  // face are thousands of columns); empty when K_h is not positive definite.
   template <class S>
   Mat<cd> static_compliance(S e, const std::vector<Index>& cols,
                             const std::vector<cd>& factors) const {
     const SpMat<S> t = constraint<S>(e);
     const SpMat<S> kh = project<S>(stiffness_, t);
-    const Eigen::SimplicialLDLT<SpMat<S>> ldlt(kh);
-    if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().real().minCoeff() > 0.0)) return {};
+    Eigen::CholmodSupernodalLLT<SpMat<S>, Eigen::Lower> llt;
+    llt.compute(kh);
+    if (llt.info() != Eigen::Success) return {};
+    // Solved kSolveBlock columns at a time: the sector's DOFs x kept DOFs at once would
+    // hold gigabytes for a meshed contact face of a thousand nodes.
+    constexpr Index kSolveBlock = 256;
     const auto n_kept = static_cast<Index>(cols.size());
-    Mat<S> rhs = Mat<S>::Zero(kh.rows(), n_kept);
-    for (Index i = 0; i < n_kept; ++i) {
-      const auto k = static_cast<std::size_t>(i);
-      if constexpr (std::is_same_v<S, cd>)
-        rhs(cols[k], i) = std::conj(factors[k]);
-      else
-        rhs(cols[k], i) = factors[k].real();
-    }
-    const Mat<S> x = ldlt.solve(rhs);
     Mat<cd> g(n_kept, n_kept);
-    for (Index i = 0; i < n_kept; ++i)
-      g.row(i) = factors[static_cast<std::size_t>(i)] *
-                 x.row(cols[static_cast<std::size_t>(i)]).template cast<cd>();
+    Mat<S> rhs, x;
+    for (Index first = 0; first < n_kept; first += kSolveBlock) {
+      const Index width = std::min(kSolveBlock, n_kept - first);
+      rhs.setZero(kh.rows(), width);
+      for (Index i = 0; i < width; ++i) {
+        const auto k = static_cast<std::size_t>(first + i);
+        if constexpr (std::is_same_v<S, cd>)
+          rhs(cols[k], i) = std::conj(factors[k]);
+        else
+          rhs(cols[k], i) = factors[k].real();
+      }
+      x = llt.solve(rhs);
+      for (Index i = 0; i < n_kept; ++i)
+        g.row(i).segment(first, width) =
+            factors[static_cast<std::size_t>(i)] *
+            x.row(cols[static_cast<std::size_t>(i)]).template cast<cd>();
+    }
     return g;
   }
 

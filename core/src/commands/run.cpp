@@ -37,10 +37,6 @@ double physical_memory_bytes() {
   return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
 }
 
-// Bytes the continuation holds per Newton matrix entry: the Jacobian, its LU factors and the
-// bordered Keller matrix, (n + 1)^2 doubles each.
-constexpr double kNewtonMatrixBytesPerEntry = 3.0 * sizeof(double);
-
 // Progress of the trace in the log: every 5 % of the sweep, and the start point.
 class TraceProgress {
  public:
@@ -105,20 +101,6 @@ PreparedRun prepare_run(const Scene& scene, int contact_threads) {
   }
   auto& model = start.model;
   const Eigen::Index n = model->equation_count();
-  {
-    const double needed =
-        kNewtonMatrixBytesPerEntry * static_cast<double>(n + 1) * static_cast<double>(n + 1);
-    const double available = physical_memory_bytes();
-    if (available > 0 && needed > 0.8 * available)
-      ctx.fail(root["contacts"] ? root["contacts"] : root, "contacts",
-               "the scene has " + std::to_string(n) + " unknowns: its Newton matrices need " +
-                   format_number(needed / (1 << 30), 3) +
-                   " GiB, more than 80 % of this "
-                   "machine's " +
-                   format_number(available / (1 << 30), 3) +
-                   " GiB; keep fewer harmonics or contacts");
-  }
-
   // A static harmonic needs a grounded structure: a rigid-body mode has no static receptance.
   const auto& kept = model->layout().harmonics();
   if (std::find(kept.begin(), kept.end(), 0) != kept.end()) {
@@ -132,6 +114,22 @@ PreparedRun prepare_run(const Scene& scene, int contact_threads) {
   }
 
   start.setup = derive_continuation(scene, *model);
+  {
+    // The linear solver's own matrices, by the path the continuation will take.
+    const LinearSolverChoice choice =
+        choose_linear_solver(start.setup.options, n, model->has_jacobian_operator());
+    const double needed =
+        linear_solver_bytes(start.setup.options, choice.kind, n, model->component_count(),
+                            static_cast<Eigen::Index>(model->layout().harmonics().size()));
+    const double available = physical_memory_bytes();
+    if (available > 0 && needed > 0.8 * available)
+      ctx.fail(root["contacts"] ? root["contacts"] : root, "contacts",
+               "the scene has " + std::to_string(n) + " unknowns: its Newton matrices (" +
+                   std::string(to_string(choice.kind)) + ", " + choice.reason + ") need " +
+                   format_number(needed / (1 << 30), 3) + " GiB, more than 80 % of this " +
+                   "machine's " + format_number(available / (1 << 30), 3) +
+                   " GiB; keep fewer harmonics or contacts");
+  }
   return start;
 }
 

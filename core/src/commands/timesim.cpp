@@ -44,7 +44,7 @@ TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options
   const Eigen::MatrixXd phi = basis.rows.real();  // kept x modes
   const Eigen::MatrixXd& damping = basis.damping;
   const Eigen::VectorXd stiffness = basis.frequencies.array().square();
-  const Eigen::MatrixXd gather = model.gather(0).real();  // components x kept
+  const Eigen::MatrixXd gather = Eigen::MatrixXcd(model.gather(0)).real();  // components x kept
   const auto& harmonics = model.layout().harmonics();
   const double w = 2 * std::numbers::pi * options.frequency_hz;
   const int n_steps = options.steps_per_period;

@@ -64,8 +64,9 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, indices);
   const auto kept = static_cast<Eigen::Index>(kept_dofs_.size());
   // Gather weights of the sides in the reference sector (offset 0) and in its neighbours
-  // (offsets -1, +1), combined per harmonic with the cyclic phase factors below.
-  std::vector<Eigen::MatrixXd> by_offset;
+  // (offsets -1, +1) as (row, kept DOF, weight), combined per harmonic with the cyclic phase
+  // factors below.
+  std::vector<std::vector<Eigen::Triplet<double>>> by_offset(3);
 
   TraceOptions trace_options;
   trace_options.max_passes = scene.harmonic_balance.max_trace_passes;
@@ -75,8 +76,6 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
     c.tracer = std::make_unique<PeriodicTracer>(*c.law, trace_layout_, trace_options);
     const auto& comps = c.tracer->components();
-    const auto d = static_cast<Eigen::Index>(comps.size());
-    std::vector<Eigen::MatrixXd> weights(3, Eigen::MatrixXd::Zero(d, kept));
     for (std::size_t a = 0; a < comps.size(); ++a) {
       const std::vector<double>& dir =
           comps[a] == 0 ? spec.tangent1 : (comps[a] == 1 ? spec.tangent2 : spec.normal);
@@ -88,21 +87,16 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
         if (side == "ground") return;
         const auto& dofs = scene.structure.find(side)->dofs;
         const int slot = sector + 1;  // offsets -1, 0, +1 -> slots 0, 1, 2
-        auto& w = weights[static_cast<std::size_t>(slot)];
+        auto& w = by_offset[static_cast<std::size_t>(slot)];
         for (std::size_t k = 0; k < dofs.size(); ++k)
-          w(static_cast<Eigen::Index>(a), kept_index(dofs[k])) += sign * dir[k];
+          w.emplace_back(components_ + static_cast<Eigen::Index>(a), kept_index(dofs[k]),
+                         sign * dir[k]);
       };
       add_side(spec.side_a, spec.sector_a, -1.0);
       add_side(spec.side_b, spec.sector_b, +1.0);
     }
     c.offset = components_;
     components_ += static_cast<int>(comps.size());
-    by_offset.resize(3);
-    for (std::size_t o = 0; o < 3; ++o) {
-      Eigen::MatrixXd grown(by_offset[o].rows() + d, kept);
-      grown << by_offset[o], weights[o];
-      by_offset[o] = grown;
-    }
     contacts_.push_back(std::move(c));
   }
   // Sector s + o moves like the reference sector delayed by o Delta t: harmonic n of its
@@ -111,12 +105,16 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   // hence G^H for forces (Newton's third law with cyclic symmetry, thesis eq. 2.13).
   const double phi = scene.cyclic.enabled() ? 2.0 * std::numbers::pi / scene.cyclic.sectors : 0.0;
   for (int n : layout_.harmonics()) {
-    Eigen::MatrixXcd g = Eigen::MatrixXcd::Zero(components_, kept);
-    for (int slot = 0; slot < 3 && components_ > 0; ++slot) {
+    std::vector<Eigen::Triplet<std::complex<double>>> entries;
+    for (int slot = 0; slot < 3; ++slot) {
       const int offset = slot - 1;
-      g += std::polar(1.0, -n * scene.cyclic.engine_order * phi * offset) *
-           by_offset[static_cast<std::size_t>(slot)].cast<std::complex<double>>();
+      const std::complex<double> factor =
+          std::polar(1.0, -n * scene.cyclic.engine_order * phi * offset);
+      for (const auto& t : by_offset[static_cast<std::size_t>(slot)])
+        entries.emplace_back(t.row(), t.col(), factor * t.value());
     }
+    SparseGather g(components_, kept);
+    g.setFromTriplets(entries.begin(), entries.end());  // duplicates (one DOF twice) summed
     gather_.push_back(std::move(g));
   }
   unknown_count_ = static_cast<Eigen::Index>(components_) * layout_.coefficient_count();
@@ -158,12 +156,20 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
         cr.projected_real = cr.projected.real();
       cr.modal_force = b.rows.adjoint() * excitation_[k];
       if (b.residual_flexibility.size()) {
-        cr.flexibility = gather_[k] * b.residual_flexibility * gather_[k].adjoint();
+        cr.flexibility = gather_hermitian(gather_[k], b.residual_flexibility);
         cr.flexible_motion = gather_[k] * (b.residual_flexibility * excitation_[k]);
       }
     }
     contact_receptance_.push_back(std::move(cr));
   }
+}
+
+Eigen::MatrixXcd gather_hermitian(const SparseGather& g, const Eigen::MatrixXcd& f) {
+  // G F G^H = G (G F^H)^H = G (G F)^H for Hermitian F; symmetrised against rounding.
+  const Eigen::MatrixXcd gf = g * f;  // components x kept
+  Eigen::MatrixXcd out = g * gf.adjoint();
+  out = (0.5 * (out + out.adjoint())).eval();
+  return out;
 }
 
 HarmonicBalanceModel::~HarmonicBalanceModel() = default;
@@ -421,24 +427,19 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
     } else {
       structure_->receptance(harmonic_index_[k], hn * w, ws.receptance,
                              derivatives ? &ws.receptance_derivative : nullptr);
-      const Eigen::MatrixXcd& g = gather_[k];
+      const SparseGather& g = gather_[k];
       ws.modal.noalias() = g.adjoint() * ws.force;  // G^H F - f over the kept DOFs
       ws.modal -= excitation_[k];
       ws.motion.noalias() = g * (ws.receptance * ws.modal);
       if (derivatives) {
         ws.motion_derivative.noalias() =
             static_cast<double>(hn) * (g * (ws.receptance_derivative * ws.modal));
-        ws.scaled.resize(components_, g.cols());
-        multiply(1.0, g, MatrixOperation::kNone, ws.receptance, MatrixOperation::kNone, 0.0,
-                 ws.scaled);
+        ws.scaled.noalias() = g * ws.receptance;  // G R
       }
-      if (jacobian)
-        multiply(1.0, ws.scaled, MatrixOperation::kNone, g, MatrixOperation::kAdjoint, 0.0, rc);
-      if (op != nullptr) {
-        receptances[k].formed.resize(components_, components_);
-        multiply(1.0, ws.scaled, MatrixOperation::kNone, g, MatrixOperation::kAdjoint, 0.0,
-                 receptances[k].formed);
-      }
+      // G R G^H = (conj(G) (G R)^T)^T: sparse times dense products only.
+      if (jacobian) rc = (g.conjugate() * ws.scaled.transpose()).transpose();
+      if (op != nullptr)
+        receptances[k].formed = (g.conjugate() * ws.scaled.transpose()).transpose();
     }
     if (op != nullptr) {
       receptances[k].harmonic = hn;

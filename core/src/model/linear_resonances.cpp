@@ -1,5 +1,6 @@
 #include "frichb/core/model/linear_resonances.hpp"
 
+#include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -102,18 +103,21 @@ std::vector<LinearResonance> linear_resonances(const Scene& scene,
     }
     if (!any_stiffness || basis.frequencies.size() == 0) continue;
 
-    const Eigen::MatrixXcd& gather = model.gather(kept);
+    const SparseGather& gather = model.gather(kept);
     const Eigen::MatrixXcd projected = gather * basis.rows;  // P = G Phi
-    const Eigen::MatrixXcd kc = contact_stiffness.cast<std::complex<double>>();
-    Eigen::MatrixXcd effective = kc;  // K_e = K_c (I + G F G^H K_c)^-1
+    // K_c is block diagonal (one block per contact): sparse.
+    const Eigen::SparseMatrix<std::complex<double>> kc =
+        contact_stiffness.cast<std::complex<double>>().sparseView();
+    // K_e P = K_c S^-1 P with S = I + G F G^H K_c: one LU of S and a solve for the modes'
+    // columns, never K_e itself.
+    Eigen::MatrixXcd effective_on_modes = kc * projected;
     if (basis.residual_flexibility.size() > 0) {
-      const Eigen::MatrixXcd flexibility = gather * basis.residual_flexibility * gather.adjoint();
+      const Eigen::MatrixXcd flexibility = gather_hermitian(gather, basis.residual_flexibility);
       const Eigen::MatrixXcd series =
           Eigen::MatrixXcd::Identity(kc.rows(), kc.cols()) + flexibility * kc;
-      // K_e = K_c S^-1  <=>  S^T K_e^T = K_c^T
-      effective = series.transpose().partialPivLu().solve(kc.transpose()).transpose();
+      effective_on_modes = kc * series.partialPivLu().solve(projected);
     }
-    Eigen::MatrixXcd stiffened = projected.adjoint() * effective * projected;
+    Eigen::MatrixXcd stiffened = projected.adjoint() * effective_on_modes;
     stiffened.diagonal() +=
         basis.frequencies.array().square().matrix().cast<std::complex<double>>();
     stiffened = 0.5 * (stiffened + stiffened.adjoint()).eval();

@@ -3,8 +3,10 @@
 
 #include <chrono>
 #include <cmath>
+#include <complex>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "solver/scaled_problem.hpp"
 
@@ -111,9 +113,48 @@ const char* to_string(LinearSolverKind kind) {
   return "unknown";
 }
 
+LinearSolverChoice choose_linear_solver(const ContinuationOptions& options, Eigen::Index n,
+                                        bool has_operator) {
+  LinearSolverChoice choice;
+  std::ostringstream why;
+  choice.kind = options.linear_solver;
+  if (choice.kind == LinearSolverKind::kAuto) {
+    const Eigen::Index from = has_operator ? options.matrix_free_from : options.gmres_from;
+    const bool iterative = n >= from;
+    choice.kind = !iterative     ? LinearSolverKind::kDenseLu
+                  : has_operator ? LinearSolverKind::kMatrixFree
+                                 : LinearSolverKind::kGmres;
+    why << "auto: " << n << " equations, " << (iterative ? ">= " : "< ") << from
+        << (has_operator ? " (matrix_free_from; the model applies its Jacobian as an operator)"
+                         : " (gmres_from; the model has no Jacobian operator)");
+  } else if (choice.kind == LinearSolverKind::kMatrixFree && !has_operator) {
+    choice.kind = LinearSolverKind::kGmres;
+    why << "matrix_free chosen by the scene, but the model has no Jacobian operator: gmres";
+  } else {
+    why << "chosen by the scene";
+  }
+  choice.reason = why.str();
+  return choice;
+}
+
+double linear_solver_bytes(const ContinuationOptions& options, LinearSolverKind kind,
+                           Eigen::Index n, Eigen::Index components, Eigen::Index harmonics) {
+  const auto rows = static_cast<double>(n + 1);
+  if (kind != LinearSolverKind::kMatrixFree) return 3.0 * sizeof(double) * rows * rows;
+  const auto m = static_cast<double>(components);
+  const double preconditioner = (static_cast<double>(harmonics) * sizeof(std::complex<float>) +
+                                 sizeof(std::complex<double>)) *
+                                m * m;
+  const double krylov =
+      2.0 * sizeof(double) * rows * static_cast<double>(options.gmres_max_iterations + 1);
+  const double formed =
+      n + 1 <= options.matrix_free_dense_limit ? 2.0 * sizeof(double) * rows * rows : 0.0;
+  return preconditioner + krylov + formed;
+}
+
 LinearSolverContext::LinearSolverContext(const ContinuationOptions& options, Eigen::Index n,
                                          SolveProfile* profile, bool has_operator)
-    : kind_(options.linear_solver),
+    : kind_(LinearSolverKind::kDenseLu),
       profile_(profile),
       tolerance_(options.gmres_tolerance),
       update_tolerance_(options.gmres_update_tolerance),
@@ -121,25 +162,11 @@ LinearSolverContext::LinearSolverContext(const ContinuationOptions& options, Eig
       refresh_iterations_(options.gmres_refresh_iterations),
       square_size_(n),
       dense_limit_(options.matrix_free_dense_limit) {
-  std::ostringstream why;
-  if (kind_ == LinearSolverKind::kAuto) {
-    const Eigen::Index from = has_operator ? options.matrix_free_from : options.gmres_from;
-    const bool iterative = n >= from;
-    kind_ = !iterative     ? LinearSolverKind::kDenseLu
-            : has_operator ? LinearSolverKind::kMatrixFree
-                           : LinearSolverKind::kGmres;
-    why << "auto: " << n << " equations, " << (iterative ? ">= " : "< ") << from
-        << (has_operator ? " (matrix_free_from; the model applies its Jacobian as an operator)"
-                         : " (gmres_from; the model has no Jacobian operator)");
-  } else if (kind_ == LinearSolverKind::kMatrixFree && !has_operator) {
-    kind_ = LinearSolverKind::kGmres;
-    why << "matrix_free chosen by the scene, but the model has no Jacobian operator: gmres";
-  } else {
-    why << "chosen by the scene";
-  }
+  LinearSolverChoice choice = choose_linear_solver(options, n, has_operator);
+  kind_ = choice.kind;
   if (profile_ != nullptr) {
     profile_->linear_solver = to_string(kind_);
-    profile_->linear_solver_reason = why.str();
+    profile_->linear_solver_reason = std::move(choice.reason);
   }
 }
 

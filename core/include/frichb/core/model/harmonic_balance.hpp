@@ -13,6 +13,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <Eigen/SparseCore>
 #include <complex>
 #include <memory>
 #include <string>
@@ -45,6 +46,14 @@ struct EvaluationStats {
   double receptance_seconds = 0.0;
   double assembly_seconds = 0.0;
 };
+
+// The gather matrix G of one kept harmonic: contact components x kept DOFs, at most six
+// non-zeros per row (a frame direction at each side's node).
+using SparseGather = Eigen::SparseMatrix<std::complex<double>, Eigen::RowMajor>;
+
+// G F G^H for a Hermitian F (kept x kept): the flexibility F seen between the contact
+// components, Hermitian, in about 12 (components x kept + components^2) flops.
+Eigen::MatrixXcd gather_hermitian(const SparseGather& g, const Eigen::MatrixXcd& f);
 
 class HarmonicBalanceModel final : public CurveProblem {
  public:
@@ -82,8 +91,9 @@ class HarmonicBalanceModel final : public CurveProblem {
   bool trace_contact(std::size_t c, const Eigen::VectorXd& y, ContactTrace& out,
                      std::string* error) const;
   const EvaluationStats& stats() const { return stats_; }
-  // u_n = G_n x_n of kept harmonic k (components x kept DOFs; real without cyclic symmetry).
-  const Eigen::MatrixXcd& gather(std::size_t k) const { return gather_[k]; }
+  // u_n = G_n x_n of kept harmonic k (components x kept DOFs; real without cyclic symmetry),
+  // sparse: a row holds the frame direction's entries at the DOFs of the contact's two sides.
+  const SparseGather& gather(std::size_t k) const { return gather_[k]; }
   // Complex amplitude of the external force of kept harmonic k at the kept DOFs.
   const Eigen::VectorXcd& excitation(std::size_t k) const { return excitation_[k]; }
   JacobianMode jacobian_mode() const { return mode_; }
@@ -120,7 +130,7 @@ class HarmonicBalanceModel final : public CurveProblem {
   std::vector<ContactModel> contacts_;
   // Per kept harmonic: u_n = G_n x_n (components x kept DOFs), with the cyclic phase factors of
   // sides in neighbouring sectors; real and equal for all n without them.
-  std::vector<Eigen::MatrixXcd> gather_;
+  std::vector<SparseGather> gather_;
   std::vector<int> harmonic_index_;  // per kept harmonic
   // Per kept harmonic, the receptance seen by the contacts, precomputed where the modal
   // damping is diagonal: G R(W) G^H = P diag(1 / z(W)) P^H + G F G^H with P = G Phi (contact

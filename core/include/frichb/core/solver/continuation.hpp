@@ -244,6 +244,27 @@ struct ContinuationOptions {
   bool IsValid(std::string* why) const;
 };
 
+// The linear solver `options.linear_solver` resolves to for n equations (lambda excluded) of
+// a problem with or without a Jacobian operator (CurveProblem::has_jacobian_operator), never
+// kAuto, and why (auto's rule above; kMatrixFree without an operator becomes kGmres).
+struct LinearSolverChoice {
+  LinearSolverKind kind = LinearSolverKind::kDenseLu;
+  std::string reason;
+};
+LinearSolverChoice choose_linear_solver(const ContinuationOptions& options, Eigen::Index n,
+                                        bool has_operator);
+
+// Bytes the linear solver of that choice holds beside the problem itself, for a problem of n
+// equations with `components` contact components and `harmonics` complex receptance blocks
+// (the harmonic-balance model's m and H + 1; used by kMatrixFree only):
+//   kDenseLu, kGmres  the Jacobian, its LU and the bordered Keller matrix, 3 (n + 1)^2 doubles;
+//   kMatrixFree       the preconditioner, harmonics m x m single-precision complex LUs (and
+//                     one double-precision block while it is built), the GMRES basis and its
+//                     preconditioned copy, and, up to matrix_free_dense_limit equations, the
+//                     formed matrix with its LU (the orientation's determinant, fallbacks).
+double linear_solver_bytes(const ContinuationOptions& options, LinearSolverKind kind,
+                           Eigen::Index n, Eigen::Index components, Eigen::Index harmonics);
+
 // Where a solve spent its time (wall seconds, summed): the problem's evaluations (residual
 // and Jacobian), the dense LU factorisations of the Newton and tangent matrices with their
 // solves and condition estimates, and how many of each. The rest of a solve's wall time is
