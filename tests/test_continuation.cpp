@@ -3,11 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <functional>
 #include <limits>
 #include <string>
 #include <vector>
+
+#include "frichb/core/support/interrupt.hpp"
 
 namespace frichb::core {
 namespace {
@@ -864,6 +867,49 @@ TEST(Continuation, BudgetsAndCancellationStopTheTrace) {
   EXPECT_EQ(calls, 4u);
   EXPECT_STREQ(to_string(TerminationType::kReachedEnd), "reached_end");
   EXPECT_STREQ(to_string(TerminationType::kStepTooSmall), "step_too_small");
+}
+
+// A signal stops a fixed-parameter Newton solve at its next iteration (unconverged, saying
+// why) and a trace at its next step (cancelled); without it the same calls converge.
+TEST(Continuation, AnInterruptionStopsNewtonSolvesAndTraces) {
+  const ScalarCurve sq([](double x, double) { return x * x - 2.0; },
+                       [](double x, double) { return Eigen::Vector2d(2.0 * x, 0.0); });
+  request_interrupt(SIGINT);
+  const NewtonResult stopped = solve_fixed_parameter(sq, Eigen::Vector2d(1.0, 0.7), {});
+  const ScalarCurve curve = SCurve();
+  const ContinuationSummary cut = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), Sweep(-2.0, 2.0));
+  clear_interrupt();
+  EXPECT_FALSE(stopped.converged);
+  EXPECT_EQ(stopped.iterations, 0);
+  EXPECT_NE(stopped.message.find("interrupted by signal " + std::to_string(SIGINT)),
+            std::string::npos)
+      << stopped.message;
+  EXPECT_EQ(cut.termination, TerminationType::kCancelled);
+  EXPECT_NE(cut.message.find("interrupted"), std::string::npos) << cut.message;
+  EXPECT_TRUE(solve_fixed_parameter(sq, Eigen::Vector2d(1.0, 0.7), {}).converged);
+  EXPECT_TRUE(trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), Sweep(-2.0, 2.0)).reached_end());
+}
+
+// Solves one after another on one FixedParameterSolver give what separate solves give, and
+// their profile counts all of them.
+TEST(Continuation, FixedParameterSolverSolvesAsSeparateSolves) {
+  const ScalarCurve cubic([](double x, double l) { return x * x * x + x - l; },
+                          [](double x, double) { return Eigen::Vector2d(3 * x * x + 1, -1.0); });
+  const ContinuationOptions options;
+  FixedParameterSolver solver(cubic, options);
+  long evaluations = 0;
+  for (const double lambda : {-3.0, -0.5, 0.0, 2.0, 10.0}) {
+    const NewtonResult shared = solver.solve(Eigen::Vector2d(0.3, lambda));
+    const NewtonResult alone = solve_fixed_parameter(cubic, Eigen::Vector2d(0.3, lambda), options);
+    ASSERT_TRUE(shared.converged) << shared.message;
+    EXPECT_EQ(shared.y, alone.y);
+    EXPECT_EQ(shared.iterations, alone.iterations);
+    EXPECT_EQ(shared.y(1), lambda);
+    EXPECT_NEAR(std::pow(shared.y(0), 3) + shared.y(0), lambda, 1e-9 * (1 + std::abs(lambda)));
+    evaluations += alone.profile.evaluations;
+  }
+  EXPECT_EQ(solver.profile().evaluations, evaluations);
+  EXPECT_FALSE(solver.solve(Eigen::Vector3d(0.0, 0.0, 1.0)).converged);  // wrong size
 }
 
 }  // namespace

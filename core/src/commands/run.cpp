@@ -248,7 +248,12 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
                     to_string(summary.termination), summary.message, suggestion(summary, scene));
 
     const auto t_post = Clock::now();
+    spdlog::log(routine, "refining the peaks{}",
+                scene.output.friction_loops_at.empty() && scene.output.contact_states_at.empty()
+                    ? std::string()
+                    : ", then solving at the frequencies of the friction loops and contact states");
     const ResponseTable table = tabulate_response(scene, model, options, summary);
+    if (interrupted()) return interrupted_while("while refining the peaks");
     for (const auto& peak : table.peaks)
       if (peak) outcome.peaks.push_back(*peak);
     const std::vector<FrictionLoop> loops = solve_friction_loops(scene, model, options, summary);
@@ -257,6 +262,7 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     const nlohmann::json loop_entries = write_curve_files(*out, record, plots);
     const std::vector<FrictionLoop> states =
         solve_contact_traces(scene, model, options, summary, scene.output.contact_states_at);
+    if (interrupted()) return interrupted_while("while solving the friction loops");
     const nlohmann::json state_entries = write_contact_states(*out, record, states, plots);
     timing["post_and_output_s"] = seconds_since(t_post);
     timing["total_s"] = seconds_since(t_start);

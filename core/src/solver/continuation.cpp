@@ -10,8 +10,10 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <utility>
 
+#include "frichb/core/support/interrupt.hpp"
 #include "solver/corners.hpp"
 #include "solver/corrector.hpp"
 #include "solver/scaled_problem.hpp"
@@ -41,6 +43,12 @@ struct Ending {
   TerminationType type;
   std::string reason;
 };
+
+// The ending of a trace stopped by a signal (support/interrupt.hpp).
+Ending interruption() {
+  return Ending{TerminationType::kCancelled,
+                "interrupted by signal " + std::to_string(interrupt_signal())};
+}
 
 // One traced curve: the driver's state between steps. trace() finds the start point, then
 // tries steps from the last point until an Ending: each attempt predicts along the tangent,
@@ -163,6 +171,7 @@ std::optional<Ending> CurveTracer::start(const VectorXd& y_guess) {
   ys0(n_) = options_.lambda_start / problem_->scaling().unknown(n_);
   const Correction start = newton_correct(*problem_, ys0, newton_);
   summary_.total_newton_iterations += start.iterations;
+  if (!start.converged && interrupted()) return interruption();
   if (start.first_evaluation_failed)
     return Ending{TerminationType::kEvaluationFailed, "start point: " + start.message};
   if (!start.converged)
@@ -189,6 +198,7 @@ std::optional<Ending> CurveTracer::limits_reached(long attempt) const {
     return Ending{TerminationType::kMaxPoints, "step attempt budget exhausted"};
   if (elapsed() > options_.max_wall_seconds)
     return Ending{TerminationType::kTimeLimit, "max_wall_seconds elapsed"};
+  if (interrupted()) return interruption();
   return std::nullopt;
 }
 
@@ -468,6 +478,26 @@ bool ContinuationOptions::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// One fixed-parameter Newton solve on `scaled` from the unscaled guess.
+NewtonResult solve_scaled_fixed(const ScaledProblem& scaled, const VectorXd& y_guess,
+                                const NewtonOptions& newton) {
+  NewtonResult result;
+  const Index n = scaled.equations();
+  const Correction core = newton_correct(scaled, scaled.scale(y_guess), newton);
+  result.converged = core.converged;
+  result.iterations = core.iterations;
+  result.residual_norm = core.residual_norm;
+  result.at_residual_floor = core.at_residual_floor;
+  result.y = scaled.unscale(core.ys);
+  result.y(n) = y_guess(n);  // unscaling must not perturb the fixed parameter
+  result.message = core.message;
+  return result;
+}
+
+}  // namespace
+
 NewtonResult solve_fixed_parameter(const CurveProblem& problem, const VectorXd& y_guess,
                                    const ContinuationOptions& options) {
   NewtonResult result;
@@ -479,16 +509,44 @@ NewtonResult solve_fixed_parameter(const CurveProblem& problem, const VectorXd& 
     return result;
   }
   if (!make_scaling(options, n, &s, &result.message)) return result;
-  const ScaledProblem scaled(problem, std::move(s), options, &result.profile);
-  const Correction core = newton_correct(scaled, scaled.scale(y_guess), options.newton);
-  result.converged = core.converged;
-  result.iterations = core.iterations;
-  result.residual_norm = core.residual_norm;
-  result.at_residual_floor = core.at_residual_floor;
-  result.y = scaled.unscale(core.ys);
-  result.y(n) = y_guess(n);  // unscaling must not perturb the fixed parameter
-  result.message = core.message;
+  SolveProfile profile;
+  const ScaledProblem scaled(problem, std::move(s), options, &profile);
+  result = solve_scaled_fixed(scaled, y_guess, options.newton);
+  result.profile = std::move(profile);
   return result;
+}
+
+struct FixedParameterSolver::State {
+  State(const CurveProblem& problem, Scaling scaling, const ContinuationOptions& options)
+      : newton(options.newton), scaled(problem, std::move(scaling), options, &profile) {}
+  NewtonOptions newton;
+  SolveProfile profile;
+  ScaledProblem scaled;  // counts into `profile` (declared after it)
+};
+
+FixedParameterSolver::FixedParameterSolver(const CurveProblem& problem,
+                                           const ContinuationOptions& options) {
+  Scaling s;
+  std::string why;
+  if (!make_scaling(options, problem.equation_count(), &s, &why))
+    throw std::invalid_argument("fixed-parameter solver: " + why);
+  state_ = std::make_unique<State>(problem, std::move(s), options);
+}
+
+FixedParameterSolver::~FixedParameterSolver() = default;
+
+NewtonResult FixedParameterSolver::solve(const VectorXd& y_guess) {
+  if (y_guess.size() != state_->scaled.equations() + 1) {
+    NewtonResult result;
+    result.y = y_guess;
+    result.message = "y_guess must have n + 1 entries";
+    return result;
+  }
+  return solve_scaled_fixed(state_->scaled, y_guess, state_->newton);
+}
+
+const SolveProfile& FixedParameterSolver::profile() const {
+  return state_->profile;
 }
 
 double ContinuationOptions::band_advance(double lambda, double direction) const {

@@ -2,7 +2,10 @@
 #include "solver/corrector.hpp"
 
 #include <sstream>
+#include <string>
 #include <utility>
+
+#include "frichb/core/support/interrupt.hpp"
 
 namespace frichb::core {
 
@@ -57,6 +60,10 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
   const std::unique_ptr<LinearSolver> lu = make_linear_solver(problem.linear());
   Jacobian trial_js, best_js;
   while (out.iterations < opt.max_iterations) {
+    if (interrupted()) {
+      out.message = "interrupted by signal " + std::to_string(interrupt_signal());
+      return out;
+    }
     if (keller)
       lu->prepare_bordered(out.js, *tangent);
     else
@@ -167,7 +174,7 @@ Correction chord_correct(const ScaledProblem& problem, const KellerFactor& facto
   double update_norm = kInf;
   while (!(out.residual_norm <= 1e-3 * opt.residual_tolerance ||
            (out.residual_norm <= opt.residual_tolerance && update_norm <= opt.step_tolerance))) {
-    if (out.chord_iterations >= max_chord) return out;
+    if (out.chord_iterations >= max_chord || interrupted()) return out;
     const VectorXd dz = factor.solve(-r);
     if (!dz.allFinite()) return out;
     const VectorXd trial = out.ys + dz;

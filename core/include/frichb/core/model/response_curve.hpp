@@ -49,8 +49,9 @@ struct ResponseNode {
 };
 
 // The peak amplitude of one response node. The highest point of the traced curve is refined
-// by a golden-section search over the frequency between its two neighbours (each probe a
-// fixed-frequency Newton solve), unless the curve turns there or a probe fails.
+// by a golden-section search over the frequency between its two neighbours, to 1e-10
+// relative in frequency (each probe a fixed-frequency Newton solve, all on one
+// FixedParameterSolver), unless the curve turns there or a probe fails.
 struct NodePeak {
   std::string node;
   double amplitude_m = 0.0;

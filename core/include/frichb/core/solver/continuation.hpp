@@ -324,7 +324,7 @@ enum class TerminationType {
   kEvaluationFailed,  // evaluate() reported failure at the start point
   kTimeLimit,         // max_wall_seconds elapsed
   kLeftBounds,        // a point fell outside [lambda_min, lambda_max] (not kept)
-  kCancelled,         // the point callback asked to stop
+  kCancelled,         // the point callback asked to stop, or an interruption (interrupt.hpp)
   kInvalidOptions,
 };
 
@@ -371,8 +371,33 @@ struct NewtonResult {
 
 // Solves e(x, lambda) = 0 for x at the lambda given in y_guess (last entry, held fixed).
 // Scaling as in `options` (unknown_scale / residual_scale of ContinuationOptions).
+// An interruption (support/interrupt.hpp) ends the solve unconverged at its next iteration.
 NewtonResult solve_fixed_parameter(const CurveProblem& problem, const Eigen::VectorXd& y_guess,
                                    const ContinuationOptions& options);
+
+// Fixed-parameter solves one after another on the same problem (a peak refinement, the
+// friction loops of a curve), as solve_fixed_parameter each, sharing what the linear solver
+// keeps between solves: on the matrix-free path the preconditioner, built once for all of
+// them and rebuilt only where it has become slow (ContinuationOptions::
+// gmres_refresh_iterations), rather than once per solve. Holds references: `problem` must
+// outlive it. profile() counts every solve so far. Not thread-safe.
+class FixedParameterSolver {
+ public:
+  // Throws std::invalid_argument when the scales of `options` do not fit the problem.
+  FixedParameterSolver(const CurveProblem& problem, const ContinuationOptions& options);
+  ~FixedParameterSolver();
+  FixedParameterSolver(const FixedParameterSolver&) = delete;
+  FixedParameterSolver& operator=(const FixedParameterSolver&) = delete;
+
+  // As solve_fixed_parameter(problem, y_guess, options); NewtonResult::profile is empty
+  // (the solves are counted in profile()).
+  NewtonResult solve(const Eigen::VectorXd& y_guess);
+  const SolveProfile& profile() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 // Called after each accepted point with its index in summary.points; return false to stop.
 using PointCallback = std::function<bool(const ContinuationPoint&, std::size_t index)>;

@@ -1,7 +1,7 @@
 // Interruption by SIGINT or SIGTERM: the signal only sets a flag; long computations poll it
-// (the continuation at every point, studies between runs, child programs while they run),
-// stop, discard their staged outputs and return exit code 128 + the signal's number.
-// Thread-safe (a lock-free atomic).
+// (the continuation at every step, Newton solves at every iteration, studies between runs, child
+// programs while they run), stop, discard their staged outputs and return exit code 128 + the
+// signal's number. Thread-safe (a lock-free atomic).
 #pragma once
 
 namespace frichb::core {
