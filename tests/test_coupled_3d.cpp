@@ -478,5 +478,58 @@ TEST(Coupled3d, SeparationReleasesTheSlider) {
   EXPECT_EQ(closed.state, open.state);
 }
 
+// ---------------------------------------------------------------------------------------
+// (7) Newton steps on the periodic state against plain passes. A line motion along t1 just
+// above the slip amplitude delta slips for a short part of the period, and a small t2 motion
+// leaves the slider's t2 position to settle by the little it moves at each slip: the plain
+// passes contract slowly (hundreds of passes to 1e-11 near a = delta). Plain passes (up to
+// 5000) are the oracle; they stop when a pass changes the state by 1e-11, which leaves them
+// up to 1e-11 / (1 - rho) from their limit (rho the contraction per pass), so the Jacobians
+// agree to 1e-9, the forces to 1e-12. The Jacobian of the Newton traces is checked against
+// central differences as well.
+TEST(Coupled3d, NewtonOnThePeriodicStateMeetsThePlainPassesInFewPasses) {
+  auto h = test::make_law("coupled_3d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1, 2, 3}, 256);
+  TraceOptions plain_options;
+  plain_options.newton_on_periodic_state = false;
+  plain_options.max_passes = 5000;
+  PeriodicTracer newton(*h.law, layout), plain(*h.law, layout, plain_options);
+  const int c = layout.coefficient_count();
+  const auto [ic, is] = first_harmonic_index(layout);
+  const double delta = 0.5 * 5.0 / 2e5;
+  int most_plain_passes = 0;
+  for (const double a : {1.01, 1.05, 1.2, 1.5}) {
+    for (const double b : {0.1, 0.3, 0.6, 1.0}) {
+      Eigen::VectorXd u = Eigen::VectorXd::Zero(2 * c);
+      u(ic) = a * delta;
+      u(c + is) = b * delta;
+      u(c) = 0.5 * delta;  // a static t2 offset
+      ContactTrace fast, slow;
+      std::string error;
+      ASSERT_TRUE(newton.trace(u, JacobianMode::kAnalytic, fast, &error)) << error;
+      ASSERT_TRUE(plain.trace(u, JacobianMode::kAnalytic, slow, &error)) << error;
+      ASSERT_TRUE(fast.periodic) << fast.diagnostic;
+      ASSERT_TRUE(slow.periodic) << slow.diagnostic;
+      EXPECT_EQ(slow.newton_passes, 0);
+      EXPECT_LE(fast.passes, 12) << "a " << a << ", b " << b;
+      most_plain_passes = std::max(most_plain_passes, slow.passes);
+      const double force_scale = slow.force_coefficients.cwiseAbs().maxCoeff();
+      EXPECT_LT((fast.force_coefficients - slow.force_coefficients).cwiseAbs().maxCoeff(),
+                1e-12 * force_scale)
+          << "a " << a << ", b " << b;
+      const double jacobian_scale = slow.jacobian.cwiseAbs().maxCoeff();
+      EXPECT_LT((fast.jacobian - slow.jacobian).cwiseAbs().maxCoeff(), 1e-9 * jacobian_scale)
+          << "a " << a << ", b " << b;
+      std::cout << "a/delta " << a << ", b/delta " << b << ": " << fast.passes << " passes ("
+                << fast.newton_passes << " Newton steps) against " << slow.passes << "\n";
+      if (a == 1.01 && b == 0.1) {
+        const Eigen::MatrixXd fd = central_differences(newton, u);
+        EXPECT_LT((fast.jacobian - fd).cwiseAbs().maxCoeff(), 1e-6 * fd.cwiseAbs().maxCoeff());
+      }
+    }
+  }
+  EXPECT_GT(most_plain_passes, 300);  // the slow regime is exercised
+}
+
 }  // namespace
 }  // namespace frichb::core

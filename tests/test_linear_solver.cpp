@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <vector>
 
+#include "frichb/core/numerics/harmonics.hpp"
+#include "model/harmonic_jacobian.hpp"
 #include "solver/scaled_problem.hpp"
 
 namespace frichb::core {
@@ -355,6 +358,60 @@ TEST(LinearSolver, MatrixFreeStallRetriesItsOwnPreconditionerThenFormsTheMatrix)
     EXPECT_EQ(solver->determinant_sign(), 0);
     EXPECT_EQ(profile.formed_matrices, 0);
   }
+}
+
+// The harmonic-balance Jacobian operator at 600 contact components (200 three-component
+// contacts, harmonics 0 to 2), where its products and preconditioner solves spread the
+// harmonics over threads: with two threads they give the very numbers one thread gives, and
+// the product is the formed matrix's.
+TEST(LinearSolver, HarmonicJacobianOnThreadsGivesTheSameNumbers) {
+  constexpr int kContacts = 200, kComponents = 3 * kContacts;
+  const HarmonicLayout layout({0, 1, 2}, 16);
+  const int c = layout.coefficient_count();
+  const Eigen::Index n = static_cast<Eigen::Index>(kComponents) * c;
+  std::mt19937 gen(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const auto random_complex = [&](Eigen::Index rows, Eigen::Index cols) {
+    Eigen::MatrixXcd m(rows, cols);
+    for (Eigen::Index j = 0; j < cols; ++j)
+      for (Eigen::Index i = 0; i < rows; ++i) m(i, j) = {u(gen), u(gen)};
+    return m;
+  };
+  std::vector<HarmonicReceptance> receptances;
+  for (std::size_t k = 0; k < layout.harmonics().size(); ++k) {
+    HarmonicReceptance r;
+    r.harmonic = layout.harmonics()[k];
+    r.cos_index = layout.cos_index(k);
+    r.sin_index = layout.sin_index(k);
+    r.formed = 1e-3 * random_complex(kComponents, kComponents);
+    if (r.harmonic == 0) r.formed.imag().setZero();
+    receptances.push_back(std::move(r));
+  }
+  std::vector<ContactTangent> tangents;
+  for (int i = 0; i < kContacts; ++i) {
+    ContactTangent t;
+    t.first = static_cast<Eigen::Index>(3 * i) * c;
+    t.block = 10.0 * MatrixXd::Random(3 * c, 3 * c);
+    tangents.push_back(std::move(t));
+  }
+  const VectorXd column = VectorXd::Random(n);
+  const HarmonicJacobian one(c, kComponents, receptances, tangents, column, 1);
+  const HarmonicJacobian two(c, kComponents, receptances, tangents, column, 2);
+  const MatrixXd x = MatrixXd::Random(n, 2);
+  MatrixXd y_one(n, 2), y_two(n, 2);
+  one.apply(x, y_one);
+  two.apply(x, y_two);
+  EXPECT_EQ(y_one, y_two);
+  MatrixXd formed(n, n);
+  one.form(formed);
+  EXPECT_LT((formed * x - y_one).cwiseAbs().maxCoeff(), 1e-10 * y_one.cwiseAbs().maxCoeff());
+  const auto m_one = one.make_preconditioner();
+  const auto m_two = two.make_preconditioner();
+  VectorXd s_one(n), s_two(n);
+  m_one->solve(x.col(0), s_one);
+  m_two->solve(x.col(0), s_two);
+  EXPECT_EQ(s_one, s_two);
+  EXPECT_TRUE(s_one.allFinite());
 }
 
 }  // namespace

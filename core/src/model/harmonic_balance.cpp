@@ -15,6 +15,10 @@ namespace frichb::core {
 
 namespace {
 
+// From this many contacts on, traces of the forces alone are spread over the contact threads
+// too (64 contacts at tens of microseconds each: about a millisecond per evaluation).
+constexpr std::size_t kThreadedForceTraces = 64;
+
 std::vector<std::size_t> collect_kept_dofs(const Scene& scene) {
   std::vector<std::size_t> kept;
   auto add_node = [&](const std::string& name) {
@@ -70,6 +74,7 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
 
   TraceOptions trace_options;
   trace_options.max_passes = scene.harmonic_balance.max_trace_passes;
+  trace_options.newton_on_periodic_state = scene.harmonic_balance.periodic_state_newton;
   for (const auto& spec : scene.contacts) {
     ContactModel c;
     c.name = spec.name;
@@ -204,10 +209,10 @@ void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::Vector
       if (!traced[i]) return;  // this range stops at its first failure
     }
   };
-  // Only traces with the Jacobian are worth threads (0.1 to 1 ms per contact, against tens of
-  // microseconds for the forces alone, less than starting a thread).
+  // Traces with the Jacobian are worth threads (0.1 to 1 ms per contact); the forces alone
+  // (tens of microseconds per contact, less than starting a thread) only for many contacts.
   const std::size_t threads =
-      with_jacobian
+      with_jacobian || count >= kThreadedForceTraces
           ? std::min<std::size_t>(static_cast<std::size_t>(std::max(1, contact_threads_)), count)
           : 1;
   if (threads <= 1) {
@@ -244,6 +249,9 @@ void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::Vector
     }
     const ContactTrace& t = traces_[i];
     if (t.used_finite_differences) ++stats_.contacts_with_fd_jacobian;
+    ++stats_.traces;
+    stats_.trace_passes += t.passes;
+    stats_.trace_newton_steps += t.newton_passes;
     if (!t.periodic) {
       ++stats_.non_periodic_traces;
       stats_.last_trace_diagnostic = "contact '" + contact.name + "': " + t.diagnostic;
@@ -488,7 +496,8 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
       }
     }
     *op = std::make_shared<HarmonicJacobian>(c, components_, std::move(receptances),
-                                             std::move(tangents), std::move(parameter_column));
+                                             std::move(tangents), std::move(parameter_column),
+                                             contact_threads_);
     stats_.assembly_seconds += elapsed(t_part);
     return true;
   }

@@ -47,9 +47,12 @@ struct ContactTangent {
 class HarmonicJacobian final : public JacobianOperator {
  public:
   // `coefficients`: the layout's coefficient count c (unknown a * c + coefficient for component
-  // a); `components`: m. The blocks and receptances are those of one evaluation.
+  // a); `components`: m. The blocks and receptances are those of one evaluation. `threads`:
+  // from 600 components on, products and preconditioner solves spread the kept harmonics over
+  // up to this many threads (each harmonic on one thread: the results do not depend on it).
   HarmonicJacobian(int coefficients, int components, std::vector<HarmonicReceptance> receptances,
-                   std::vector<ContactTangent> tangents, Eigen::VectorXd parameter_column);
+                   std::vector<ContactTangent> tangents, Eigen::VectorXd parameter_column,
+                   int threads = 1);
 
   Eigen::Index rows() const override { return parameter_column_.size(); }
   void apply(const Eigen::Ref<const Eigen::MatrixXd>& x,
@@ -63,6 +66,7 @@ class HarmonicJacobian final : public JacobianOperator {
  private:
   int coefficients_;
   int components_;
+  int threads_;
   std::vector<HarmonicReceptance> receptances_;
   std::vector<ContactTangent> tangents_;
   Eigen::VectorXd parameter_column_;

@@ -3,8 +3,20 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace frichb::core {
+
+namespace {
+
+// Singular values of I - M below this share of the largest are taken as zero (a direction the
+// contact never slips in; see run_passes).
+constexpr double kPeriodicStateRankThreshold = 1e-10;
+// A Newton step on the periodic state longer than this many times the trace's scale (the
+// largest displacement or state) is not taken.
+constexpr double kMaxPeriodicStateStep = 1e3;
+
+}  // namespace
 
 PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayout& layout,
                                TraceOptions options)
@@ -29,7 +41,7 @@ PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayo
 bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state,
                                 Eigen::MatrixXd* dstate, Eigen::MatrixXd& force,
                                 Eigen::MatrixXd& states, std::vector<Eigen::MatrixXd>* dforce,
-                                std::string* error) const {
+                                Eigen::MatrixXd* monodromy, std::string* error) const {
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   const int s = state_size_;
   Eigen::VectorXd next(s);
@@ -40,7 +52,9 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
   frichb_step_tangents tangents{df_dun.data(), df_dup.data(), df_ds.data(),
                                 ds_dun.data(), ds_dup.data(), ds_ds.data()};
   const bool derivative = dstate != nullptr;
-  Eigen::MatrixXd dnext;
+  const bool tangents_wanted = derivative || monodromy != nullptr;
+  if (monodromy != nullptr) monodromy->setIdentity(s, s);
+  Eigen::MatrixXd dnext, mnext;
   double u_now[3], u_prev[3], f[3];
   for (int j = 0; j < n; ++j) {
     const int jp = (j + n - 1) % n;
@@ -49,7 +63,7 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
       u_now[components_[a]] = u(j, a);
       u_prev[components_[a]] = u(jp, a);
     }
-    if (derivative) {
+    if (tangents_wanted) {
       // A law may write only its nonzero entries: start every step from zero blocks.
       df_dun.setZero();
       df_dup.setZero();
@@ -58,9 +72,13 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
       ds_dup.setZero();
       ds_ds.setZero();
     }
-    if (!law_.step(state.data(), u_prev, u_now, f, next.data(), derivative ? &tangents : nullptr,
-                   error))
+    if (!law_.step(state.data(), u_prev, u_now, f, next.data(),
+                   tangents_wanted ? &tangents : nullptr, error))
       return false;
+    if (monodromy != nullptr) {
+      mnext.noalias() = ds_ds.topLeftCorner(s, s).lazyProduct(*monodromy);
+      monodromy->swap(mnext);
+    }
     for (int a = 0; a < d; ++a) force(j, a) = f[components_[a]];
     states.row(j) = next.transpose();
     if (derivative) {
@@ -89,6 +107,17 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
   return true;
 }
 
+// Passes from the law's initial state until the state (and its derivative, when carried)
+// repeats. A law with tangents also gives the monodromy M = d(state at a pass's end) /
+// d(state at its start); where a pass did not repeat the state, the fixed point of the
+// pass's map is taken by a Newton step, s* = s0 + (I - M)^+ (s1 - s0), and the derivative's by
+// the same step, D* = D0 + (I - M)^+ (D1 - D0), D carried through a pass as D1 = M D0 + B. A
+// contact that slips for a short part of its period contracts by little per pass (M near I:
+// hundreds of plain passes to 1e-11); the Newton steps reach the fixed point in a few. The
+// pseudo-inverse (directions of M with eigenvalue 1 left as they are) keeps the state of a
+// direction that never slips where the warm-up put it, as the plain passes would. A step is
+// only taken while the passes after steps keep contracting, and is checked by the next pass:
+// the trace ends, as without steps, on a pass that repeats its start.
 bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::string* error) {
   const int n = layout_.samples(), p = unknown_count(), s = state_size_;
   Eigen::VectorXd state(s), start(s);
@@ -99,6 +128,7 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
   const double tol = options_.relative_tolerance;
   out.passes = 0;
   out.derivative_passes = 0;
+  out.newton_passes = 0;
   out.periodic = true;
   out.diagnostic.clear();
   // The derivative is carried through the very passes that produce the value, from the
@@ -106,16 +136,22 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
   // even where the warm-up itself depends on U (e.g. a slip to a static offset followed by
   // stick). Passes end when the state and, if carried, its derivative repeat.
   std::vector<Eigen::MatrixXd> dforce;
-  Eigen::MatrixXd dstate, dstart;
+  Eigen::MatrixXd dstate, dstart, monodromy;
   if (with_derivative) {
     dforce.assign(static_cast<std::size_t>(dimension()), Eigen::MatrixXd::Zero(n, p));
     dstate = Eigen::MatrixXd::Zero(s, p);
   }
+  bool newton = options_.newton_on_periodic_state && s > 0 && law_.traits().provides_tangent != 0;
+  double change_before = std::numeric_limits<double>::infinity();
   for (;;) {
     start = state;
     if (with_derivative) dstart = dstate;
+    // The first pass (the warm-up, which often reaches the periodic state already) runs
+    // without the monodromy: the law's tangents cost a value-only pass about as much again.
+    const bool track = newton && out.passes > 0;
     if (!run_period(out.displacement, state, with_derivative ? &dstate : nullptr, out.force,
-                    out.state, with_derivative ? &dforce : nullptr, error))
+                    out.state, with_derivative ? &dforce : nullptr, track ? &monodromy : nullptr,
+                    error))
       return false;
     ++out.passes;
     const double change = s ? (state - start).cwiseAbs().maxCoeff() : 0.0;
@@ -138,6 +174,36 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
           ", tolerance " + number(tol) + ")";
       break;
     }
+    if (!track) continue;
+    // A pass after a Newton step that changed the state by more than the pass before the
+    // step: the map is not smooth enough here (samples switching between stick and slip);
+    // plain passes from here on. The state alone is watched: its derivative jumps while the
+    // samples settle, and once the state repeats a step gives the derivative's fixed point
+    // exactly (M and B no longer change).
+    const double relative_change = change / scale;
+    if (relative_change > tol && !(relative_change < change_before)) {
+      newton = false;
+      continue;
+    }
+    change_before = relative_change;
+    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> fixed_point;
+    fixed_point.setThreshold(kPeriodicStateRankThreshold);
+    fixed_point.compute(Eigen::MatrixXd::Identity(s, s) - monodromy);
+    const Eigen::VectorXd step = fixed_point.solve(state - start);
+    if (!step.allFinite() || step.cwiseAbs().maxCoeff() > kMaxPeriodicStateStep * scale) {
+      newton = false;
+      continue;
+    }
+    state = start + step;
+    if (with_derivative) {
+      const Eigen::MatrixXd dstep = fixed_point.solve(dstate - dstart);
+      if (!dstep.allFinite()) {
+        newton = false;
+        continue;
+      }
+      dstate = dstart + dstep;
+    }
+    ++out.newton_passes;
   }
   if (with_derivative) out.derivative_passes = out.passes;
   transform_forces(out, with_derivative ? &dforce : nullptr);

@@ -140,6 +140,10 @@ const std::vector<frichb_param_spec>& harmonic_balance_schema() {
       Param::integer("max_trace_passes", "bound on passes over the period for periodicity")
           .defaults_to(200)
           .at_least(1),
+      Param::boolean("periodic_state_newton",
+                     "between passes, Newton steps onto the periodic state of contacts whose law "
+                     "gives tangents (false: plain passes only)")
+          .defaults_to(1),
   };
   return s;
 }
@@ -620,6 +624,7 @@ void read_harmonic_balance(Scene& scene, YAML::Node root, const YamlContext& ctx
   }
   H.analytic_jacobian = hbv.text("jacobian") == "analytic";
   H.max_trace_passes = static_cast<int>(hbv.integer("max_trace_passes"));
+  H.periodic_state_newton = hbv.boolean("periodic_state_newton");
   H.trace_oversampling = static_cast<int>(hbv.integer("trace_oversampling"));
   scene.core_values["harmonic_balance"] = hb.to_json(harmonic_balance_schema());
 }

@@ -39,6 +39,11 @@ struct EvaluationStats {
   long contacts_with_fd_jacobian = 0;  // contact traces that fell back to finite differences
   long non_periodic_traces = 0;
   std::string last_trace_diagnostic;
+  // Contact traces run, the passes over the period they took in total, and of those the
+  // passes followed by a Newton step on the periodic state (TraceOptions).
+  long traces = 0;
+  long trace_passes = 0;
+  long trace_newton_steps = 0;
   // Wall time spent in evaluate(), by part (seconds, summed over calls): the contact traces
   // (AFT, with the contacts' Jacobian blocks when asked), the receptances at the contacts with
   // the residual's receptance products, and the assembly of I + Rc dF/dU.
@@ -97,9 +102,12 @@ class HarmonicBalanceModel final : public CurveProblem {
   // Complex amplitude of the external force of kept harmonic k at the kept DOFs.
   const Eigen::VectorXcd& excitation(std::size_t k) const { return excitation_[k]; }
   JacobianMode jacobian_mode() const { return mode_; }
-  // Threads that trace the contacts in an evaluation with the Jacobian (default 1; n <= 0:
-  // one per core). Contiguous ranges of contacts go to each; at most one thread per contact.
-  // Residual-only evaluations trace on the calling thread (too little work per contact).
+  // Threads that trace the contacts in an evaluation with the Jacobian, or in any evaluation
+  // of 64 contacts or more (default 1; n <= 0: one per core). Contiguous ranges of contacts go
+  // to each; at most one thread per contact. Residual-only evaluations of fewer contacts trace
+  // on the calling thread (too little work per contact). From 600 contact components on, the
+  // Jacobian operator's products and preconditioner solves use as many threads (one harmonic
+  // per thread at a time).
   void set_contact_threads(int n);
 
  private:

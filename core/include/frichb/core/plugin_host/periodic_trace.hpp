@@ -10,6 +10,9 @@
 // at the start of a pass repeats at its end (relative tolerance) and, when the Jacobian is
 // requested, until the derivative of the state carried through the same passes repeats too:
 // the Jacobian is the exact derivative of the computed periodic forces, warm-up included.
+// For a law with tangents, a pass that does not repeat its start is followed by a Newton step
+// onto the fixed point of the pass's map (its monodromy from the tangents), for the state and
+// its derivative alike (TraceOptions::newton_on_periodic_state).
 // A contact that never slips keeps its initial state, so its mean tangential force is kt
 // times the mean relative displacement (docs/theory.md, "full stick convention").
 //
@@ -32,6 +35,10 @@ enum class JacobianMode { kNone, kAnalytic, kFiniteDifference };
 struct TraceOptions {
   int max_passes = 200;               // bound on passes for the state, then for its derivative
   double relative_tolerance = 1e-11;  // on the state (and derivative) change over one pass
+  // Newton steps on the periodic state between passes, from the monodromy of the law's
+  // tangents (laws that provide them); false: plain passes only. Either way the trace ends on
+  // a pass that repeats its start to relative_tolerance.
+  bool newton_on_periodic_state = true;
 };
 
 struct ContactTrace {
@@ -42,6 +49,7 @@ struct ContactTrace {
   Eigen::MatrixXd jacobian;            // d*C x d*C when requested
   int passes = 0;                      // passes until the state (and its derivative) repeated
   int derivative_passes = 0;           // of those, passes that carried the derivative
+  int newton_passes = 0;               // of those, passes followed by a Newton step on the state
   bool periodic = true;                // false: max_passes reached (the diagnostic says so)
   bool used_finite_differences = false;
   std::string diagnostic;
@@ -82,7 +90,8 @@ class PeriodicTracer {
   bool run_passes(ContactTrace& out, bool with_derivative, std::string* error);
   bool run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
                   Eigen::MatrixXd& force, Eigen::MatrixXd& states,
-                  std::vector<Eigen::MatrixXd>* dforce, std::string* error) const;
+                  std::vector<Eigen::MatrixXd>* dforce, Eigen::MatrixXd* monodromy,
+                  std::string* error) const;
   void transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce);
 
   const ContactLawInstance& law_;

@@ -88,7 +88,8 @@ struct HarmonicBalanceSpec {
   int samples_per_period = 128;
   bool analytic_jacobian = true;
   int max_trace_passes = 200;
-  int trace_oversampling = 1;  // contacts traced on trace_oversampling * samples_per_period
+  bool periodic_state_newton = true;  // TraceOptions::newton_on_periodic_state
+  int trace_oversampling = 1;         // contacts traced on trace_oversampling * samples_per_period
 };
 
 struct ContinuationSpec {
