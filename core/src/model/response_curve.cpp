@@ -62,7 +62,8 @@ std::optional<std::pair<double, double>> refine_peak(const HarmonicBalanceModel&
   double a = before(n), b = after(n);
   double c = b - inv_phi * (b - a), d = a + inv_phi * (b - a);
   double fc = amplitude(c), fd = amplitude(d);
-  for (int i = 0; i < 80 && !failed && std::abs(b - a) > 1e-10 * std::abs(at(n)); ++i) {
+  for (int i = 0; i < 80 && !failed && !interrupted() && std::abs(b - a) > 1e-10 * std::abs(at(n));
+       ++i) {
     if (fc > fd) {
       b = d;
       d = c;
@@ -77,7 +78,7 @@ std::optional<std::pair<double, double>> refine_peak(const HarmonicBalanceModel&
       fd = amplitude(d);
     }
   }
-  if (failed) return std::nullopt;
+  if (failed || interrupted()) return std::nullopt;
   return fc > fd ? std::make_pair(fc, c) : std::make_pair(fd, d);
 }
 
@@ -296,10 +297,12 @@ std::vector<FrictionLoop> solve_contact_traces(const Scene& scene,
   const Eigen::Index n = model.equation_count();
   std::unique_ptr<FixedParameterSolver> solver;
   for (double f_req : frequencies) {
+    if (interrupted()) break;  // the caller reports it
     const double w_req = f_req * unit;
     int crossing = 0;
     for (std::size_t i = 1; i < summary.points.size(); ++i) {
       const double wa = summary.points[i - 1].y(n), wb = summary.points[i].y(n);
+      if (interrupted()) break;
       if ((wa - w_req) * (wb - w_req) > 0 || wa == wb) continue;
       if (wb == w_req && i + 1 < summary.points.size()) continue;  // counted at the next pair
       const double s = (w_req - wa) / (wb - wa);
@@ -326,7 +329,7 @@ std::vector<FrictionLoop> solve_contact_traces(const Scene& scene,
         loops.push_back(std::move(loop));
       }
     }
-    if (crossing == 0)
+    if (crossing == 0 && !interrupted())
       spdlog::warn("friction loop at {} {}: the response curve does not reach it", f_req,
                    unit_name(C.unit));
   }

@@ -1,5 +1,6 @@
 #include "frichb/core/plugin_host/periodic_trace.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -9,8 +10,9 @@ namespace frichb::core {
 
 namespace {
 
-// Singular values of I - M below this share of the largest are taken as zero (a direction the
-// contact never slips in; see run_passes).
+// Pivots of the rank-revealing decomposition of I - M below this share of the largest are
+// taken as zero (a direction the contact never slips in; see run_passes); and a multiplier of
+// M (an eigenvalue) above 1 by more than this makes the fixed point repelling.
 constexpr double kPeriodicStateRankThreshold = 1e-10;
 // A Newton step on the periodic state longer than this many times the trace's scale (the
 // largest displacement or state) is not taken.
@@ -114,9 +116,10 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
 // the same step, D* = D0 + (I - M)^+ (D1 - D0), D carried through a pass as D1 = M D0 + B. A
 // contact that slips for a short part of its period contracts by little per pass (M near I:
 // hundreds of plain passes to 1e-11); the Newton steps reach the fixed point in a few. The
-// pseudo-inverse (directions of M with eigenvalue 1 left as they are) keeps the state of a
-// direction that never slips where the warm-up put it, as the plain passes would. A step is
-// only taken while the passes after steps keep contracting, and is checked by the next pass:
+// rank-revealing solve leaves alone the directions where I - M vanishes (a direction the
+// contact never slips in, where M is the identity), so the state there stays where the
+// warm-up put it. A step is only taken while the passes keep shrinking their change, towards
+// a fixed point that attracts (no multiplier of M beyond 1), and is checked by the next pass:
 // the trace ends, as without steps, on a pass that repeats its start.
 bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::string* error) {
   const int n = layout_.samples(), p = unknown_count(), s = state_size_;
@@ -186,23 +189,27 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
       continue;
     }
     change_before = relative_change;
+    // A fixed point where M has a multiplier beyond 1 repels the passes: they would never
+    // reach it, so no step goes there (a law whose passes diverge is left to the pass bound).
+    const Eigen::EigenSolver<Eigen::MatrixXd> multipliers(monodromy, false);
+    if (multipliers.info() != Eigen::Success ||
+        multipliers.eigenvalues().cwiseAbs().maxCoeff() > 1.0 + kPeriodicStateRankThreshold) {
+      newton = false;
+      continue;
+    }
     Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> fixed_point;
     fixed_point.setThreshold(kPeriodicStateRankThreshold);
     fixed_point.compute(Eigen::MatrixXd::Identity(s, s) - monodromy);
     const Eigen::VectorXd step = fixed_point.solve(state - start);
-    if (!step.allFinite() || step.cwiseAbs().maxCoeff() > kMaxPeriodicStateStep * scale) {
+    Eigen::MatrixXd dstep;
+    if (with_derivative) dstep = fixed_point.solve(dstate - dstart);
+    if (!step.allFinite() || step.cwiseAbs().maxCoeff() > kMaxPeriodicStateStep * scale ||
+        (with_derivative && !dstep.allFinite())) {
       newton = false;
       continue;
     }
     state = start + step;
-    if (with_derivative) {
-      const Eigen::MatrixXd dstep = fixed_point.solve(dstate - dstart);
-      if (!dstep.allFinite()) {
-        newton = false;
-        continue;
-      }
-      dstate = dstart + dstep;
-    }
+    if (with_derivative) dstate = dstart + dstep;
     ++out.newton_passes;
   }
   if (with_derivative) out.derivative_passes = out.passes;

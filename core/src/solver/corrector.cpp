@@ -35,6 +35,10 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
 
   Correction out;
   out.ys = ys0;
+  if (interrupted()) {
+    out.message = "interrupted by signal " + std::to_string(interrupt_signal());
+    return out;
+  }
   VectorXd r;
   if (!system(out.ys, &r, &out.js, &out.message)) {
     out.first_evaluation_failed = true;

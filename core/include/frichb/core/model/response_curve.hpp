@@ -30,7 +30,9 @@ namespace frichb::core {
 // response, and when it cannot get from there (a contact far stiffer than the structure, stuck at
 // a tiny fraction of the free motion), from rest, then from the free response scaled by 1e-3 and
 // 1e-6. When none converges, the contact-free response itself (trace_curve then reports the
-// start's failure). How the start was found is logged at `log_level`.
+// start's failure). How the start was found is logged at `log_level`. Throws
+// std::invalid_argument when the scales of `options` do not fit the model (FixedParameterSolver);
+// derive_continuation's always do.
 Eigen::VectorXd find_start_point(const HarmonicBalanceModel& model,
                                  const ContinuationOptions& options,
                                  spdlog::level::level_enum log_level = spdlog::level::info);
