@@ -1,12 +1,12 @@
 #include "frichb/core/model/harmonic_balance.hpp"
 
 #include "frichb/core/numerics/dense_products.hpp"
+#include "frichb/core/support/threads.hpp"
 #include "model/harmonic_jacobian.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <exception>
 #include <numbers>
 #include <stdexcept>
 #include <thread>
@@ -215,31 +215,8 @@ void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::Vector
       with_jacobian || count >= kThreadedForceTraces
           ? std::min<std::size_t>(static_cast<std::size_t>(std::max(1, contact_threads_)), count)
           : 1;
-  if (threads <= 1) {
-    trace_range(0, count);
-  } else {
-    std::vector<std::exception_ptr> failures(threads);
-    {
-      // Declared before the pool, so that it outlives the threads the pool joins on leaving.
-      const auto range = [&](std::size_t t) { return t * count / threads; };
-      std::vector<std::jthread> pool;
-      for (std::size_t t = 1; t < threads; ++t)
-        pool.emplace_back([&, t] {
-          try {
-            trace_range(range(t), range(t + 1));
-          } catch (...) {
-            failures[t] = std::current_exception();
-          }
-        });
-      try {
-        trace_range(0, range(1));
-      } catch (...) {
-        failures[0] = std::current_exception();
-      }
-    }  // joined
-    for (const auto& failure : failures)
-      if (failure) std::rethrow_exception(failure);
-  }
+  run_on_threads(
+      threads, [&](std::size_t t) { trace_range(t * count / threads, (t + 1) * count / threads); });
   for (std::size_t i = 0; i < count; ++i) {
     const auto& contact = contacts_[i];
     if (!traced[i]) {

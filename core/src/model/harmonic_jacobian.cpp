@@ -4,11 +4,11 @@
 
 #include <algorithm>
 #include <complex>
-#include <exception>
 #include <limits>
-#include <thread>
 #include <utility>
 #include <vector>
+
+#include "frichb/core/support/threads.hpp"
 
 namespace frichb::core {
 
@@ -34,25 +34,9 @@ template <typename Work>
 void for_each_harmonic(std::size_t count, int threads, const Work& work) {
   const std::size_t t =
       std::min<std::size_t>(static_cast<std::size_t>(std::max(1, threads)), count);
-  if (t <= 1) {
-    for (std::size_t k = 0; k < count; ++k) work(k);
-    return;
-  }
-  std::vector<std::exception_ptr> failures(t);
-  const auto share = [&](std::size_t i) {
-    try {
-      for (std::size_t k = i; k < count; k += t) work(k);
-    } catch (...) {
-      failures[i] = std::current_exception();
-    }
-  };
-  {
-    std::vector<std::jthread> pool;
-    for (std::size_t i = 1; i < t; ++i) pool.emplace_back(share, i);
-    share(0);
-  }  // joined
-  for (const auto& failure : failures)
-    if (failure) std::rethrow_exception(failure);
+  run_on_threads(t, [&](std::size_t i) {
+    for (std::size_t k = i; k < count; k += t) work(k);
+  });
 }
 
 // Rows a * c + cos - i (a * c + sin) of x as the m x k complex amplitudes of harmonic r.
