@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <complex>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -412,6 +414,126 @@ TEST(LinearSolver, HarmonicJacobianOnThreadsGivesTheSameNumbers) {
   m_two->solve(x.col(0), s_two);
   EXPECT_EQ(s_one, s_two);
   EXPECT_TRUE(s_one.allFinite());
+}
+
+// A harmonic-balance Jacobian with modal receptances Rc = P diag(inv_z) P^H + F (harmonics 0
+// to 3, 20 three-component contacts, 4 modes) and tangents that do not vary over the period,
+// where the harmonic-decoupled preconditioner is the inverse itself; `shift` moves the
+// frequency: inv_z of the harmonics above 0 changes, P, F and the tangents do not.
+struct ModalJacobianCase {
+  static constexpr int kContacts = 20, kComponents = 3 * kContacts, kModes = 4;
+  HarmonicLayout layout{{0, 1, 2, 3}, 16};
+  int c = layout.coefficient_count();
+  Eigen::Index n = static_cast<Eigen::Index>(kComponents) * c;
+  std::vector<Eigen::MatrixXcd> projected, flexibility;
+  std::vector<ContactTangent> tangents;
+  VectorXd column;
+
+  explicit ModalJacobianCase(bool with_flexibility) {
+    std::mt19937 gen(11);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    const auto random_complex = [&](Eigen::Index rows, Eigen::Index cols) {
+      Eigen::MatrixXcd m(rows, cols);
+      for (Eigen::Index j = 0; j < cols; ++j)
+        for (Eigen::Index i = 0; i < rows; ++i) m(i, j) = {u(gen), u(gen)};
+      return m;
+    };
+    for (std::size_t k = 0; k < layout.harmonics().size(); ++k) {
+      projected.push_back(0.3 * random_complex(kComponents, kModes));
+      const Eigen::MatrixXcd g = random_complex(kComponents, kComponents);
+      flexibility.push_back(with_flexibility ? Eigen::MatrixXcd(2e-3 * g * g.adjoint())
+                                             : Eigen::MatrixXcd());
+    }
+    for (int i = 0; i < kContacts; ++i) {
+      const MatrixXd d0 = 3.0 * MatrixXd::Random(3, 3) + 4.0 * MatrixXd::Identity(3, 3);
+      ContactTangent t;
+      t.first = static_cast<Eigen::Index>(3 * i) * c;
+      t.block = MatrixXd::Zero(3 * c, 3 * c);  // d0 on every coefficient
+      for (int b = 0; b < 3; ++b)
+        for (int e = 0; e < 3; ++e)
+          t.block.block(b * c, e * c, c, c).diagonal().setConstant(d0(b, e));
+      tangents.push_back(std::move(t));
+    }
+    column = VectorXd::Random(n);
+  }
+
+  // The modal dynamic compliances 1 / (w_r^2 - W^2 + i W c_r) at W = harmonic x (1 + shift).
+  std::shared_ptr<HarmonicJacobian> at(double shift) const {
+    std::vector<HarmonicReceptance> receptances;
+    for (std::size_t k = 0; k < layout.harmonics().size(); ++k) {
+      HarmonicReceptance r;
+      r.harmonic = layout.harmonics()[k];
+      r.cos_index = layout.cos_index(k);
+      r.sin_index = layout.sin_index(k);
+      r.projected = &projected[k];
+      r.flexibility = flexibility[k].size() ? &flexibility[k] : nullptr;
+      r.inv_z.resize(kModes);
+      const double w = r.harmonic * (1.0 + shift);
+      for (int q = 0; q < kModes; ++q) {
+        const double wr = 0.8 + 0.6 * q;
+        r.inv_z(q) = 1.0 / std::complex<double>(wr * wr - w * w, 0.05 * w);
+      }
+      receptances.push_back(std::move(r));
+    }
+    return std::make_shared<HarmonicJacobian>(c, kComponents, receptances, tangents, column);
+  }
+};
+
+// |M^-1 J x - x| / |x|: how far the preconditioner is from the inverse of e_x.
+double PreconditionerError(const JacobianPreconditioner& m, const JacobianOperator& op,
+                           const VectorXd& x) {
+  MatrixXd jx(x.size(), 1);
+  op.apply(x, jx);
+  VectorXd back(x.size());
+  m.solve(jx.col(0), back);
+  return (back - x).norm() / x.norm();
+}
+
+// With time-invariant tangents the harmonic-decoupled preconditioner is e_x's inverse (to its
+// single-precision factors), with and without a residual flexibility; one made at an earlier
+// frequency is not, and the same one followed to the new frequency is again.
+TEST(LinearSolver, TheModalPreconditionerFollowsTheFrequency) {
+  for (const bool with_flexibility : {true, false}) {
+    SCOPED_TRACE(with_flexibility ? "with F" : "modes only");
+    const ModalJacobianCase modal(with_flexibility);
+    const auto here = modal.at(0.0);
+    const auto later = modal.at(0.04);
+    const VectorXd x = VectorXd::Random(modal.n);
+    const auto made = here->make_preconditioner();
+    EXPECT_LT(PreconditionerError(*made, *here, x), 1e-5);
+    EXPECT_GT(PreconditionerError(*made, *later, x), 1e-2);
+    const auto followed = made->follow(*later);
+    ASSERT_NE(followed, nullptr);
+    EXPECT_LT(PreconditionerError(*followed, *later, x), 1e-5);
+    EXPECT_LT(PreconditionerError(*later->make_preconditioner(), *later, x), 1e-5);
+    EXPECT_TRUE(std::isfinite(followed->condition()));
+  }
+  // Receptances of another model (other P): nothing to follow.
+  const ModalJacobianCase one(true), other(true);
+  EXPECT_EQ(one.at(0.0)->make_preconditioner()->follow(*other.at(0.0)), nullptr);
+}
+
+// The matrix-free solver follows its kept preconditioner from point to point: a Newton matrix
+// at a new frequency is solved in the iterations of an exact preconditioner, with no new one.
+TEST(LinearSolver, MatrixFreeFollowsTheKeptPreconditionerToTheNextPoint) {
+  const ModalJacobianCase modal(true);
+  const Scaling scaling = UnevenScaling(modal.n);
+  ContinuationOptions o = MatrixFree();
+  SolveProfile profile;
+  LinearSolverContext context(o, modal.n, &profile, true);
+  const VectorXd b = VectorXd::Random(modal.n);
+  for (const double shift : {0.0, 0.02, 0.04}) {
+    Jacobian j;
+    j.set_operator(modal.at(shift), scaling);
+    const auto solver = make_linear_solver(context);
+    solver->prepare(j);
+    const int before = profile.krylov_iterations;
+    const VectorXd x = solver->solve(b);
+    EXPECT_LE((j.apply_square(x) - b).norm(), context.tolerance() * b.norm());
+    // Single-precision factors: a few iterations to 1e-10.
+    EXPECT_LE(profile.krylov_iterations - before, 3) << "shift " << shift;
+  }
+  EXPECT_EQ(profile.preconditioner_builds, 1);
 }
 
 }  // namespace

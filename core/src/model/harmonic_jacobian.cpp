@@ -3,8 +3,10 @@
 #include "model/harmonic_jacobian.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <complex>
 #include <limits>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -64,53 +66,117 @@ void scatter_harmonic(const HarmonicReceptance& r, int coefficients, int compone
   }
 }
 
-// I + Rc_n D0 of every kept harmonic, LU-factorised (complex, partial pivoting) in single
-// precision: a preconditioner needs no more digits than its approximation has, and each GMRES
-// iteration streams these factors from memory (half the bytes of double precision).
+// LU factors of the preconditioner (complex, partial pivoting) in single precision: a
+// preconditioner needs no more digits than its approximation has, and each GMRES iteration
+// streams these factors from memory (half the bytes of double precision).
 using PreconditionerFactor = Eigen::PartialPivLU<Eigen::MatrixXcf>;
+
+// What one kept harmonic's preconditioner keeps from the point it was made at. Either the LU
+// of M = I + Rc D0 (harmonic 0, whose receptance does not depend on the frequency, and formed
+// receptances), or, for a modal receptance Rc = P diag(inv_z) P^H + F, the split
+//   M = A + P diag(inv_z) V,   A = I + F D0,   V = P^H D0 (modes x m),
+// with A's LU (none without F: A = I), W = A^-1 P (m x modes) and S = V W (modes x modes):
+// by Woodbury's identity
+//   M^-1 = A^-1 - W diag(inv_z) (I + S diag(inv_z))^-1 V A^-1,
+// so that M follows the frequency through inv_z at the cost of a modes x modes LU.
+struct HarmonicFactor {
+  HarmonicReceptance slot;  // harmonic and indices; the model's P for the split
+  bool split = false;
+  bool has_lu = false;
+  PreconditionerFactor lu;  // of M, or of A in the split
+  double condition = 1.0;   // the LU's condition estimate (1 without one)
+  MatrixXcd w, v, s;        // the split's W, V and S
+};
+
+// The modal split's capacitance I + S diag(inv_z) of one harmonic, LU-factorised (double).
+using Capacitance = Eigen::PartialPivLU<MatrixXcd>;
+
+double condition_of(double rcond) {
+  return rcond > 0.0 && std::isfinite(rcond) ? 1.0 / rcond
+                                             : std::numeric_limits<double>::infinity();
+}
 
 class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
  public:
+  // `inv_z`: the point's 1 / z of each harmonic (used by the split harmonics only).
   HarmonicDecoupledPreconditioner(int coefficients, int components,
-                                  std::vector<HarmonicReceptance> layout,
-                                  std::vector<PreconditionerFactor> factors, int threads)
+                                  std::shared_ptr<const std::vector<HarmonicFactor>> factors,
+                                  const std::vector<Eigen::VectorXcd>& inv_z, int threads)
       : coefficients_(coefficients),
         components_(components),
         threads_(threads),
-        layout_(std::move(layout)),
-        factors_(std::move(factors)) {
-    condition_ = 1.0;
-    for (const auto& f : factors_) {
-      const double rcond = f.rcond();
-      condition_ =
-          std::max(condition_, rcond > 0.0 ? 1.0 / rcond : std::numeric_limits<double>::infinity());
-      if (!std::isfinite(rcond)) condition_ = std::numeric_limits<double>::infinity();
+        factors_(std::move(factors)),
+        inv_z_(inv_z),
+        capacitance_(factors_->size()) {
+    for (const HarmonicFactor& f : *factors_)
+      factor_condition_ = std::max(factor_condition_, f.condition);
+    condition_ = factor_condition_;
+    for (std::size_t k = 0; k < factors_->size(); ++k) {
+      const HarmonicFactor& f = (*factors_)[k];
+      if (!f.split) continue;
+      capacitance_[k].compute(MatrixXcd::Identity(f.s.rows(), f.s.cols()) +
+                              f.s * inv_z_[k].asDiagonal());
+      // cond(M) <= cond(A) cond(I + W diag(inv_z) V); the capacitance's condition stands for
+      // the second factor (they share their non-unit eigenvalues).
+      const double c = condition_of(capacitance_[k].rcond());
+      condition_ = std::max(condition_, factor_condition_ * c);
     }
   }
 
   // Each harmonic writes its own rows of x: the harmonics may run on threads.
   void solve(const Eigen::Ref<const VectorXd>& b, Eigen::Ref<VectorXd> x) const override {
     x.setZero();
-    for_each_harmonic(layout_.size(), threads_, [&](std::size_t k) {
-      const MatrixXcd rhs = gather_harmonic(layout_[k], coefficients_, components_, b);
-      MatrixXcd solution(rhs.rows(), rhs.cols());
-      if (rhs.cols() == 1)
-        solution.col(0) =
-            factors_[k].solve(rhs.col(0).cast<std::complex<float>>()).cast<std::complex<double>>();
-      else
-        solution = factors_[k].solve(rhs.cast<std::complex<float>>()).cast<std::complex<double>>();
-      if (layout_[k].harmonic == 0) solution.imag().setZero();
-      scatter_harmonic(layout_[k], coefficients_, components_, solution, x);
+    for_each_harmonic(factors_->size(), threads_, [&](std::size_t k) {
+      const HarmonicFactor& f = (*factors_)[k];
+      // One vector: matrix-vector products and triangular solves (a one-column matrix would
+      // take the blocked matrix paths).
+      MatrixXcd y(components_, 1);
+      Eigen::VectorXcd column = gather_harmonic(f.slot, coefficients_, components_, b).col(0);
+      if (f.has_lu)
+        column = f.lu.solve(column.cast<std::complex<float>>()).cast<std::complex<double>>();
+      if (f.split) {
+        const Eigen::VectorXcd u = capacitance_[k].solve(f.v * column);
+        column.noalias() -= f.w * inv_z_[k].cwiseProduct(u);
+      }
+      y.col(0) = column;
+      if (f.slot.harmonic == 0) y.imag().setZero();
+      scatter_harmonic(f.slot, coefficients_, components_, y, x);
     });
   }
   double condition() const override { return condition_; }
+
+  // The split harmonics at `op`'s frequency (its inv_z): one modes x modes LU each. Null when
+  // `op` is not a HarmonicJacobian of the same layout and receptances. The tangents stay
+  // those of the point the factors were made at.
+  std::unique_ptr<JacobianPreconditioner> follow(const JacobianOperator& op) const override {
+    const auto* harmonic = dynamic_cast<const HarmonicJacobian*>(&op);
+    if (harmonic == nullptr) return nullptr;
+    const std::vector<HarmonicReceptance>& at = harmonic->receptances();
+    if (at.size() != factors_->size()) return nullptr;
+    std::vector<Eigen::VectorXcd> inv_z(at.size());
+    bool any = false;
+    for (std::size_t k = 0; k < at.size(); ++k) {
+      const HarmonicFactor& f = (*factors_)[k];
+      if (at[k].harmonic != f.slot.harmonic || at[k].projected != f.slot.projected)
+        return nullptr;
+      if (!f.split) continue;
+      if (at[k].inv_z.size() != f.s.rows() || !at[k].inv_z.allFinite()) return nullptr;
+      inv_z[k] = at[k].inv_z;
+      any = true;
+    }
+    if (!any) return nullptr;
+    return std::make_unique<HarmonicDecoupledPreconditioner>(coefficients_, components_, factors_,
+                                                             inv_z, threads_);
+  }
 
  private:
   int coefficients_;
   int components_;
   int threads_;
-  std::vector<HarmonicReceptance> layout_;  // harmonic and indices only
-  std::vector<PreconditionerFactor> factors_;
+  std::shared_ptr<const std::vector<HarmonicFactor>> factors_;
+  std::vector<Eigen::VectorXcd> inv_z_;
+  std::vector<Capacitance> capacitance_;
+  double factor_condition_ = 1.0;
   double condition_ = 1.0;
 };
 
@@ -223,28 +289,59 @@ std::unique_ptr<JacobianPreconditioner> HarmonicJacobian::make_preconditioner() 
                                          t.block(rb + basis.sin_index, re + basis.sin_index));
       }
   }
-  std::vector<HarmonicReceptance> layout;
-  std::vector<PreconditionerFactor> factors;
-  for (const HarmonicReceptance& r : receptances_) {
-    MatrixXcd rc = r.matrix();
-    if (r.harmonic == 0) rc.imag().setZero();
-    MatrixXcd m = MatrixXcd::Identity(components_, components_);
-    // Rc D0 contact by contact (D0 is block diagonal).
+  auto factors = std::make_shared<std::vector<HarmonicFactor>>(receptances_.size());
+  std::vector<Eigen::VectorXcd> inv_z(receptances_.size());
+  // Rc D0 contact by contact (D0 is block diagonal): `target` += `rc` D0.
+  const auto add_times_mean = [&](const MatrixXcd& rc, MatrixXcd& target) {
     for (const ContactTangent& t : tangents_) {
       const Index d = t.block.rows() / coefficients_;
       const Index first = t.first / coefficients_;
-      m.middleCols(first, d).noalias() +=
+      target.middleCols(first, d).noalias() +=
           rc.middleCols(first, d) * mean.block(first, first, d, d).cast<std::complex<double>>();
     }
-    factors.emplace_back(m.cast<std::complex<float>>());
-    HarmonicReceptance slot;
-    slot.harmonic = r.harmonic;
-    slot.cos_index = r.cos_index;
-    slot.sin_index = r.sin_index;
-    layout.push_back(std::move(slot));
-  }
-  return std::make_unique<HarmonicDecoupledPreconditioner>(
-      coefficients_, components_, std::move(layout), std::move(factors), threads_);
+  };
+  // Each harmonic's factors are its own: the harmonics may run on threads.
+  for_each_harmonic(receptances_.size(), threads_, [&](std::size_t k) {
+    const HarmonicReceptance& r = receptances_[k];
+    HarmonicFactor& f = (*factors)[k];
+    f.slot.harmonic = r.harmonic;
+    f.slot.cos_index = r.cos_index;
+    f.slot.sin_index = r.sin_index;
+    f.slot.projected = r.projected;
+    MatrixXcd m = MatrixXcd::Identity(components_, components_);
+    f.split = r.projected != nullptr && r.harmonic > 0 && r.projected->cols() > 0;
+    if (!f.split) {
+      MatrixXcd rc = r.matrix();
+      if (r.harmonic == 0) rc.imag().setZero();
+      add_times_mean(rc, m);
+      f.lu.compute(m.cast<std::complex<float>>());
+      f.has_lu = true;
+      f.condition = condition_of(f.lu.rcond());
+      return;
+    }
+    const MatrixXcd& p = *r.projected;
+    f.v.resize(p.cols(), components_);
+    for (const ContactTangent& t : tangents_) {
+      const Index d = t.block.rows() / coefficients_;
+      const Index first = t.first / coefficients_;
+      f.v.middleCols(first, d).noalias() =
+          p.middleRows(first, d).adjoint() *
+          mean.block(first, first, d, d).cast<std::complex<double>>();
+    }
+    if (r.flexibility != nullptr && r.flexibility->size() > 0) {
+      add_times_mean(*r.flexibility, m);
+      f.lu.compute(m.cast<std::complex<float>>());
+      f.has_lu = true;
+      f.condition = condition_of(f.lu.rcond());
+      f.w = f.lu.solve(p.cast<std::complex<float>>()).cast<std::complex<double>>();
+    } else {
+      f.w = p;
+    }
+    f.s.noalias() = f.v * f.w;
+    inv_z[k] = r.inv_z;
+  });
+  return std::make_unique<HarmonicDecoupledPreconditioner>(coefficients_, components_,
+                                                           std::move(factors), inv_z, threads_);
 }
 
 }  // namespace frichb::core

@@ -11,7 +11,10 @@
 // Preconditioner: the harmonic-decoupled approximation I + Rc D0, with D0 each contact's
 // time-averaged tangent (the harmonic-0 block of D, or the mean of a harmonic's cos-cos and
 // sin-sin blocks when harmonic 0 is not kept) on every harmonic: exact for contacts whose
-// tangent does not vary over the period, and one complex m x m LU per harmonic.
+// tangent does not vary over the period, and one complex m x m LU per harmonic. For a modal
+// receptance the LU is of I + F D0, and the retained modes enter by a Woodbury update, so that
+// the preconditioner follows the frequency (JacobianPreconditioner::follow: one modes x modes
+// LU per harmonic) while D0 stays that of the point it was made at.
 #pragma once
 
 #include <Eigen/Dense>
@@ -62,6 +65,8 @@ class HarmonicJacobian final : public JacobianOperator {
   void form(Eigen::Ref<Eigen::MatrixXd> out) const override;
   const Eigen::VectorXd& parameter_column() const override { return parameter_column_; }
   std::unique_ptr<JacobianPreconditioner> make_preconditioner() const override;
+  // The kept harmonics' receptances at this point.
+  const std::vector<HarmonicReceptance>& receptances() const { return receptances_; }
 
  private:
   int coefficients_;

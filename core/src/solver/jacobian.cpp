@@ -17,6 +17,13 @@ VectorXd ScaledPreconditioner::solve(const VectorXd& b) const {
   return x.cwiseQuotient(scaling_->unknown.head(n));
 }
 
+std::unique_ptr<ScaledPreconditioner> ScaledPreconditioner::follow(const Jacobian& j) const {
+  if (j.op() == nullptr) return nullptr;
+  std::unique_ptr<JacobianPreconditioner> inner = inner_->follow(*j.op());
+  if (!inner) return nullptr;
+  return std::make_unique<ScaledPreconditioner>(std::move(inner), *scaling_);
+}
+
 void Jacobian::set_operator(std::shared_ptr<const JacobianOperator> op, const Scaling& scaling) {
   op_ = std::move(op);
   scaling_ = &scaling;

@@ -12,6 +12,7 @@
 namespace frichb::core {
 
 struct Scaling;
+class Jacobian;
 
 // The preconditioner of a scaled operator: Ms^-1 b = diag(1 / unknown_scale) M^-1 diag(
 // residual_scale) b. Holds a reference to the scales, which must outlive it.
@@ -21,6 +22,8 @@ class ScaledPreconditioner {
       : inner_(std::move(inner)), scaling_(&scaling) {}
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
   double condition() const { return inner_->condition(); }
+  // JacobianPreconditioner::follow through the same scales; null when it cannot follow.
+  std::unique_ptr<ScaledPreconditioner> follow(const Jacobian& j) const;
 
  private:
   std::unique_ptr<JacobianPreconditioner> inner_;
@@ -48,6 +51,8 @@ class Jacobian {
   Eigen::MatrixXd formed() const;
   // The operator's preconditioner in scaled variables (operator form only).
   std::unique_ptr<ScaledPreconditioner> make_preconditioner() const;
+  // The unscaled operator (null in formed form).
+  const JacobianOperator* op() const { return op_.get(); }
 
   void swap(Jacobian& other) noexcept {
     dense_.swap(other.dense_);

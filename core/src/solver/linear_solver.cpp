@@ -346,8 +346,18 @@ void MatrixFreeSolver::prepare_operator(const Jacobian& j, const Eigen::VectorXd
   own_generation_ = -1;
   bordering_generation_ = -1;
   LinearSolverContext::KeptPreconditioner& k = context_.kept_preconditioner();
-  if (k.stale || !k.preconditioner || !std::isfinite(k.preconditioner->condition()))
+  if (k.stale || !k.preconditioner || !std::isfinite(k.preconditioner->condition())) {
     refresh_preconditioner();
+    return;
+  }
+  // The kept preconditioner brought to this point where it can follow it (a new generation:
+  // the bordering is recomputed; own_generation_ stays unset, since what the preconditioner
+  // does not follow is still of the point it was made at).
+  std::unique_ptr<ScaledPreconditioner> followed = k.preconditioner->follow(jacobian_);
+  if (followed && std::isfinite(followed->condition())) {
+    k.preconditioner = std::move(followed);
+    ++k.generation;
+  }
 }
 
 void MatrixFreeSolver::refresh_preconditioner() const {

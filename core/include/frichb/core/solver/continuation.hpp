@@ -42,6 +42,8 @@
 
 namespace frichb::core {
 
+class JacobianOperator;
+
 // An approximate inverse M^-1 of a JacobianOperator's square part e_x (n x n), made once and
 // applied to any number of vectors. Immutable after construction, so that one made at an
 // earlier point may precondition later systems; solve() may be called concurrently.
@@ -53,6 +55,14 @@ class JacobianPreconditioner {
                      Eigen::Ref<Eigen::VectorXd> x) const = 0;
   // Estimate of M's 1-norm condition number (infinite when M is singular to working precision).
   virtual double condition() const = 0;
+  // This preconditioner brought to the operator `op` of a later point at a cost well below a
+  // new make_preconditioner() (it may share this one's factors), or null when it cannot follow
+  // `op` (the default). What follows and what stays that of the earlier point is the
+  // preconditioner's to say (it is meant to approximate `op` better than this one does).
+  virtual std::unique_ptr<JacobianPreconditioner> follow(const JacobianOperator& op) const {
+    (void)op;
+    return nullptr;
+  }
 };
 
 // The Jacobian [e_x, e_lambda] of one point, applied rather than formed: for problems whose e_x
