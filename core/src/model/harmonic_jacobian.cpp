@@ -157,8 +157,7 @@ class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
     bool any = false;
     for (std::size_t k = 0; k < at.size(); ++k) {
       const HarmonicFactor& f = (*factors_)[k];
-      if (at[k].harmonic != f.slot.harmonic || at[k].projected != f.slot.projected)
-        return nullptr;
+      if (at[k].harmonic != f.slot.harmonic || at[k].projected != f.slot.projected) return nullptr;
       if (!f.split) continue;
       if (at[k].inv_z.size() != f.s.rows() || !at[k].inv_z.allFinite()) return nullptr;
       inv_z[k] = at[k].inv_z;
