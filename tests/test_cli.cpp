@@ -1440,6 +1440,23 @@ TEST_F(Cli, NonPeriodicTracesAreWarnedWithTheirCountAndChange) {
   EXPECT_THAT(d.output, Not(HasSubstr("did not become periodic")));
 }
 
+// summary.json says how the receptance is represented for each kept harmonic: the quick
+// start's oscillator is one DOF, one mode, nothing truncated (no residual flexibility).
+TEST_F(Cli, TheSummaryGivesTheReceptanceFormOfEachHarmonic) {
+  const fs::path scene = write_scene("scene.yaml", quickstart_);
+  const fs::path out = dir_ / "out";
+  const Result r = frichb("run " + quoted(scene) + " -o " + quoted(out) + " -q");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto forms = nlohmann::json::parse(read_text(out / "summary.json")).at("receptance");
+  ASSERT_EQ(forms.size(), 8U);  // harmonics 0 to 7
+  for (std::size_t k = 0; k < forms.size(); ++k) {
+    EXPECT_EQ(forms[k].at("harmonic").get<std::size_t>(), k);
+    EXPECT_EQ(forms[k].at("form"), "modal");
+    EXPECT_EQ(forms[k].at("modes"), 1);
+    EXPECT_EQ(forms[k].at("residual_flexibility"), false);
+  }
+}
+
 // Too few harmonics: with one harmonic the stick-slip force's spectrum is cut at its first
 // harmonic, which then carries all of the kept energy; with seven the seventh carries little.
 TEST_F(Cli, AHighestHarmonicThatCarriesTheForceIsWarned) {

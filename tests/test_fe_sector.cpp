@@ -614,6 +614,29 @@ Eigen::MatrixXcd exact_receptance(const Sector& s, int h, int nb, double w,
   return sel * d.lu().solve(sel.adjoint());
 }
 
+// A DOF with almost no mass (a mid-side node of a fine contact mesh) raises max_i K_ii / M_ii
+// by orders of magnitude; K_h is still regular, and the residual flexibility is still returned:
+// the static receptance is exact with it.
+TEST(FeSector, ALightDofDoesNotMakeTheStiffnessLookSingular) {
+  Sector s(3, 4, 4, true, 5);
+  const int light = s.n - 1;  // a blade DOF, not a left one
+  s.m.row(light) *= 1e-6;     // D M D with D = diag(1, ..., 1e-6): still positive definite
+  s.m.col(light) *= 1e-6;
+  const Files f(s);
+  const int nb = 6, modes = 5;
+  const auto kept = s.all_dofs();
+  auto provider = make_provider(f.params(s, nb, modes));
+  const std::vector<int> hs{0, 1, 2, 3, 4, 5};
+  const ReducedStructure reduced(*provider.instance, kept, hs);
+  for (int h : hs) {
+    EXPECT_NE(provider.instance->modal_basis(h, kept).residual_flexibility, nullptr) << "h = " << h;
+    const Eigen::MatrixXcd exact = exact_receptance(s, h, nb, 0.0, kept);
+    Eigen::MatrixXcd r;
+    reduced.receptance(h, 0.0, r);
+    EXPECT_LT((r - exact).norm() / exact.norm(), 1e-8) << "h = " << h;
+  }
+}
+
 TEST(FeSector, ResidualFlexibilityCorrectsTheTruncatedReceptance) {
   const Sector s(3, 4, 4, true, 5);  // 19 DOFs, 16 independent
   const Files f(s);

@@ -417,9 +417,9 @@ TEST(LinearSolver, HarmonicJacobianOnThreadsGivesTheSameNumbers) {
 }
 
 // A harmonic-balance Jacobian with modal receptances Rc = P diag(inv_z) P^H + F (harmonics 0
-// to 3, 20 three-component contacts, 4 modes) and tangents that do not vary over the period,
-// where the harmonic-decoupled preconditioner is the inverse itself; `shift` moves the
-// frequency: inv_z of the harmonics above 0 changes, P, F and the tangents do not.
+// to 3, real at harmonic 0; 20 three-component contacts, 4 modes) and tangents that do not vary
+// over the period, where the harmonic-decoupled preconditioner is the inverse itself; `shift` moves
+// the frequency: inv_z of the harmonics above 0 changes, P, F and the tangents do not.
 struct ModalJacobianCase {
   static constexpr int kContacts = 20, kComponents = 3 * kContacts, kModes = 4;
   HarmonicLayout layout{{0, 1, 2, 3}, 16};
@@ -439,8 +439,13 @@ struct ModalJacobianCase {
       return m;
     };
     for (std::size_t k = 0; k < layout.harmonics().size(); ++k) {
+      // Harmonic 0 real (no cyclic phase), as a nodal diameter 0 gives it.
       projected.push_back(0.3 * random_complex(kComponents, kModes));
-      const Eigen::MatrixXcd g = random_complex(kComponents, kComponents);
+      Eigen::MatrixXcd g = random_complex(kComponents, kComponents);
+      if (layout.harmonics()[k] == 0) {
+        projected.back().imag().setZero();
+        g.imag().setZero();
+      }
       flexibility.push_back(with_flexibility ? Eigen::MatrixXcd(2e-3 * g * g.adjoint())
                                              : Eigen::MatrixXcd());
     }

@@ -179,6 +179,21 @@ Eigen::MatrixXcd gather_hermitian(const SparseGather& g, const Eigen::MatrixXcd&
 
 HarmonicBalanceModel::~HarmonicBalanceModel() = default;
 
+std::vector<HarmonicBalanceModel::ReceptanceForm> HarmonicBalanceModel::receptance_forms() const {
+  std::vector<ReceptanceForm> out;
+  for (std::size_t k = 0; k < contact_receptance_.size(); ++k) {
+    const ContactReceptance& cr = contact_receptance_[k];
+    ReceptanceForm f;
+    f.harmonic = layout_.harmonics()[k];
+    f.harmonic_index = harmonic_index_[k];
+    f.modal = cr.modal;
+    f.modes = cr.modal ? cr.projected.cols() : structure_->basis(harmonic_index_[k]).rows.cols();
+    f.residual_flexibility = structure_->basis(harmonic_index_[k]).residual_flexibility.size() > 0;
+    out.push_back(f);
+  }
+  return out;
+}
+
 Eigen::Index HarmonicBalanceModel::kept_index(std::size_t dof) const {
   auto it = std::find(kept_dofs_.begin(), kept_dofs_.end(), dof);
   return it == kept_dofs_.end() ? -1 : static_cast<Eigen::Index>(it - kept_dofs_.begin());

@@ -72,8 +72,8 @@ void scatter_harmonic(const HarmonicReceptance& r, int coefficients, int compone
 using PreconditionerFactor = Eigen::PartialPivLU<Eigen::MatrixXcf>;
 
 // What one kept harmonic's preconditioner keeps from the point it was made at. Either the LU
-// of M = I + Rc D0 (harmonic 0, whose receptance does not depend on the frequency, and formed
-// receptances), or, for a modal receptance Rc = P diag(inv_z) P^H + F, the split
+// of M = I + Rc D0 (formed receptances, and harmonic 0 with a complex P or F), or, for a modal
+// receptance Rc = P diag(inv_z) P^H + F, the split
 //   M = A + P diag(inv_z) V,   A = I + F D0,   V = P^H D0 (modes x m),
 // with A's LU (none without F: A = I), W = A^-1 P (m x modes) and S = V W (modes x modes):
 // by Woodbury's identity
@@ -308,7 +308,13 @@ std::unique_ptr<JacobianPreconditioner> HarmonicJacobian::make_preconditioner() 
     f.slot.sin_index = r.sin_index;
     f.slot.projected = r.projected;
     MatrixXcd m = MatrixXcd::Identity(components_, components_);
-    f.split = r.projected != nullptr && r.harmonic > 0 && r.projected->cols() > 0;
+    // Harmonic 0 takes the real part of Rc x: split only where P and F are real (no cyclic
+    // phase), so that the split is of that real part.
+    const bool real_at_zero = r.projected != nullptr &&
+                              r.projected->imag().cwiseAbs().maxCoeff() == 0.0 &&
+                              (r.flexibility == nullptr || r.flexibility->size() == 0 ||
+                               r.flexibility->imag().cwiseAbs().maxCoeff() == 0.0);
+    f.split = r.projected != nullptr && r.projected->cols() > 0 && (r.harmonic > 0 || real_at_zero);
     if (!f.split) {
       MatrixXcd rc = r.matrix();
       if (r.harmonic == 0) rc.imag().setZero();

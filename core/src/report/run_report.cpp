@@ -119,6 +119,19 @@ nlohmann::json peaks_json(const ResponseTable& table) {
   return peaks;
 }
 
+// Per kept harmonic: how the receptance at the contacts is represented (modes retained, and
+// whether the static residual flexibility of the others is added).
+nlohmann::json receptance_json(const HarmonicBalanceModel& model) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const HarmonicBalanceModel::ReceptanceForm& f : model.receptance_forms())
+    out.push_back({{"harmonic", f.harmonic},
+                   {"harmonic_index", f.harmonic_index},
+                   {"form", f.modal ? "modal" : "formed"},
+                   {"modes", f.modes},
+                   {"residual_flexibility", f.residual_flexibility}});
+  return out;
+}
+
 nlohmann::json truncation_json(const std::optional<HarmonicTruncation>& truncation) {
   if (!truncation) return nullptr;
   return {{"frequency", truncation->frequency},
@@ -465,6 +478,7 @@ nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_
       {"resonance_bands", resonances_json(run.setup.resonances, unit)},
       {"harmonic_truncation", truncation_json(run.table.truncation)},
       {"unknowns", n},
+      {"receptance", receptance_json(model)},
       {"scaling", {{"displacement_m", run.setup.u_unit}, {"residual_m", run.setup.peak}}},
       {"peak", peaks_json(run.table)},
       {"friction_loops", friction_loops},

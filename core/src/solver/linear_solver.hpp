@@ -162,8 +162,9 @@ class GmresSolver final : public LinearSolver {
 // GMRES on the scaled Jacobian operator (Jacobian in operator form): products cost what the
 // operator's structure allows and nothing is formed. Preconditioned by the context's kept
 // operator preconditioner (M of an earlier point; the Keller matrix through the bordering
-// [M, g; v_x^T, v_lambda] with this matrix's g = e_lambda), made afresh when stale and marked
-// stale after a solve of more than gmres_refresh_iterations iterations. A solve that has not
+// [M, g; v_x^T, v_lambda] with this matrix's g = e_lambda), brought to each new point where it
+// can follow it (JacobianPreconditioner::follow), made afresh when stale and marked stale
+// after a solve of more than gmres_refresh_iterations iterations. A solve that has not
 // converged in gmres_max_iterations is repeated with this point's own preconditioner; if that
 // fails too, the matrix is formed and factorised when it has at most
 // matrix_free_dense_limit equations (counted in krylov_fallbacks), else the solution is

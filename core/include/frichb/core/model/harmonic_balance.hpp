@@ -96,6 +96,17 @@ class HarmonicBalanceModel final : public CurveProblem {
   bool trace_contact(std::size_t c, const Eigen::VectorXd& y, ContactTrace& out,
                      std::string* error) const;
   const EvaluationStats& stats() const { return stats_; }
+  // How the receptance at the contacts is represented for one kept harmonic: by the structure's
+  // retained modes (`modes` of them) with or without its static residual flexibility, or
+  // formed from the structure's receptance (non-diagonal modal damping: `modal` false).
+  struct ReceptanceForm {
+    int harmonic = 0;
+    int harmonic_index = 0;  // the structure's (nodal diameter for a cyclic sector)
+    bool modal = false;
+    Eigen::Index modes = 0;
+    bool residual_flexibility = false;
+  };
+  std::vector<ReceptanceForm> receptance_forms() const;
   // u_n = G_n x_n of kept harmonic k (components x kept DOFs; real without cyclic symmetry),
   // sparse: a row holds the frame direction's entries at the DOFs of the contact's two sides.
   const SparseGather& gather(std::size_t k) const { return gather_[k]; }

@@ -212,7 +212,8 @@ struct ContinuationOptions {
   //             (CurveProblem::evaluate_operator): e_y is never formed; each product costs
   //             what the operator's structure allows, and the preconditioner is the
   //             operator's own approximate inverse (JacobianPreconditioner), made from an
-  //             earlier point's operator and kept while solves take at most
+  //             earlier point's operator, brought to each new point where it can follow it
+  //             (JacobianPreconditioner::follow), and kept while solves take at most
   //             gmres_refresh_iterations iterations. A solve that has not converged in
   //             gmres_max_iterations is tried again with the preconditioner of its own point;
   //             if that fails too, the matrix is formed and factorised when it fits in
