@@ -620,8 +620,8 @@ Eigen::MatrixXcd exact_receptance(const Sector& s, int h, int nb, double w,
 TEST(FeSector, ALightDofDoesNotMakeTheStiffnessLookSingular) {
   Sector s(3, 4, 4, true, 5);
   const int light = s.n - 1;  // a blade DOF, not a left one
-  s.m.row(light) *= 1e-6;     // D M D with D = diag(1, ..., 1e-6): still positive definite
-  s.m.col(light) *= 1e-6;
+  s.m.row(light) *= 1e-5;     // D M D with D = diag(1, ..., 1e-5): still positive definite
+  s.m.col(light) *= 1e-5;
   const Files f(s);
   const int nb = 6, modes = 5;
   const auto kept = s.all_dofs();
@@ -687,6 +687,10 @@ TEST(FeSector, ResidualFlexibilityCorrectsTheTruncatedReceptance) {
   auto fr = make_provider(ff.params(free_sector, 2, modes));
   EXPECT_EQ(fr.instance->modal_basis(0, kept).residual_flexibility, nullptr);
   EXPECT_NE(fr.instance->modal_basis(1, kept).residual_flexibility, nullptr);
+  // ... also with one mode retained (the rigid-body mode itself is the highest retained).
+  auto one_mode = make_provider(ff.params(free_sector, 2, 1));
+  EXPECT_EQ(one_mode.instance->modal_basis(0, kept).residual_flexibility, nullptr);
+  EXPECT_NE(one_mode.instance->modal_basis(1, kept).residual_flexibility, nullptr);
 }
 
 // (7) Disk cache.

@@ -32,6 +32,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -57,12 +58,15 @@ using Mat = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
 constexpr Index kDenseLimit = 200;
 
 // K_h counts as singular (a rigid-body mode: no static residual flexibility) when its lowest
-// eigenvalue w_1^2 is at most this times the highest retained one. G_h = K_h^-1 - (the retained
+// eigenvalue w_1^2 is at most kSingularRatio times the highest retained one, or within
+// kRoundOff rounding errors of zero on the scale max_i K_ii / M_ii of the sector's eigenvalues
+// (a rigid-body mode's computed w_1^2 is noise of that size). G_h = K_h^-1 - (the retained
 // modes' part) cancels the 1 / w_1^2 term of both, which leaves an error of about
-// eps w_kept^2 / w_1^2 relative to G_h: 2e-7 at this ratio. (A scale such as max_i K_ii / M_ii
-// is no measure here: the small elements of a fine contact mesh raise it by orders of
-// magnitude, past the first mode of the blade itself.)
+// eps w_kept^2 / w_1^2 relative to G_h: 2e-7 at the ratio. (The scale alone is no measure of
+// a low mode: the small elements of a fine contact mesh raise it by orders of magnitude, past
+// the first mode of the blade itself.)
 constexpr double kSingularRatio = 1e-9;
+constexpr double kRoundOff = 1e3;
 
 // Disk cache format: bump when the file layout or the solution it holds changes.
 constexpr std::uint64_t kCacheFormat = 1;
@@ -817,7 +821,9 @@ class FeSector final : public frichb::sdk::StructureProvider {
   Mat<cd> residual_flexibility(int h, const size_t* kept, size_t n_kept, const Mat<cd>& phi) const {
     if (!residual_ || modes_ >= independent_count() || n_kept == 0) return {};
     const double highest = frequencies_(frequencies_.size() - 1);
-    if (frequencies_(0) * frequencies_(0) <= kSingularRatio * highest * highest) return {};
+    const double noise = kRoundOff * std::numeric_limits<double>::epsilon() * scale_;
+    if (frequencies_(0) * frequencies_(0) <= std::max(kSingularRatio * highest * highest, noise))
+      return {};
     const cd e = left_phase(h);
     std::vector<Index> cols(n_kept);
     std::vector<cd> factors(n_kept);

@@ -80,7 +80,7 @@ using PreconditionerFactor = Eigen::PartialPivLU<Eigen::MatrixXcf>;
 //   M^-1 = A^-1 - W diag(inv_z) (I + S diag(inv_z))^-1 V A^-1,
 // so that M follows the frequency through inv_z at the cost of a modes x modes LU.
 struct HarmonicFactor {
-  HarmonicReceptance slot;  // harmonic and indices; the model's P for the split
+  HarmonicReceptance slot;  // harmonic and indices; the model's P and F it was made with
   bool split = false;
   bool has_lu = false;
   PreconditionerFactor lu;  // of M, or of A in the split
@@ -108,18 +108,19 @@ class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
         factors_(std::move(factors)),
         inv_z_(inv_z),
         capacitance_(factors_->size()) {
-    for (const HarmonicFactor& f : *factors_)
-      factor_condition_ = std::max(factor_condition_, f.condition);
-    condition_ = factor_condition_;
+    // Each harmonic's M is a block of the preconditioner: its condition is the largest of
+    // theirs. A split one's M = A (I + W diag(inv_z) V) has cond(M) <= cond(A) times that of
+    // the second factor, for which the capacitance's condition stands (they share their
+    // non-unit eigenvalues).
     for (std::size_t k = 0; k < factors_->size(); ++k) {
       const HarmonicFactor& f = (*factors_)[k];
-      if (!f.split) continue;
-      capacitance_[k].compute(MatrixXcd::Identity(f.s.rows(), f.s.cols()) +
-                              f.s * inv_z_[k].asDiagonal());
-      // cond(M) <= cond(A) cond(I + W diag(inv_z) V); the capacitance's condition stands for
-      // the second factor (they share their non-unit eigenvalues).
-      const double c = condition_of(capacitance_[k].rcond());
-      condition_ = std::max(condition_, factor_condition_ * c);
+      double c = 1.0;
+      if (f.split) {
+        capacitance_[k].compute(MatrixXcd::Identity(f.s.rows(), f.s.cols()) +
+                                f.s * inv_z_[k].asDiagonal());
+        c = condition_of(capacitance_[k].rcond());
+      }
+      condition_ = std::max(condition_, f.condition * c);
     }
   }
 
@@ -152,12 +153,18 @@ class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
     const auto* harmonic = dynamic_cast<const HarmonicJacobian*>(&op);
     if (harmonic == nullptr) return nullptr;
     const std::vector<HarmonicReceptance>& at = harmonic->receptances();
-    if (at.size() != factors_->size()) return nullptr;
+    if (at.size() != factors_->size() ||
+        op.rows() != static_cast<Eigen::Index>(coefficients_) * components_)
+      return nullptr;
     std::vector<Eigen::VectorXcd> inv_z(at.size());
     bool any = false;
     for (std::size_t k = 0; k < at.size(); ++k) {
       const HarmonicFactor& f = (*factors_)[k];
-      if (at[k].harmonic != f.slot.harmonic || at[k].projected != f.slot.projected) return nullptr;
+      // The factors hold the model's P and F of each harmonic: the same receptances or none.
+      if (at[k].harmonic != f.slot.harmonic || at[k].cos_index != f.slot.cos_index ||
+          at[k].sin_index != f.slot.sin_index || at[k].projected != f.slot.projected ||
+          at[k].flexibility != f.slot.flexibility)
+        return nullptr;
       if (!f.split) continue;
       if (at[k].inv_z.size() != f.s.rows() || !at[k].inv_z.allFinite()) return nullptr;
       inv_z[k] = at[k].inv_z;
@@ -175,7 +182,6 @@ class HarmonicDecoupledPreconditioner final : public JacobianPreconditioner {
   std::shared_ptr<const std::vector<HarmonicFactor>> factors_;
   std::vector<Eigen::VectorXcd> inv_z_;
   std::vector<Capacitance> capacitance_;
-  double factor_condition_ = 1.0;
   double condition_ = 1.0;
 };
 
@@ -307,10 +313,11 @@ std::unique_ptr<JacobianPreconditioner> HarmonicJacobian::make_preconditioner() 
     f.slot.cos_index = r.cos_index;
     f.slot.sin_index = r.sin_index;
     f.slot.projected = r.projected;
+    f.slot.flexibility = r.flexibility;
     MatrixXcd m = MatrixXcd::Identity(components_, components_);
     // Harmonic 0 takes the real part of Rc x: split only where P and F are real (no cyclic
     // phase), so that the split is of that real part.
-    const bool real_at_zero = r.projected != nullptr &&
+    const bool real_at_zero = r.projected != nullptr && r.projected->size() > 0 &&
                               r.projected->imag().cwiseAbs().maxCoeff() == 0.0 &&
                               (r.flexibility == nullptr || r.flexibility->size() == 0 ||
                                r.flexibility->imag().cwiseAbs().maxCoeff() == 0.0);
