@@ -31,6 +31,15 @@ MatrixXd RandomMatrix(Eigen::Index n, unsigned seed, double sign = 1.0) {
   return a;
 }
 
+// A rows x cols matrix of complex numbers with parts uniform in [-1, 1], drawn from `gen`.
+Eigen::MatrixXcd RandomComplex(Eigen::Index rows, Eigen::Index cols, std::mt19937& gen) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::MatrixXcd m(rows, cols);
+  for (Eigen::Index j = 0; j < cols; ++j)
+    for (Eigen::Index i = 0; i < rows; ++i) m(i, j) = {u(gen), u(gen)};
+  return m;
+}
+
 ContinuationOptions Gmres() {
   ContinuationOptions o;
   o.linear_solver = LinearSolverKind::kGmres;
@@ -372,12 +381,8 @@ TEST(LinearSolver, HarmonicJacobianOnThreadsGivesTheSameNumbers) {
   const int c = layout.coefficient_count();
   const Eigen::Index n = static_cast<Eigen::Index>(kComponents) * c;
   std::mt19937 gen(5);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
   const auto random_complex = [&](Eigen::Index rows, Eigen::Index cols) {
-    Eigen::MatrixXcd m(rows, cols);
-    for (Eigen::Index j = 0; j < cols; ++j)
-      for (Eigen::Index i = 0; i < rows; ++i) m(i, j) = {u(gen), u(gen)};
-    return m;
+    return RandomComplex(rows, cols, gen);
   };
   std::vector<HarmonicReceptance> receptances;
   for (std::size_t k = 0; k < layout.harmonics().size(); ++k) {
@@ -431,12 +436,8 @@ struct ModalJacobianCase {
 
   explicit ModalJacobianCase(bool with_flexibility) {
     std::mt19937 gen(11);
-    std::uniform_real_distribution<double> u(-1.0, 1.0);
     const auto random_complex = [&](Eigen::Index rows, Eigen::Index cols) {
-      Eigen::MatrixXcd m(rows, cols);
-      for (Eigen::Index j = 0; j < cols; ++j)
-        for (Eigen::Index i = 0; i < rows; ++i) m(i, j) = {u(gen), u(gen)};
-      return m;
+      return RandomComplex(rows, cols, gen);
     };
     for (std::size_t k = 0; k < layout.harmonics().size(); ++k) {
       // Harmonic 0 real (no cyclic phase), as a nodal diameter 0 gives it.
