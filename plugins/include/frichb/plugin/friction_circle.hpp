@@ -1,0 +1,476 @@
+// FricHB plugin SDK: an elastic Coulomb slider on a friction circle, advanced along the
+// motion of one step (the cubic through the step's end positions and rates), with its
+// stick, slip, separation and re-contact events located inside the step.
+//
+// The contact: tangential force T = kt (u_t - w) in the plane (t1, t2), slider (stick point)
+// w, friction circle |T| <= mu N, normal force N >= 0, where N and kt depend on the normal
+// displacement u_n only (a NormalSide, below). Phases and their motion:
+//   open    N = 0:   T = 0, w = u_t (the slider is released; contact resumes unloaded);
+//   stick   |T| < mu N, or |T| = mu N with lambda <= 0:  w constant;
+//   slip    |T| = mu N, T = mu N (cos a, sin a), w = u_t - T / kt, with the direction a
+//           solving  a' = kt (u_t' . e_a) / (mu N),  e_a = (-sin a, cos a),  and the slip
+//           rate lambda = e . u_t' + mu N kt' / kt^2 - (mu N)' / kt >= 0  (e = T / |T|).
+// (' is d/ds along the step.) Slip ends where lambda falls to 0 (slip to stick), stick ends
+// where |T| reaches mu N (stick to slip), contact ends and resumes where N crosses 0.
+//
+// The step's motion: s in [0, 1] from the previous sample to this one, and
+//   u(s) = h00 u0 + h10 v0 + h01 u1 + h11 v1   (cubic Hermite; v = du/ds at each end),
+// which a host interpolating a harmonic series gives to fourth order in the sample spacing
+// (with v0 = v1 = u1 - u0 it is the chord). Events are located on this cubic by a scan of
+// kEventScan points and a bracketed root (stick to slip, open and closed), or inside the slip
+// integration (slip to stick); the direction a is integrated by classical Runge-Kutta with
+// enough sub-steps that kt |u_t'| / (mu N) times a sub-step stays below kMaxRateStep. The
+// result is the law on the cubic to about 1e-12 of the friction force: the error of a trace
+// is that of the interpolated motion, fourth order in the spacing.
+//
+// Scalar may be double (value only) or Dual<M> (value and tangents): event locations are
+// finished by one Newton step in Scalar, so their derivatives are the implicit-function ones
+// and the tangents are the exact derivatives of the computed step.
+//
+// Kinks: where the force's rate jumps inside the step (stick to slip; open to closed and
+// back) the step reports the location and the jump, for hosts that correct their quadrature.
+//
+// Threading: stateless; one call allocates nothing. Failure: none (a degenerate input, such as
+// mu N = 0 or a zero-length step, takes the limit of the law).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "frichb/plugin/dual.hpp"
+
+namespace frichb::sdk {
+
+// The motion of one step: positions and rates (d/ds) at both ends, local frame (t1, t2, n), m.
+template <class S>
+struct StepMotion {
+  std::array<S, 3> u0, u1, v0, v1;
+
+  std::array<S, 3> position(const S& s) const {
+    const S s2 = s * s, s3 = s2 * s;
+    const S h00 = 2.0 * s3 - 3.0 * s2 + 1.0, h10 = s3 - 2.0 * s2 + s;
+    const S h01 = 3.0 * s2 - 2.0 * s3, h11 = s3 - s2;
+    std::array<S, 3> u;
+    for (int i = 0; i < 3; ++i) u[i] = h00 * u0[i] + h10 * v0[i] + h01 * u1[i] + h11 * v1[i];
+    return u;
+  }
+  std::array<S, 3> rate(const S& s) const {
+    const S s2 = s * s;
+    const S d00 = 6.0 * s2 - 6.0 * s, d10 = 3.0 * s2 - 4.0 * s + 1.0;
+    const S d11 = 3.0 * s2 - 2.0 * s;
+    std::array<S, 3> v;
+    for (int i = 0; i < 3; ++i) v[i] = d00 * (u0[i] - u1[i]) + d10 * v0[i] + d11 * v1[i];
+    return v;
+  }
+};
+
+// The normal side of a contact at one normal displacement: N (N), dN/du_n (N/m), kt (N/m),
+// dkt/du_n (N/m^2).
+template <class S>
+struct NormalSide {
+  S normal, dnormal, stiffness, dstiffness;
+};
+
+// One location inside a step where the force's rate jumps: s in [0, 1] and
+// (dF/ds after) - (dF/ds before), (T1, T2, N), N.
+struct ForceKink {
+  double s = 0;
+  std::array<double, 3> rate_jump{0, 0, 0};
+};
+
+template <class S>
+struct SliderStep {
+  std::array<S, 3> force;   // (T1, T2, N) at s = 1, N
+  std::array<S, 2> slider;  // w at s = 1, m
+  static constexpr int kMaxKinks = 8;
+  std::array<ForceKink, kMaxKinks> kinks{};
+  int kink_count = 0;  // kinks beyond kMaxKinks in one step are not reported
+};
+
+// `Normal` provides, for a Scalar normal displacement u_n:
+//   Scalar closure(const Scalar& un) const;      > 0 exactly where N > 0 (m or N: any scale)
+//   NormalSide<Scalar> side(const Scalar& un) const;   where closure > 0
+// and `mu` is the friction coefficient (>= 0).
+template <class Normal>
+class FrictionCircleSlider {
+ public:
+  static constexpr int kEventScan = 8;         // scan points per step for the events
+  static constexpr double kMaxRateStep = 0.2;  // bound on kt |u_t'| ds / (mu N) per sub-step
+  static constexpr int kMaxSubsteps = 512;
+
+  FrictionCircleSlider(const Normal& normal, double mu) : normal_(normal), mu_(mu) {}
+
+  template <class S>
+  SliderStep<S> advance(const std::array<S, 2>& slider_prev, const StepMotion<S>& motion) const {
+    SliderStep<S> out;
+    Phase<S> ph;
+    ph.w = slider_prev;
+    S s(0.0);
+    start(ph, motion, s);
+    for (int guard = 0; guard < 64 && s < 1.0; ++guard) {
+      if (ph.mode == Mode::kOpen) {
+        open_segment(ph, motion, s, out);
+      } else if (ph.mode == Mode::kStick) {
+        stick_segment(ph, motion, s, out);
+      } else {
+        slip_segment(ph, motion, s, out);
+      }
+    }
+    finish(ph, motion, out);
+    return out;
+  }
+
+ private:
+  enum class Mode { kOpen, kStick, kSlip };
+  template <class S>
+  struct Phase {
+    Mode mode = Mode::kStick;
+    std::array<S, 2> w;
+    S angle;  // the force's direction in slip
+  };
+
+  template <class S>
+  static std::array<S, 2> tangential(const std::array<S, 3>& u) {
+    return {u[0], u[1]};
+  }
+
+  // |kt (u_t - w)|^2 - (mu N)^2 at s (> 0: outside the circle), for a closed contact.
+  template <class S>
+  S stick_excess(const std::array<S, 2>& w, const StepMotion<S>& m, const S& s) const {
+    const auto u = m.position(s);
+    const auto n = normal_.side(u[2]);
+    const S d0 = n.stiffness * (u[0] - w[0]), d1 = n.stiffness * (u[1] - w[1]);
+    const S limit = mu_ * n.normal;
+    return d0 * d0 + d1 * d1 - limit * limit;
+  }
+
+  // lambda at s for a slider in slip with direction `angle` (per unit s, m).
+  template <class S>
+  S slip_rate(const StepMotion<S>& m, const S& s, const S& angle) const {
+    const auto u = m.position(s);
+    const auto v = m.rate(s);
+    const auto n = normal_.side(u[2]);
+    const S c = cos(angle), sn = sin(angle);
+    const S kt_rate = n.dstiffness * v[2], normal_rate = n.dnormal * v[2];
+    return c * v[0] + sn * v[1] + mu_ * n.normal * kt_rate / (n.stiffness * n.stiffness) -
+           mu_ * normal_rate / n.stiffness;
+  }
+
+  // d angle / ds.
+  template <class S>
+  S angle_rate(const StepMotion<S>& m, const S& s, const S& angle) const {
+    const auto u = m.position(s);
+    const auto v = m.rate(s);
+    const auto n = normal_.side(u[2]);
+    // At N = 0 (the opening point of a slip segment) the direction no longer matters: the
+    // force vanishes there and the slider is released.
+    if (!(n.normal > 0)) return S(0.0);
+    return n.stiffness * (cos(angle) * v[1] - sin(angle) * v[0]) / (mu_ * n.normal);
+  }
+
+  // Decides the phase at s (the step's start): open, a slider outside the circle returned
+  // onto it (a state a host gave or the start of a trace), then stick or slip by lambda.
+  template <class S>
+  void start(Phase<S>& ph, const StepMotion<S>& m, const S& s) const {
+    const auto u = m.position(s);
+    if (!(normal_.closure(u[2]) > 0) || !(mu_ > 0)) {
+      ph.mode = Mode::kOpen;
+      return;
+    }
+    enter_closed(ph, m, s);
+  }
+
+  template <class S>
+  void enter_closed(Phase<S>& ph, const StepMotion<S>& m, const S& s) const {
+    const auto u = m.position(s);
+    const auto n = normal_.side(u[2]);
+    const S d0 = u[0] - ph.w[0], d1 = u[1] - ph.w[1];
+    const S limit = mu_ * n.normal;
+    const S trial = n.stiffness * hypot(d0, d1);
+    if (trial < limit * (1.0 - 1e-12) || !(trial > 0)) {
+      ph.mode = Mode::kStick;
+      return;
+    }
+    ph.angle = atan2(d1, d0);
+    if (trial > limit) {
+      ph.w[0] = u[0] - limit * cos(ph.angle) / n.stiffness;
+      ph.w[1] = u[1] - limit * sin(ph.angle) / n.stiffness;
+    }
+    ph.mode = value_of(slip_rate(m, s, ph.angle)) > 0 ? Mode::kSlip : Mode::kStick;
+  }
+
+  // First s in (from, to] where f changes sign from its value's sign at `from` (scan and
+  // bracketed Illinois in double), or `to` + 1 when it does not.
+  template <class F>
+  static double first_crossing(const F& f, double from, double to, double f_from, int scan) {
+    double a = from, fa = f_from;
+    for (int k = 1; k <= scan; ++k) {
+      const double b = from + (to - from) * k / scan;
+      const double fb = f(b);
+      if ((fa <= 0) != (fb <= 0)) return refine(f, a, fa, b, fb);
+      a = b;
+      fa = fb;
+    }
+    return to + 1.0;
+  }
+  template <class F>
+  static double refine(const F& f, double a, double fa, double b, double fb) {
+    int side = 0;
+    for (int it = 0; it < 100 && b - a > 1e-15; ++it) {
+      const double c = (a * fb - b * fa) / (fb - fa);
+      const double x = (c > a && c < b) ? c : 0.5 * (a + b);
+      const double fx = f(x);
+      if ((fx <= 0) == (fa <= 0)) {
+        a = x;
+        fa = fx;
+        if (side == -1) fb *= 0.5;
+        side = -1;
+      } else {
+        b = x;
+        fb = fx;
+        if (side == 1) fa *= 0.5;
+        side = 1;
+      }
+      if (fx == 0) return x;
+    }
+    return b;
+  }
+  // One Newton step in S at a root s* of g found in double: the value stays s*, the
+  // derivatives become the implicit-function ones. `g_value` evaluates g in double.
+  template <class S, class G, class GD>
+  static S polish(double root, const G& g_scalar, const GD& g_value) {
+    const double h = 1e-6;
+    const double slope = (g_value(root + h) - g_value(root - h)) / (2 * h);
+    const S at = g_scalar(S(root));
+    if (!(std::abs(slope) > 0)) return S(root);
+    return S(root) - (at - value_of(at)) / slope;
+  }
+
+  template <class S>
+  static StepMotion<double> values(const StepMotion<S>& m) {
+    StepMotion<double> d;
+    for (int i = 0; i < 3; ++i) {
+      d.u0[i] = value_of(m.u0[i]);
+      d.u1[i] = value_of(m.u1[i]);
+      d.v0[i] = value_of(m.v0[i]);
+      d.v1[i] = value_of(m.v1[i]);
+    }
+    return d;
+  }
+
+  // The first s after `s` where a closed (open) contact opens (closes), or 2. The start
+  // counts as being on its side even where rounding puts it on the other.
+  template <class S>
+  S contact_change(const StepMotion<S>& m, const S& s, bool closed) const {
+    const auto md = values(m);
+    auto g = [&](double x) { return value_of(normal_.closure(md.position(x)[2])); };
+    const double from = value_of(s);
+    const double at = g(from);
+    const double start = closed ? std::max(at, std::numeric_limits<double>::min())
+                                : std::min(at, -std::numeric_limits<double>::min());
+    const double root = first_crossing(g, from, 1.0, start, kEventScan);
+    if (root > 1.0) return S(2.0);
+    return polish<S>(
+        root, [&](const S& x) { return normal_.closure(m.position(x)[2]); }, g);
+  }
+
+  template <class S>
+  void add_kink(SliderStep<S>& out, double s, const std::array<double, 3>& jump) const {
+    if (out.kink_count >= SliderStep<S>::kMaxKinks) return;
+    out.kinks[static_cast<std::size_t>(out.kink_count++)] = ForceKink{s, jump};
+  }
+
+  // dF/ds of a closed contact at s: stuck (w fixed) or slipping with direction `angle`.
+  template <class S>
+  std::array<double, 3> closed_rate(const StepMotion<S>& m, double s, bool slipping,
+                                    const std::array<S, 2>& w, double angle) const {
+    const auto md = values(m);
+    const auto u = md.position(s);
+    const auto v = md.rate(s);
+    const auto n = normal_.side(u[2]);
+    const double normal_rate = n.dnormal * v[2];
+    if (!slipping) {
+      const double kt_rate = n.dstiffness * v[2];
+      return {kt_rate * (u[0] - value_of(w[0])) + n.stiffness * v[0],
+              kt_rate * (u[1] - value_of(w[1])) + n.stiffness * v[1], normal_rate};
+    }
+    const double a_rate = value_of(angle_rate(md, s, angle));
+    const double limit = mu_ * n.normal;
+    const double c = std::cos(angle), sn = std::sin(angle);
+    return {mu_ * normal_rate * c - limit * sn * a_rate,
+            mu_ * normal_rate * sn + limit * c * a_rate, normal_rate};
+  }
+
+  template <class S>
+  void open_segment(Phase<S>& ph, const StepMotion<S>& m, S& s, SliderStep<S>& out) const {
+    const S closes = contact_change(m, s, false);
+    if (!(closes <= 1.0)) {
+      s = S(1.0);
+      return;
+    }
+    s = closes;
+    const auto u = m.position(s);
+    ph.w = {u[0], u[1]};
+    const double sd = value_of(s);
+    // Contact resumes unloaded: T = 0 and mu N = 0. It sticks when the stuck force grows
+    // slower than the friction limit, kt |u_t'| <= mu N'; else it slips from the start, in
+    // the direction of u_t' (the one bounded solution of the direction's equation, whose
+    // rate kt / (mu N) is infinite there).
+    const auto v = m.rate(s);
+    const auto n = normal_.side(u[2]);
+    const S tangential_rate = n.stiffness * hypot(v[0], v[1]);
+    const S limit_rate = mu_ * n.dnormal * v[2];
+    if (tangential_rate > limit_rate) {
+      ph.mode = Mode::kSlip;
+      ph.angle = atan2(v[1], v[0]);
+      add_kink(out, sd, closed_rate(m, sd, true, ph.w, value_of(ph.angle)));
+      return;
+    }
+    ph.mode = Mode::kStick;
+    add_kink(out, sd, closed_rate(m, sd, false, ph.w, 0.0));
+  }
+
+  template <class S>
+  void stick_segment(Phase<S>& ph, const StepMotion<S>& m, S& s, SliderStep<S>& out) const {
+    const S opens = contact_change(m, s, true);
+    const double end = std::min(1.0, value_of(opens));
+    const auto md = values(m);
+    const std::array<double, 2> wd{value_of(ph.w[0]), value_of(ph.w[1])};
+    auto g = [&](double x) { return stick_excess(wd, md, x); };
+    const double from = value_of(s);
+    // At the start the excess is <= 0 (stuck): a crossing is a rise above 0.
+    const double root = first_crossing(g, from, end, std::min(g(from), 0.0), kEventScan);
+    if (root <= end) {
+      s = polish<S>(
+          root, [&](const S& x) { return stick_excess(ph.w, m, x); }, g);
+      const auto u = m.position(s);
+      ph.angle = atan2(u[1] - ph.w[1], u[0] - ph.w[0]);
+      const double sd = value_of(s);
+      const auto before = closed_rate(m, sd, false, ph.w, 0.0);
+      const auto after = closed_rate(m, sd, true, ph.w, value_of(ph.angle));
+      add_kink(out, sd, {after[0] - before[0], after[1] - before[1], after[2] - before[2]});
+      ph.mode = value_of(slip_rate(md, sd, value_of(ph.angle))) > 0 ? Mode::kSlip : Mode::kStick;
+      if (ph.mode == Mode::kStick) s = S(std::min(1.0, sd + 1e-9));  // grazing: go on stuck
+      return;
+    }
+    if (opens <= 1.0) {
+      s = opens;
+      const double sd = value_of(s);
+      const auto before = closed_rate(m, sd, false, ph.w, 0.0);
+      add_kink(out, sd, {-before[0], -before[1], -before[2]});
+      ph.mode = Mode::kOpen;
+      return;
+    }
+    s = S(1.0);
+  }
+
+  // Classical Runge-Kutta step of the direction from (s, angle) over ds.
+  template <class S>
+  S rk4(const StepMotion<S>& m, const S& s, const S& angle, const S& ds) const {
+    const S k1 = angle_rate(m, s, angle);
+    const S k2 = angle_rate(m, s + 0.5 * ds, angle + 0.5 * ds * k1);
+    const S k3 = angle_rate(m, s + 0.5 * ds, angle + 0.5 * ds * k2);
+    const S k4 = angle_rate(m, s + ds, angle + ds * k3);
+    return angle + ds / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+  }
+
+  template <class S>
+  void slip_segment(Phase<S>& ph, const StepMotion<S>& m, S& s, SliderStep<S>& out) const {
+    const S opens = contact_change(m, s, true);
+    const S end = opens <= 1.0 ? opens : S(1.0);
+    const auto md = values(m);
+    // Sub-steps from the largest rate kt |u_t'| / (mu N) on the scan points.
+    double rate = 0;
+    const double from = value_of(s), to = value_of(end);
+    for (int k = 0; k <= kEventScan; ++k) {
+      const double x = from + (to - from) * k / kEventScan;
+      const auto u = md.position(x);
+      const auto v = md.rate(x);
+      const auto n = normal_.side(u[2]);
+      rate = std::max(rate, n.stiffness * std::hypot(v[0], v[1]) / (mu_ * n.normal));
+    }
+    const int substeps =
+        std::clamp(static_cast<int>(std::ceil(rate * (to - from) / kMaxRateStep)), 1, kMaxSubsteps);
+    const S ds = (end - s) / static_cast<double>(substeps);
+    for (int k = 0; k < substeps; ++k) {
+      const S next_s = k + 1 == substeps ? end : s + ds;
+      const S next = rk4(m, s, ph.angle, next_s - s);
+      const double lam = value_of(slip_rate(m, next_s, next));
+      if (lam < 0) {
+        // Slip to stick inside this sub-step: the root of lambda along the same RK step.
+        const double a = value_of(s), b = value_of(next_s), a0 = value_of(ph.angle);
+        auto angle_at = [&](double x) { return value_of(rk4(md, a, a0, x - a)); };
+        auto g = [&](double x) { return value_of(slip_rate(md, x, angle_at(x))); };
+        const double ga = g(a);
+        const double root = ga <= 0 ? a : refine(g, a, ga, b, g(b));
+        const S s_start = s, angle_start = ph.angle;
+        auto g_scalar = [&](const S& x) {
+          return slip_rate(m, x, rk4(m, s_start, angle_start, x - s_start));
+        };
+        s = polish<S>(root, g_scalar, g);
+        ph.angle = rk4(m, s_start, angle_start, s - s_start);
+        stick_at(ph, m, s);
+        return;
+      }
+      s = next_s;
+      ph.angle = next;
+    }
+    if (end < 1.0) {
+      const double sd = value_of(s);
+      const auto before = closed_rate(m, sd, true, ph.w, value_of(ph.angle));
+      add_kink(out, sd, {-before[0], -before[1], -before[2]});
+      ph.mode = Mode::kOpen;
+      return;
+    }
+    s = S(1.0);
+    set_slider_from_angle(ph, m, s);
+  }
+
+  template <class S>
+  void set_slider_from_angle(Phase<S>& ph, const StepMotion<S>& m, const S& s) const {
+    const auto u = m.position(s);
+    const auto n = normal_.side(u[2]);
+    const S radius = mu_ * n.normal / n.stiffness;
+    ph.w[0] = u[0] - radius * cos(ph.angle);
+    ph.w[1] = u[1] - radius * sin(ph.angle);
+  }
+
+  template <class S>
+  void stick_at(Phase<S>& ph, const StepMotion<S>& m, S& s) const {
+    set_slider_from_angle(ph, m, s);
+    ph.mode = Mode::kStick;
+    // Slip ends with lambda = 0: the force's rate is continuous, no kink. Move past the root
+    // so that the stick scan does not start on the circle.
+    s = S(std::min(1.0, value_of(s) + 1e-12)) + (s - value_of(s));
+  }
+
+  template <class S>
+  void finish(const Phase<S>& ph, const StepMotion<S>& m, SliderStep<S>& out) const {
+    const S one(1.0);
+    const auto u = m.position(one);
+    out.force = {S(0.0), S(0.0), S(0.0)};
+    if (ph.mode == Mode::kOpen) {
+      out.slider = {u[0], u[1]};
+      return;
+    }
+    const auto n = normal_.side(u[2]);
+    out.force[2] = n.normal;
+    if (ph.mode == Mode::kStick) {
+      out.slider = ph.w;
+      out.force[0] = n.stiffness * (u[0] - ph.w[0]);
+      out.force[1] = n.stiffness * (u[1] - ph.w[1]);
+      return;
+    }
+    const S limit = mu_ * n.normal;
+    out.force[0] = limit * cos(ph.angle);
+    out.force[1] = limit * sin(ph.angle);
+    out.slider = {u[0] - out.force[0] / n.stiffness, u[1] - out.force[1] / n.stiffness};
+  }
+
+  Normal normal_;
+  double mu_;
+};
+
+}  // namespace frichb::sdk
