@@ -265,11 +265,13 @@ TEST(Stress, SeveralResonancesInOneSweep) {
   const Scene scene = bound(kStress / "several_resonances.yaml");
   const Curve c = run(scene, dir, "run");
   ASSERT_EQ(c.outcome.exit_code, kExitOk) << c.outcome.message;
-  // Local maxima of the curve: at least the three directions' resonances.
+  // Local maxima of the curve: the resonance of t1 (slipping, near 364 Hz) and the one of
+  // t2 and n, whose stuck stiffnesses are equal (5e5 + kt = 6e5 + kn = 7e5 N/m), near 411 Hz;
+  // no others (the sampled coupled law used to add micro-folds with spurious maxima there).
   int maxima = 0;
   for (std::size_t i = 1; i + 1 < c.amplitude.size(); ++i)
     maxima += c.amplitude[i] > c.amplitude[i - 1] && c.amplitude[i] >= c.amplitude[i + 1];
-  EXPECT_GE(maxima, 3);
+  EXPECT_EQ(maxima, 2);
   for (double hz : {200.0, 450.0, 650.0}) {
     const double reference = timesim_amplitude(scene, hz);
     EXPECT_NEAR(hb_at(kStress / "several_resonances.yaml", hz) / reference, 1.0, 0.01)

@@ -9,6 +9,12 @@
 //   separated N = 0     : T = 0,                   w = u_t   (the slider is released)
 // State: w = (w1, w2), the slider (stick-point) position in m.
 //
+// step() (the samples alone) advances the slider by the radial return above, first order in
+// the step. step_along() (ABI 1.2, the host's periodic traces) advances it along the motion
+// between the samples with the SDK's FrictionCircleSlider: the law solved on the step's cubic
+// Hermite motion with its events located inside the step, fourth order in the step before the
+// host's quadrature; its tangents come from dual numbers.
+//
 // Consistent tangents in slip, with n = T*/|T*| and P = I - n n^T:
 //   dT/du_t = (mu N / |T*|) kt P,   dT/dw_prev = -dT/du_t,   dT/du_n = mu (dN/du_n) n,
 //   dw/du_t = I - dT/du_t / kt,     dw/dw_prev = -dT/dw_prev / kt,   dw/du_n = -dT/du_n / kt.
@@ -17,6 +23,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "frichb/plugin/friction_circle.hpp"
 #include "frichb/plugin/normal_load.hpp"
 #include "frichb/plugin/sdk.hpp"
 #include "frichb/plugin/tangents.hpp"
@@ -33,13 +40,41 @@ std::vector<frichb_param_spec> coupled_schema() {
   });
 }
 
+// The normal side for the slider: N = max(0, N0 + kn (u_n - g0)) (constant N0 when kn = 0),
+// kt constant.
+struct LinearNormalSide {
+  double n0, kn, gap, kt;
+  template <class S>
+  S closure(const S& un) const {
+    return kn > 0 ? n0 + kn * (un - gap) : S(n0);
+  }
+  template <class S>
+  frichb::sdk::NormalSide<S> side(const S& un) const {
+    return {closure(un), S(kn), S(kt), S(0.0)};
+  }
+};
+
 class Coupled3d final : public frichb::sdk::ContactLaw {
  public:
   explicit Coupled3d(const frichb::sdk::Params& p)
-      : kt_(p.real("kt")), mu_(p.real("mu")), normal_(p) {}
+      : kt_(p.real("kt")),
+        mu_(p.real("mu")),
+        normal_(p),
+        slider_(LinearNormalSide{p.real("normal_load"), p.real("kn"), p.real("gap"), p.real("kt")},
+                p.real("mu")) {}
 
   frichb_contact_law_traits traits() const override {
-    return frichb::sdk::make_traits(2, normal_.variable(), 2, true);
+    return frichb::sdk::make_traits(2, normal_.variable(), 2, true, true);
+  }
+
+  void step_along(const double* state_prev, const double* u_prev, const double* u_now,
+                  const frichb_step_motion& motion, double* force_now, double* state_now,
+                  const frichb_step_tangents* tangents,
+                  const frichb_motion_tangents* motion_tangents,
+                  frichb_force_kinks* kinks) const override {
+    frichb::sdk::friction_circle_step_along(slider_, normal_.variable(), state_prev, u_prev, u_now,
+                                            motion, force_now, state_now, tangents, motion_tangents,
+                                            kinks);
   }
 
   void step(const double* state_prev, const double* /*u_prev*/, const double* u_now,
@@ -111,6 +146,7 @@ class Coupled3d final : public frichb::sdk::ContactLaw {
  private:
   double kt_, mu_;
   frichb::sdk::NormalLoad normal_;
+  frichb::sdk::FrictionCircleSlider<LinearNormalSide> slider_;
 };
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <numbers>
 
 namespace frichb::core {
 
@@ -17,6 +18,8 @@ constexpr double kPeriodicStateRankThreshold = 1e-10;
 // A Newton step on the periodic state longer than this many times the trace's scale (the
 // largest displacement or state) is not taken.
 constexpr double kMaxPeriodicStateStep = 1e3;
+// Room for force kinks inside one step (a law reports at most this many).
+constexpr std::size_t kMaxKinksPerStep = 8;
 
 }  // namespace
 
@@ -31,6 +34,19 @@ PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayo
   basis_.resize(n, c);
   for (int j = 0; j < n; ++j)
     for (int k = 0; k < c; ++k) basis_(j, k) = layout_.basis(j, k);
+  along_ = options_.along_motion && law_.traces_motion();
+  // d/ds of the basis (s: the fraction of a sample step, h = 2 pi / N of phase).
+  dbasis_ = Eigen::MatrixXd::Zero(n, c);
+  const double h = 2 * std::numbers::pi / n;
+  for (std::size_t k = 0; k < layout_.harmonics().size(); ++k) {
+    const int harmonic = layout_.harmonics()[k];
+    if (harmonic == 0) continue;
+    for (int j = 0; j < n; ++j) {
+      const double phase = harmonic * h * j;
+      dbasis_(j, layout_.cos_index(k)) = -harmonic * h * std::sin(phase);
+      dbasis_(j, layout_.sin_index(k)) = harmonic * h * std::cos(phase);
+    }
+  }
   // Force of the unloaded contact in its initial state: the static preload.
   Eigen::VectorXd s0(state_size_), s1(state_size_);
   law_.initial_state(s0.data());
@@ -40,10 +56,12 @@ PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayo
     throw PluginError(error);
 }
 
-bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state,
+bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& state,
                                 Eigen::MatrixXd* dstate, Eigen::MatrixXd& force,
                                 Eigen::MatrixXd& states, std::vector<Eigen::MatrixXd>* dforce,
-                                Eigen::MatrixXd* monodromy, std::string* error) const {
+                                Eigen::MatrixXd* monodromy, std::vector<Kink>* kinks,
+                                std::string* error) const {
+  const Eigen::MatrixXd& u = motion.displacement;
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   const int s = state_size_;
   Eigen::VectorXd next(s);
@@ -51,19 +69,40 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
   using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   RowMat df_dun(3, 3), df_dup(3, 3), df_ds(3, std::max(s, 1)), ds_dun(std::max(s, 1), 3),
       ds_dup(std::max(s, 1), 3), ds_ds(std::max(s, 1), std::max(s, 1));
+  RowMat df_dvp(3, 3), df_dvn(3, 3), ds_dvp(std::max(s, 1), 3), ds_dvn(std::max(s, 1), 3);
   frichb_step_tangents tangents{df_dun.data(), df_dup.data(), df_ds.data(),
                                 ds_dun.data(), ds_dup.data(), ds_ds.data()};
+  frichb_motion_tangents motion_tangents{df_dvp.data(), df_dvn.data(), ds_dvp.data(),
+                                         ds_dvn.data()};
   const bool derivative = dstate != nullptr;
   const bool tangents_wanted = derivative || monodromy != nullptr;
   if (monodromy != nullptr) monodromy->setIdentity(s, s);
+  // Kinks of this pass: fraction, jump (3 per kink) and, with the derivative, their
+  // derivatives with respect to the step's inputs [state_prev, u_prev, u_now, rate_prev,
+  // rate_now].
+  const int inputs = s + 12;
+  std::vector<double> kink_fraction(kMaxKinksPerStep), kink_jump(3 * kMaxKinksPerStep),
+      kink_dfraction(derivative ? kMaxKinksPerStep * static_cast<std::size_t>(inputs) : 0),
+      kink_djump(derivative ? 3 * kMaxKinksPerStep * static_cast<std::size_t>(inputs) : 0);
+  frichb_force_kinks kink_buffer{kMaxKinksPerStep,
+                                 0,
+                                 kink_fraction.data(),
+                                 kink_jump.data(),
+                                 derivative ? kink_dfraction.data() : nullptr,
+                                 derivative ? kink_djump.data() : nullptr};
+  if (kinks != nullptr) kinks->clear();
   Eigen::MatrixXd dnext, mnext;
-  double u_now[3], u_prev[3], f[3];
+  double u_now[3], u_prev[3], v_now[3], v_prev[3], f[3];
   for (int j = 0; j < n; ++j) {
     const int jp = (j + n - 1) % n;
-    u_now[0] = u_now[1] = u_now[2] = u_prev[0] = u_prev[1] = u_prev[2] = 0.0;
+    for (int a = 0; a < 3; ++a) u_now[a] = u_prev[a] = v_now[a] = v_prev[a] = 0.0;
     for (int a = 0; a < d; ++a) {
       u_now[components_[a]] = u(j, a);
       u_prev[components_[a]] = u(jp, a);
+      if (along_) {
+        v_now[components_[a]] = motion.rate(j, a);
+        v_prev[components_[a]] = motion.rate(jp, a);
+      }
     }
     if (tangents_wanted) {
       // A law may write only its nonzero entries: start every step from zero blocks.
@@ -73,10 +112,55 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
       ds_dun.setZero();
       ds_dup.setZero();
       ds_ds.setZero();
+      if (along_) {
+        df_dvp.setZero();
+        df_dvn.setZero();
+        ds_dvp.setZero();
+        ds_dvn.setZero();
+      }
     }
-    if (!law_.step(state.data(), u_prev, u_now, f, next.data(),
-                   tangents_wanted ? &tangents : nullptr, error))
+    if (along_) {
+      const frichb_step_motion step_motion{sizeof(frichb_step_motion), v_prev, v_now};
+      kink_buffer.count = 0;
+      if (!law_.step_along(state.data(), u_prev, u_now, step_motion, f, next.data(),
+                           tangents_wanted ? &tangents : nullptr,
+                           tangents_wanted ? &motion_tangents : nullptr,
+                           kinks != nullptr ? &kink_buffer : nullptr, error))
+        return false;
+    } else if (!law_.step(state.data(), u_prev, u_now, f, next.data(),
+                          tangents_wanted ? &tangents : nullptr, error)) {
       return false;
+    }
+    if (kinks != nullptr) {
+      for (std::size_t k = 0; k < std::min(kink_buffer.count, kMaxKinksPerStep); ++k) {
+        Kink kink;
+        kink.sample = j;
+        kink.fraction = kink_fraction[k];
+        kink.jump.resize(d);
+        for (int a = 0; a < d; ++a) kink.jump(a) = kink_jump[3 * k + components_[a]];
+        if (derivative) {
+          // Chain rule as for the force below, from the step's inputs to the unknowns.
+          auto chain = [&](const double* di) {
+            Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(unknown_count());
+            for (int l = 0; l < s; ++l) row += di[l] * dstate->row(l);
+            for (int b = 0; b < d; ++b) {
+              const int cb = components_[b];
+              row.segment(b * c, c) +=
+                  di[s + cb] * basis_.row(jp) + di[s + 3 + cb] * basis_.row(j) +
+                  di[s + 6 + cb] * dbasis_.row(jp) + di[s + 9 + cb] * dbasis_.row(j);
+            }
+            return row;
+          };
+          kink.dfraction = chain(kink_dfraction.data() + k * static_cast<std::size_t>(inputs));
+          kink.djump.resize(d, unknown_count());
+          for (int a = 0; a < d; ++a)
+            kink.djump.row(a) =
+                chain(kink_djump.data() + (3 * k + static_cast<std::size_t>(components_[a])) *
+                                              static_cast<std::size_t>(inputs));
+        }
+        kinks->push_back(std::move(kink));
+      }
+    }
     if (monodromy != nullptr) {
       mnext.noalias() = ds_ds.topLeftCorner(s, s).lazyProduct(*monodromy);
       monodromy->swap(mnext);
@@ -84,7 +168,8 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
     for (int a = 0; a < d; ++a) force(j, a) = f[components_[a]];
     states.row(j) = next.transpose();
     if (derivative) {
-      // Chain rule: u_now depends on U through basis row j, u_prev through row j-1.
+      // Chain rule: u_now depends on U through basis row j, u_prev through row j-1, and the
+      // rates (laws that step along the motion) through the basis' derivative rows.
       // lazyProduct: these operands are tiny; the GEMM dispatch of operator* costs more than
       // the arithmetic.
       dnext.noalias() = ds_ds.topLeftCorner(s, s).lazyProduct(*dstate);
@@ -94,6 +179,9 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
         for (int b = 0; b < d; ++b) {
           const int ca = components_[a], cb = components_[b];
           row.segment(b * c, c) += df_dun(ca, cb) * basis_.row(j) + df_dup(ca, cb) * basis_.row(jp);
+          if (along_)
+            row.segment(b * c, c) +=
+                df_dvn(ca, cb) * dbasis_.row(j) + df_dvp(ca, cb) * dbasis_.row(jp);
         }
       }
       // The state depends on each used displacement component once (not once per force).
@@ -101,6 +189,9 @@ bool PeriodicTracer::run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state
         const int cb = components_[b];
         dnext.middleCols(b * c, c) +=
             ds_dun.col(cb).head(s) * basis_.row(j) + ds_dup.col(cb).head(s) * basis_.row(jp);
+        if (along_)
+          dnext.middleCols(b * c, c) +=
+              ds_dvn.col(cb).head(s) * dbasis_.row(j) + ds_dvp.col(cb).head(s) * dbasis_.row(jp);
       }
       dstate->swap(dnext);
     }
@@ -140,6 +231,7 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
   // stick). Passes end when the state and, if carried, its derivative repeat.
   std::vector<Eigen::MatrixXd> dforce;
   Eigen::MatrixXd dstate, dstart, monodromy;
+  std::vector<Kink> kinks;
   if (with_derivative) {
     dforce.assign(static_cast<std::size_t>(dimension()), Eigen::MatrixXd::Zero(n, p));
     dstate = Eigen::MatrixXd::Zero(s, p);
@@ -152,9 +244,9 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
     // The first pass (the warm-up, which often reaches the periodic state already) runs
     // without the monodromy: the law's tangents cost a value-only pass about as much again.
     const bool track = newton && out.passes > 0;
-    if (!run_period(out.displacement, state, with_derivative ? &dstate : nullptr, out.force,
-                    out.state, with_derivative ? &dforce : nullptr, track ? &monodromy : nullptr,
-                    error))
+    if (!run_period(out, state, with_derivative ? &dstate : nullptr, out.force, out.state,
+                    with_derivative ? &dforce : nullptr, track ? &monodromy : nullptr,
+                    along_ ? &kinks : nullptr, error))
       return false;
     ++out.passes;
     const double change = s ? (state - start).cwiseAbs().maxCoeff() : 0.0;
@@ -213,12 +305,13 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
     ++out.newton_passes;
   }
   if (with_derivative) out.derivative_passes = out.passes;
-  transform_forces(out, with_derivative ? &dforce : nullptr);
+  out.kinks = static_cast<int>(kinks.size());
+  transform_forces(out, with_derivative ? &dforce : nullptr, kinks);
   return true;
 }
 
-void PeriodicTracer::transform_forces(ContactTrace& out,
-                                      const std::vector<Eigen::MatrixXd>* dforce) {
+void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce,
+                                      const std::vector<Kink>& kinks) {
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   out.force_coefficients.resize(d * c);
   Eigen::VectorXd column(n);
@@ -226,25 +319,71 @@ void PeriodicTracer::transform_forces(ContactTrace& out,
     column = out.force.col(a).array() - reference_force_(components_[a]);
     aft_.to_coefficients(column.data(), out.force_coefficients.data() + a * c);
   }
-  if (!dforce) return;
   const int p = unknown_count();
-  out.jacobian.resize(p, p);
-  Eigen::VectorXd coefficients(c);
-  for (int a = 0; a < d; ++a) {
-    const Eigen::MatrixXd& df = (*dforce)[static_cast<std::size_t>(a)];
-    for (int q = 0; q < p; ++q) {
-      aft_.to_coefficients(df.col(q).data(), coefficients.data());
-      out.jacobian.block(a * c, q, c, 1) = coefficients;
+  if (dforce) {
+    out.jacobian.resize(p, p);
+    Eigen::VectorXd coefficients(c);
+    for (int a = 0; a < d; ++a) {
+      const Eigen::MatrixXd& df = (*dforce)[static_cast<std::size_t>(a)];
+      for (int q = 0; q < p; ++q) {
+        aft_.to_coefficients(df.col(q).data(), coefficients.data());
+        out.jacobian.block(a * c, q, c, 1) = coefficients;
+      }
+    }
+  }
+  // The trapezoidal rule's error at each kink (see the header): coefficient k of component a
+  // gains w_k (h / 2) J_a B2(sigma) g_k(theta*), w_k = 1 / (2 pi) for the mean, 1 / pi else.
+  const double h = 2 * std::numbers::pi / n;
+  Eigen::VectorXd g(c), dg(c), weight(c);
+  for (int k = 0; k < c; ++k) weight(k) = 1.0 / std::numbers::pi;
+  if (layout_.has_static()) weight(0) = 0.5 / std::numbers::pi;
+  for (const Kink& kink : kinks) {
+    const double sigma = kink.fraction;
+    const double theta = (kink.sample - 1 + sigma) * h;
+    g.setZero();
+    dg.setZero();
+    for (std::size_t q = 0; q < layout_.harmonics().size(); ++q) {
+      const int harmonic = layout_.harmonics()[q];
+      if (harmonic == 0) {
+        g(layout_.cos_index(q)) = 1.0;
+        continue;
+      }
+      g(layout_.cos_index(q)) = std::cos(harmonic * theta);
+      g(layout_.sin_index(q)) = std::sin(harmonic * theta);
+      dg(layout_.cos_index(q)) = -harmonic * std::sin(harmonic * theta);
+      dg(layout_.sin_index(q)) = harmonic * std::cos(harmonic * theta);
+    }
+    const double b2 = sigma * sigma - sigma + 1.0 / 6.0, db2 = 2 * sigma - 1;
+    for (int a = 0; a < d; ++a) {
+      const double jump = kink.jump(a);
+      out.force_coefficients.segment(a * c, c) += 0.5 * h * jump * b2 * weight.cwiseProduct(g);
+      if (!dforce) continue;
+      // d/dU of (h / 2) J B2(sigma) g(theta*), theta* = (j - 1 + sigma) h.
+      const Eigen::VectorXd along_sigma =
+          0.5 * h * jump * weight.cwiseProduct(db2 * g + b2 * h * dg);
+      out.jacobian.middleRows(a * c, c) +=
+          0.5 * h * b2 * weight.cwiseProduct(g) * kink.djump.row(a) + along_sigma * kink.dfraction;
     }
   }
 }
 
-bool PeriodicTracer::trace(const Eigen::VectorXd& u_coefficients, JacobianMode mode,
-                           ContactTrace& out, std::string* error) {
+void PeriodicTracer::sample_motion(const Eigen::VectorXd& u_coefficients, ContactTrace& out) {
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   out.displacement.resize(n, d);
   for (int a = 0; a < d; ++a)
     aft_.to_time(u_coefficients.data() + a * c, out.displacement.col(a).data());
+  if (!along_) {
+    out.rate.resize(0, 0);
+    return;
+  }
+  out.rate.resize(n, d);
+  for (int a = 0; a < d; ++a)
+    out.rate.col(a).noalias() = dbasis_ * u_coefficients.segment(a * c, c);
+}
+
+bool PeriodicTracer::trace(const Eigen::VectorXd& u_coefficients, JacobianMode mode,
+                           ContactTrace& out, std::string* error) {
+  sample_motion(u_coefficients, out);
   out.used_finite_differences = false;
   const bool analytic = mode == JacobianMode::kAnalytic && law_.traits().provides_tangent != 0;
   if (mode == JacobianMode::kNone || analytic) return run_passes(out, analytic, error);
@@ -261,9 +400,7 @@ bool PeriodicTracer::trace(const Eigen::VectorXd& u_coefficients, JacobianMode m
     for (int sign : {+1, -1}) {
       shifted(q) = u_coefficients(q) + sign * h;
       ContactTrace& t = sign > 0 ? plus : minus;
-      t.displacement.resize(n, d);
-      for (int a = 0; a < d; ++a)
-        aft_.to_time(shifted.data() + a * c, t.displacement.col(a).data());
+      sample_motion(shifted, t);
       if (!run_passes(t, false, error)) return false;
     }
     shifted(q) = u_coefficients(q);

@@ -171,6 +171,15 @@ ContactLawInstance::ContactLawInstance(std::shared_ptr<const LoadedPlugin> plugi
     api_->destroy(instance_);  // the destructor does not run for a throwing constructor
     throw PluginError("contact law '" + plugin_->name() + "' reports invalid traits");
   }
+  // ABI 1.2: a law steps along the motion when its traits say so and its table has the entry.
+  const bool traits_cover =
+      traits_.struct_size >=
+      offsetof(frichb_contact_law_traits, traces_motion) + sizeof(traits_.traces_motion);
+  const bool api_covers =
+      api_->struct_size >= offsetof(frichb_contact_law_api, step_along) + sizeof(api_->step_along);
+  traces_motion_ =
+      traits_cover && api_covers && traits_.traces_motion != 0 && api_->step_along != nullptr;
+  if (!traits_cover) traits_.traces_motion = 0;
 }
 
 ContactLawInstance::~ContactLawInstance() {
@@ -189,6 +198,21 @@ bool ContactLawInstance::step(const double* state_prev, const double* u_prev, co
   message[0] = '\0';
   if (api_->step(instance_, state_prev, u_prev, u_now, force_now, state_now, tangents, message,
                  kMessageCapacity) == FRICHB_OK)
+    return true;
+  if (error) *error = "contact law '" + plugin_->name() + "': " + message;
+  return false;
+}
+
+bool ContactLawInstance::step_along(const double* state_prev, const double* u_prev,
+                                    const double* u_now, const frichb_step_motion& motion,
+                                    double* force_now, double* state_now,
+                                    const frichb_step_tangents* tangents,
+                                    const frichb_motion_tangents* motion_tangents,
+                                    frichb_force_kinks* kinks, std::string* error) const {
+  char message[kMessageCapacity];
+  message[0] = '\0';
+  if (api_->step_along(instance_, state_prev, u_prev, u_now, &motion, force_now, state_now,
+                       tangents, motion_tangents, kinks, message, kMessageCapacity) == FRICHB_OK)
     return true;
   if (error) *error = "contact law '" + plugin_->name() + "': " + message;
   return false;

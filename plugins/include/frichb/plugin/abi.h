@@ -35,7 +35,9 @@ extern "C" {
 #define FRICHB_ABI_MAJOR 1
 #endif
 #ifndef FRICHB_ABI_MINOR
-#define FRICHB_ABI_MINOR 1 /* 1.1: frichb_structure_api.sector_count appended */
+#define FRICHB_ABI_MINOR                                \
+  2 /* 1.1: frichb_structure_api.sector_count appended; \
+       1.2: steps along the motion (step_along, traces_motion) */
 #endif
 
 #define FRICHB_PLUGIN_ENTRY_SYMBOL "frichb_plugin_entry"
@@ -116,6 +118,8 @@ typedef struct frichb_contact_law_traits {
   int uses_normal;           /* 1 when the normal relative displacement matters */
   int state_size;            /* number of doubles of history state (may be 0) */
   int provides_tangent;      /* 1 when step() fills the tangents it is given */
+  /* ABI 1.2: 1 when the law provides step_along (read only when struct_size covers it). */
+  int traces_motion;
 } frichb_contact_law_traits;
 
 /*
@@ -138,6 +142,46 @@ typedef struct frichb_step_tangents {
   double* dstate_dstate_prev;
 } frichb_step_tangents;
 
+/*
+ * ABI 1.2: the motion inside one step, for laws that trace along it (step_along). With s in
+ * [0, 1] the step's fraction, the relative displacement over the step is the cubic Hermite
+ * u(s) = h00 u_prev + h10 rate_prev + h01 u_now + h11 rate_now, rates du/ds in m per step
+ * (a host sampling a harmonic series gives the series' rates: the cubic then matches the
+ * motion to fourth order in the step).
+ */
+typedef struct frichb_step_motion {
+  size_t struct_size;
+  const double* rate_prev; /* du/ds at the step's start, 3 (t1, t2, n) */
+  const double* rate_now;  /* du/ds at its end, 3 */
+} frichb_step_motion;
+
+/* ABI 1.2: tangents with respect to the rates, row-major, passed with the six blocks of
+ * frichb_step_tangents (all or none) and zeroed by the host before each call. */
+typedef struct frichb_motion_tangents {
+  double* dforce_drate_prev; /* 3 x 3 */
+  double* dforce_drate_now;  /* 3 x 3 */
+  double* dstate_drate_prev; /* S x 3 */
+  double* dstate_drate_now;  /* S x 3 */
+} frichb_motion_tangents;
+
+/*
+ * ABI 1.2: kinks of the force inside one step: where its rate dforce/ds jumps (a contact that
+ * starts to slip, opens or closes between samples). A host whose quadrature of the force
+ * assumes smoothness corrects it there. The law writes at most `capacity` kinks and sets
+ * `count`. With tangents, it also writes each kink's derivatives with respect to the step's
+ * inputs, in the order [state_prev (S), u_prev (3), u_now (3), rate_prev (3), rate_now (3)],
+ * I = S + 12 of them: dfraction[k * I + i] and drate_jump[(k * 3 + a) * I + i]; without
+ * tangents those two pointers are NULL.
+ */
+typedef struct frichb_force_kinks {
+  size_t capacity;
+  size_t count;
+  double* fraction;  /* s of each kink, in [0, 1] */
+  double* rate_jump; /* 3 per kink: (dforce/ds after) - (before), N per step */
+  double* dfraction;
+  double* drate_jump;
+} frichb_force_kinks;
+
 typedef struct frichb_contact_law_api {
   size_t struct_size;
   /* Builds an instance from validated parameters (aligned with the descriptor's schema).
@@ -159,6 +203,17 @@ typedef struct frichb_contact_law_api {
                         const double* u_now, double* force_now, double* state_now,
                         const frichb_step_tangents* tangents, char* message,
                         size_t message_capacity);
+  /*
+   * ABI 1.2, optional (NULL, or past struct_size, for a law that only has step): the same
+   * step along the motion `motion` between the samples, reporting the force's kinks inside
+   * it into `kinks` (may be NULL). `motion_tangents` is non-NULL exactly when `tangents` is.
+   */
+  frichb_status (*step_along)(const void* instance, const double* state_prev, const double* u_prev,
+                              const double* u_now, const frichb_step_motion* motion,
+                              double* force_now, double* state_now,
+                              const frichb_step_tangents* tangents,
+                              const frichb_motion_tangents* motion_tangents,
+                              frichb_force_kinks* kinks, char* message, size_t message_capacity);
 } frichb_contact_law_api;
 
 /* ------------------------------------------------------------------------------------ */

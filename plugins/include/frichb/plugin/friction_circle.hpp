@@ -39,7 +39,9 @@
 #include <cmath>
 #include <limits>
 
+#include "frichb/plugin/abi.h"
 #include "frichb/plugin/dual.hpp"
+#include "frichb/plugin/tangents.hpp"
 
 namespace frichb::sdk {
 
@@ -55,6 +57,18 @@ struct StepMotion {
     std::array<S, 3> u;
     for (int i = 0; i < 3; ++i) u[i] = h00 * u0[i] + h10 * v0[i] + h01 * u1[i] + h11 * v1[i];
     return u;
+  }
+  // position(b) - position(a), without the cancellation of subtracting two positions when b
+  // is near a: (b - a) (B + C (a + b) + D (a^2 + a b + b^2)) for u = A + B s + C s^2 + D s^3.
+  std::array<S, 3> between(const S& a, const S& b) const {
+    std::array<S, 3> d;
+    const S sum = a + b, square = a * a + a * b + b * b;
+    for (int i = 0; i < 3; ++i) {
+      const S c2 = 3.0 * (u1[i] - u0[i]) - 2.0 * v0[i] - v1[i];
+      const S c3 = 2.0 * (u0[i] - u1[i]) + v0[i] + v1[i];
+      d[i] = (b - a) * (v0[i] + c2 * sum + c3 * square);
+    }
+    return d;
   }
   std::array<S, 3> rate(const S& s) const {
     const S s2 = s * s;
@@ -75,9 +89,10 @@ struct NormalSide {
 
 // One location inside a step where the force's rate jumps: s in [0, 1] and
 // (dF/ds after) - (dF/ds before), (T1, T2, N), N.
+template <class S>
 struct ForceKink {
-  double s = 0;
-  std::array<double, 3> rate_jump{0, 0, 0};
+  S s{0.0};
+  std::array<S, 3> rate_jump{S(0.0), S(0.0), S(0.0)};
 };
 
 template <class S>
@@ -85,7 +100,7 @@ struct SliderStep {
   std::array<S, 3> force;   // (T1, T2, N) at s = 1, N
   std::array<S, 2> slider;  // w at s = 1, m
   static constexpr int kMaxKinks = 8;
-  std::array<ForceKink, kMaxKinks> kinks{};
+  std::array<ForceKink<S>, kMaxKinks> kinks{};
   int kink_count = 0;  // kinks beyond kMaxKinks in one step are not reported
 };
 
@@ -105,6 +120,7 @@ class FrictionCircleSlider {
   template <class S>
   SliderStep<S> advance(const std::array<S, 2>& slider_prev, const StepMotion<S>& motion) const {
     SliderStep<S> out;
+    if (!(mu_ > 0)) return frictionless(motion);
     Phase<S> ph;
     ph.w = slider_prev;
     S s(0.0);
@@ -129,19 +145,61 @@ class FrictionCircleSlider {
     Mode mode = Mode::kStick;
     std::array<S, 2> w;
     S angle;  // the force's direction in slip
+    // Stuck since contact resumed at contact_s (w = u_t there): the elastic offset u_t - w is
+    // then taken as the motion since contact_s, which keeps its direction where both are tiny.
+    bool from_contact = false;
+    S contact_s;
   };
 
+  // u_t(s) - w of a stuck slider.
   template <class S>
-  static std::array<S, 2> tangential(const std::array<S, 3>& u) {
-    return {u[0], u[1]};
+  static std::array<S, 2> offset(const Phase<S>& ph, const StepMotion<S>& m, const S& s) {
+    if (ph.from_contact) {
+      const auto d = m.between(ph.contact_s, s);
+      return {d[0], d[1]};
+    }
+    const auto u = m.position(s);
+    return {u[0] - ph.w[0], u[1] - ph.w[1]};
+  }
+  template <class S>
+  static Phase<double> values(const Phase<S>& ph) {
+    Phase<double> d;
+    d.mode = ph.mode;
+    d.w = {value_of(ph.w[0]), value_of(ph.w[1])};
+    d.angle = value_of(ph.angle);
+    d.from_contact = ph.from_contact;
+    d.contact_s = value_of(ph.contact_s);
+    return d;
+  }
+
+  // mu = 0: no tangential force, the slider follows u_t; the normal force opens and closes
+  // with its kinks.
+  template <class S>
+  SliderStep<S> frictionless(const StepMotion<S>& m) const {
+    SliderStep<S> out;
+    S s(0.0);
+    bool closed = normal_.closure(m.position(s)[2]) > 0;
+    for (int guard = 0; guard < 16; ++guard) {
+      const S change = contact_change(m, s, closed);
+      if (!(change <= 1.0)) break;
+      s = change;
+      const S rate = normal_.side(m.position(s)[2]).dnormal * m.rate(s)[2];
+      add_kink(out, s, {S(0.0), S(0.0), closed ? S(0.0) - rate : rate});
+      closed = !closed;
+    }
+    const auto u = m.position(S(1.0));
+    out.slider = {u[0], u[1]};
+    out.force = {S(0.0), S(0.0), closed ? normal_.side(u[2]).normal : S(0.0)};
+    return out;
   }
 
   // |kt (u_t - w)|^2 - (mu N)^2 at s (> 0: outside the circle), for a closed contact.
   template <class S>
-  S stick_excess(const std::array<S, 2>& w, const StepMotion<S>& m, const S& s) const {
+  S stick_excess(const Phase<S>& ph, const StepMotion<S>& m, const S& s) const {
     const auto u = m.position(s);
     const auto n = normal_.side(u[2]);
-    const S d0 = n.stiffness * (u[0] - w[0]), d1 = n.stiffness * (u[1] - w[1]);
+    const auto d = offset(ph, m, s);
+    const S d0 = n.stiffness * d[0], d1 = n.stiffness * d[1];
     const S limit = mu_ * n.normal;
     return d0 * d0 + d1 * d1 - limit * limit;
   }
@@ -277,28 +335,31 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void add_kink(SliderStep<S>& out, double s, const std::array<double, 3>& jump) const {
+  static void add_kink(SliderStep<S>& out, const S& s, const std::array<S, 3>& jump) {
     if (out.kink_count >= SliderStep<S>::kMaxKinks) return;
-    out.kinks[static_cast<std::size_t>(out.kink_count++)] = ForceKink{s, jump};
+    out.kinks[static_cast<std::size_t>(out.kink_count++)] = ForceKink<S>{s, jump};
+  }
+  template <class S>
+  static std::array<S, 3> difference(const std::array<S, 3>& a, const std::array<S, 3>& b) {
+    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
   }
 
   // dF/ds of a closed contact at s: stuck (w fixed) or slipping with direction `angle`.
   template <class S>
-  std::array<double, 3> closed_rate(const StepMotion<S>& m, double s, bool slipping,
-                                    const std::array<S, 2>& w, double angle) const {
-    const auto md = values(m);
-    const auto u = md.position(s);
-    const auto v = md.rate(s);
+  std::array<S, 3> closed_rate(const StepMotion<S>& m, const S& s, bool slipping,
+                               const std::array<S, 2>& w, const S& angle) const {
+    const auto u = m.position(s);
+    const auto v = m.rate(s);
     const auto n = normal_.side(u[2]);
-    const double normal_rate = n.dnormal * v[2];
+    const S normal_rate = n.dnormal * v[2];
     if (!slipping) {
-      const double kt_rate = n.dstiffness * v[2];
-      return {kt_rate * (u[0] - value_of(w[0])) + n.stiffness * v[0],
-              kt_rate * (u[1] - value_of(w[1])) + n.stiffness * v[1], normal_rate};
+      const S kt_rate = n.dstiffness * v[2];
+      return {kt_rate * (u[0] - w[0]) + n.stiffness * v[0],
+              kt_rate * (u[1] - w[1]) + n.stiffness * v[1], normal_rate};
     }
-    const double a_rate = value_of(angle_rate(md, s, angle));
-    const double limit = mu_ * n.normal;
-    const double c = std::cos(angle), sn = std::sin(angle);
+    const S a_rate = angle_rate(m, s, angle);
+    const S limit = mu_ * n.normal;
+    const S c = cos(angle), sn = sin(angle);
     return {mu_ * normal_rate * c - limit * sn * a_rate,
             mu_ * normal_rate * sn + limit * c * a_rate, normal_rate};
   }
@@ -313,7 +374,6 @@ class FrictionCircleSlider {
     s = closes;
     const auto u = m.position(s);
     ph.w = {u[0], u[1]};
-    const double sd = value_of(s);
     // Contact resumes unloaded: T = 0 and mu N = 0. It sticks when the stuck force grows
     // slower than the friction limit, kt |u_t'| <= mu N'; else it slips from the start, in
     // the direction of u_t' (the one bounded solution of the direction's equation, whose
@@ -325,11 +385,13 @@ class FrictionCircleSlider {
     if (tangential_rate > limit_rate) {
       ph.mode = Mode::kSlip;
       ph.angle = atan2(v[1], v[0]);
-      add_kink(out, sd, closed_rate(m, sd, true, ph.w, value_of(ph.angle)));
+      add_kink(out, s, closed_rate(m, s, true, ph.w, ph.angle));
       return;
     }
     ph.mode = Mode::kStick;
-    add_kink(out, sd, closed_rate(m, sd, false, ph.w, 0.0));
+    ph.from_contact = true;
+    ph.contact_s = s;
+    add_kink(out, s, closed_rate(m, s, false, ph.w, S(0.0)));
   }
 
   template <class S>
@@ -337,29 +399,29 @@ class FrictionCircleSlider {
     const S opens = contact_change(m, s, true);
     const double end = std::min(1.0, value_of(opens));
     const auto md = values(m);
-    const std::array<double, 2> wd{value_of(ph.w[0]), value_of(ph.w[1])};
-    auto g = [&](double x) { return stick_excess(wd, md, x); };
+    const Phase<double> pd = values(ph);
+    auto g = [&](double x) { return stick_excess(pd, md, x); };
     const double from = value_of(s);
     // At the start the excess is <= 0 (stuck): a crossing is a rise above 0.
     const double root = first_crossing(g, from, end, std::min(g(from), 0.0), kEventScan);
     if (root <= end) {
       s = polish<S>(
-          root, [&](const S& x) { return stick_excess(ph.w, m, x); }, g);
-      const auto u = m.position(s);
-      ph.angle = atan2(u[1] - ph.w[1], u[0] - ph.w[0]);
+          root, [&](const S& x) { return stick_excess(ph, m, x); }, g);
+      const auto d = offset(ph, m, s);
+      ph.angle = atan2(d[1], d[0]);
+      ph.from_contact = false;
       const double sd = value_of(s);
-      const auto before = closed_rate(m, sd, false, ph.w, 0.0);
-      const auto after = closed_rate(m, sd, true, ph.w, value_of(ph.angle));
-      add_kink(out, sd, {after[0] - before[0], after[1] - before[1], after[2] - before[2]});
+      add_kink(out, s,
+               difference(closed_rate(m, s, true, ph.w, ph.angle),
+                          closed_rate(m, s, false, ph.w, S(0.0))));
       ph.mode = value_of(slip_rate(md, sd, value_of(ph.angle))) > 0 ? Mode::kSlip : Mode::kStick;
       if (ph.mode == Mode::kStick) s = S(std::min(1.0, sd + 1e-9));  // grazing: go on stuck
       return;
     }
     if (opens <= 1.0) {
       s = opens;
-      const double sd = value_of(s);
-      const auto before = closed_rate(m, sd, false, ph.w, 0.0);
-      add_kink(out, sd, {-before[0], -before[1], -before[2]});
+      add_kink(out, s,
+               difference({S(0.0), S(0.0), S(0.0)}, closed_rate(m, s, false, ph.w, S(0.0))));
       ph.mode = Mode::kOpen;
       return;
     }
@@ -376,41 +438,76 @@ class FrictionCircleSlider {
     return angle + ds / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
   }
 
+  // Backward Euler step of the direction (L-stable), for sub-steps where the direction's
+  // relaxation rate kt |u_t'| / (mu N) times the sub-step is large: next to an opening or a
+  // re-contact, where mu N -> 0. There the direction is pulled onto its quasi-steady value at
+  // that rate, and any error is forgotten as fast; the force is small. Newton in Scalar.
+  template <class S>
+  S backward_euler(const StepMotion<S>& m, const S& s, const S& angle, const S& ds) const {
+    const S at = s + ds;
+    S next = angle;
+    for (int it = 0; it < 8; ++it) {
+      const S residual = next - angle - ds * angle_rate(m, at, next);
+      const double h = 1e-7;
+      const double slope = 1.0 - value_of(ds) *
+                                     (value_of(angle_rate(m, at, next + h)) -
+                                      value_of(angle_rate(m, at, next - h))) /
+                                     (2 * h);
+      next = next - residual / (std::abs(slope) > 1e-12 ? slope : 1.0);
+      if (std::abs(value_of(residual)) < 1e-15) break;
+    }
+    return next;
+  }
+
+  template <class S>
+  S advance_angle(const StepMotion<S>& m, const S& s, const S& angle, const S& ds,
+                  bool stiff) const {
+    return stiff ? backward_euler(m, s, angle, ds) : rk4(m, s, angle, ds);
+  }
+
+  // The relaxation rate kt |u_t'| / (mu N) at s (infinite where N = 0).
+  double relaxation_rate(const StepMotion<double>& m, double s) const {
+    const auto u = m.position(s);
+    const auto v = m.rate(s);
+    const auto n = normal_.side(u[2]);
+    if (!(n.normal > 0)) return std::numeric_limits<double>::infinity();
+    return n.stiffness * std::hypot(v[0], v[1]) / (mu_ * n.normal);
+  }
+
   template <class S>
   void slip_segment(Phase<S>& ph, const StepMotion<S>& m, S& s, SliderStep<S>& out) const {
     const S opens = contact_change(m, s, true);
     const S end = opens <= 1.0 ? opens : S(1.0);
     const auto md = values(m);
     // Sub-steps from the largest rate kt |u_t'| / (mu N) on the scan points.
+    // Sub-steps from the largest rate on the scan points (infinite where N = 0: the most
+    // sub-steps, those next to the zero taken by backward Euler).
     double rate = 0;
     const double from = value_of(s), to = value_of(end);
-    for (int k = 0; k <= kEventScan; ++k) {
-      const double x = from + (to - from) * k / kEventScan;
-      const auto u = md.position(x);
-      const auto v = md.rate(x);
-      const auto n = normal_.side(u[2]);
-      rate = std::max(rate, n.stiffness * std::hypot(v[0], v[1]) / (mu_ * n.normal));
-    }
-    const int substeps =
-        std::clamp(static_cast<int>(std::ceil(rate * (to - from) / kMaxRateStep)), 1, kMaxSubsteps);
+    for (int k = 0; k <= kEventScan; ++k)
+      rate = std::max(rate, relaxation_rate(md, from + (to - from) * k / kEventScan));
+    const double wanted = std::ceil(std::min(rate * (to - from) / kMaxRateStep, 1e9));
+    const int substeps = std::clamp(static_cast<int>(wanted), 1, kMaxSubsteps);
     const S ds = (end - s) / static_cast<double>(substeps);
     for (int k = 0; k < substeps; ++k) {
       const S next_s = k + 1 == substeps ? end : s + ds;
-      const S next = rk4(m, s, ph.angle, next_s - s);
+      const double sd = value_of(s), dsd = value_of(next_s) - sd;
+      const bool stiff = relaxation_rate(md, sd + 0.5 * dsd) * dsd > 1.0;
+      const S next = advance_angle(m, s, ph.angle, next_s - s, stiff);
       const double lam = value_of(slip_rate(m, next_s, next));
       if (lam < 0) {
-        // Slip to stick inside this sub-step: the root of lambda along the same RK step.
+        // Slip to stick inside this sub-step: the root of lambda along the same sub-step.
         const double a = value_of(s), b = value_of(next_s), a0 = value_of(ph.angle);
-        auto angle_at = [&](double x) { return value_of(rk4(md, a, a0, x - a)); };
+        auto angle_at = [&](double x) { return value_of(advance_angle(md, a, a0, x - a, stiff)); };
         auto g = [&](double x) { return value_of(slip_rate(md, x, angle_at(x))); };
         const double ga = g(a);
         const double root = ga <= 0 ? a : refine(g, a, ga, b, g(b));
         const S s_start = s, angle_start = ph.angle;
         auto g_scalar = [&](const S& x) {
-          return slip_rate(m, x, rk4(m, s_start, angle_start, x - s_start));
+          return slip_rate(m, x, advance_angle(m, s_start, angle_start, x - s_start, stiff));
         };
         s = polish<S>(root, g_scalar, g);
-        ph.angle = rk4(m, s_start, angle_start, s - s_start);
+        ph.angle = advance_angle(m, s_start, angle_start, s - s_start, stiff);
         stick_at(ph, m, s);
         return;
       }
@@ -418,9 +515,8 @@ class FrictionCircleSlider {
       ph.angle = next;
     }
     if (end < 1.0) {
-      const double sd = value_of(s);
-      const auto before = closed_rate(m, sd, true, ph.w, value_of(ph.angle));
-      add_kink(out, sd, {-before[0], -before[1], -before[2]});
+      add_kink(out, s,
+               difference({S(0.0), S(0.0), S(0.0)}, closed_rate(m, s, true, ph.w, ph.angle)));
       ph.mode = Mode::kOpen;
       return;
     }
@@ -472,5 +568,101 @@ class FrictionCircleSlider {
   Normal normal_;
   double mu_;
 };
+
+// One step_along of a law whose tangential side is a FrictionCircleSlider (state: the
+// slider, 2 values), for the ABI: value only in doubles; with tangents, the step runs on
+// Dual<14> over the inputs [state_prev (2), u_prev (3), u_now (3), rate_prev (3),
+// rate_now (3)], which fills every tangent block and the kinks' derivatives. `writes_normal`:
+// the law reports its normal force (else force_now[2] = 0, a normal it does not use).
+template <class Normal>
+void friction_circle_step_along(const FrictionCircleSlider<Normal>& slider, bool writes_normal,
+                                const double* state_prev, const double* u_prev, const double* u_now,
+                                const frichb_step_motion& motion, double* force_now,
+                                double* state_now, const frichb_step_tangents* tangents,
+                                const frichb_motion_tangents* motion_tangents,
+                                frichb_force_kinks* kinks) {
+  constexpr int kInputs = 14;
+  const StepTangents tangent(tangents, 2);
+  if (!tangent.wanted() || motion_tangents == nullptr) {
+    StepMotion<double> m;
+    for (int i = 0; i < 3; ++i) {
+      m.u0[i] = u_prev[i];
+      m.u1[i] = u_now[i];
+      m.v0[i] = motion.rate_prev[i];
+      m.v1[i] = motion.rate_now[i];
+    }
+    const auto r = slider.template advance<double>({state_prev[0], state_prev[1]}, m);
+    for (int a = 0; a < 3; ++a) force_now[a] = r.force[a];
+    if (!writes_normal) force_now[2] = 0.0;
+    state_now[0] = r.slider[0];
+    state_now[1] = r.slider[1];
+    if (kinks != nullptr) {
+      kinks->count = 0;
+      for (int k = 0; k < r.kink_count && kinks->count < kinks->capacity; ++k, ++kinks->count) {
+        kinks->fraction[kinks->count] = r.kinks[k].s;
+        for (int a = 0; a < 3; ++a)
+          kinks->rate_jump[kinks->count * 3 + a] =
+              (a == 2 && !writes_normal) ? 0.0 : r.kinks[k].rate_jump[a];
+      }
+    }
+    return;
+  }
+  using D = Dual<kInputs>;
+  StepMotion<D> m;
+  for (int i = 0; i < 3; ++i) {
+    m.u0[i] = D::variable(u_prev[i], 2 + i);
+    m.u1[i] = D::variable(u_now[i], 5 + i);
+    m.v0[i] = D::variable(motion.rate_prev[i], 8 + i);
+    m.v1[i] = D::variable(motion.rate_now[i], 11 + i);
+  }
+  const auto r =
+      slider.template advance<D>({D::variable(state_prev[0], 0), D::variable(state_prev[1], 1)}, m);
+  tangent.zero();
+  auto fu = tangent.dforce_du_now();
+  auto fp = tangent.dforce_du_prev();
+  auto fs = tangent.dforce_dstate_prev();
+  auto su = tangent.dstate_du_now();
+  auto sp = tangent.dstate_du_prev();
+  auto ss = tangent.dstate_dstate_prev();
+  const int rows = writes_normal ? 3 : 2;
+  for (int a = 0; a < 3; ++a) force_now[a] = a < rows ? r.force[a].value() : 0.0;
+  for (int a = 0; a < rows; ++a) {
+    for (int i = 0; i < 3; ++i) {
+      fp(a, i) = r.force[a].derivative(2 + i);
+      fu(a, i) = r.force[a].derivative(5 + i);
+      motion_tangents->dforce_drate_prev[a * 3 + i] = r.force[a].derivative(8 + i);
+      motion_tangents->dforce_drate_now[a * 3 + i] = r.force[a].derivative(11 + i);
+    }
+    for (int k = 0; k < 2; ++k) fs(a, k) = r.force[a].derivative(k);
+  }
+  for (int k = 0; k < 2; ++k) {
+    state_now[k] = r.slider[k].value();
+    for (int i = 0; i < 3; ++i) {
+      sp(k, i) = r.slider[k].derivative(2 + i);
+      su(k, i) = r.slider[k].derivative(5 + i);
+      motion_tangents->dstate_drate_prev[k * 3 + i] = r.slider[k].derivative(8 + i);
+      motion_tangents->dstate_drate_now[k * 3 + i] = r.slider[k].derivative(11 + i);
+    }
+    for (int l = 0; l < 2; ++l) ss(k, l) = r.slider[k].derivative(l);
+  }
+  if (kinks == nullptr) return;
+  kinks->count = 0;
+  for (int k = 0; k < r.kink_count && kinks->count < kinks->capacity; ++k, ++kinks->count) {
+    const std::size_t at = kinks->count;
+    kinks->fraction[at] = r.kinks[k].s.value();
+    for (int i = 0; i < kInputs; ++i)
+      if (kinks->dfraction != nullptr)
+        kinks->dfraction[at * kInputs + static_cast<std::size_t>(i)] = r.kinks[k].s.derivative(i);
+    for (int a = 0; a < 3; ++a) {
+      const bool used = a < rows;
+      kinks->rate_jump[at * 3 + static_cast<std::size_t>(a)] =
+          used ? r.kinks[k].rate_jump[a].value() : 0.0;
+      for (int i = 0; i < kInputs && kinks->drate_jump != nullptr; ++i)
+        kinks->drate_jump[(at * 3 + static_cast<std::size_t>(a)) * kInputs +
+                          static_cast<std::size_t>(i)] =
+            used ? r.kinks[k].rate_jump[a].derivative(i) : 0.0;
+    }
+  }
+}
 
 }  // namespace frichb::sdk

@@ -193,6 +193,18 @@ class ContactLaw {
   virtual void step(const double* state_prev, const double* u_prev, const double* u_now,
                     double* force_now, double* state_now,
                     const frichb_step_tangents* tangents) const = 0;
+  // ABI 1.2 (frichb_contact_law_api::step_along): the step along the motion between the
+  // samples. A law that overrides it says so with traits().traces_motion = 1; the host calls
+  // it only then. `motion_tangents` is non-null exactly when `tangents` is; `kinks` may be null.
+  virtual void step_along(const double* state_prev, const double* u_prev, const double* u_now,
+                          const frichb_step_motion& motion, double* force_now, double* state_now,
+                          const frichb_step_tangents* tangents,
+                          const frichb_motion_tangents* motion_tangents,
+                          frichb_force_kinks* kinks) const {
+    (void)state_prev, (void)u_prev, (void)u_now, (void)motion, (void)force_now, (void)state_now,
+        (void)tangents, (void)motion_tangents, (void)kinks;
+    throw std::logic_error("this contact law does not step along the motion");
+  }
 };
 
 // Base class of a structure provider (see frichb_structure_api).
@@ -208,13 +220,15 @@ class StructureProvider {
 };
 
 inline frichb_contact_law_traits make_traits(int tangential_dimensions, bool uses_normal,
-                                             int state_size, bool provides_tangent) {
+                                             int state_size, bool provides_tangent,
+                                             bool traces_motion = false) {
   frichb_contact_law_traits t{};
   t.struct_size = sizeof(t);
   t.tangential_dimensions = tangential_dimensions;
   t.uses_normal = uses_normal ? 1 : 0;
   t.state_size = state_size;
   t.provides_tangent = provides_tangent ? 1 : 0;
+  t.traces_motion = traces_motion ? 1 : 0;
   return t;
 }
 
@@ -282,6 +296,18 @@ struct ContactLawTrampolines : Lifecycle<ContactLaw, Law> {
                                                      state_now, tangents);
     });
   }
+  static frichb_status step_along(const void* instance, const double* state_prev,
+                                  const double* u_prev, const double* u_now,
+                                  const frichb_step_motion* motion, double* force_now,
+                                  double* state_now, const frichb_step_tangents* tangents,
+                                  const frichb_motion_tangents* motion_tangents,
+                                  frichb_force_kinks* kinks, char* message, size_t capacity) {
+    return guarded(message, capacity, [&] {
+      static_cast<const ContactLaw*>(instance)->step_along(state_prev, u_prev, u_now, *motion,
+                                                           force_now, state_now, tangents,
+                                                           motion_tangents, kinks);
+    });
+  }
 };
 
 template <class Provider>
@@ -313,7 +339,8 @@ const frichb_plugin_descriptor* contact_law_descriptor(
                                              &T::destroy,
                                              &T::traits,
                                              &T::initial_state,
-                                             &T::step};
+                                             &T::step,
+                                             &T::step_along};
   static const frichb_plugin_descriptor descriptor = {FRICHB_ABI_MAJOR,
                                                       FRICHB_ABI_MINOR,
                                                       sizeof(frichb_plugin_descriptor),

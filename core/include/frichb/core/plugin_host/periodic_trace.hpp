@@ -16,6 +16,16 @@
 // A contact that never slips keeps its initial state, so its mean tangential force is kt
 // times the mean relative displacement (docs/theory.md, "full stick convention").
 //
+// Laws that step along the motion (ABI 1.2, traits.traces_motion) receive, with each step's
+// end samples, the rates du/ds of the harmonic series there (s the step's fraction), so they
+// integrate along the series' cubic Hermite interpolant between samples; they also report the
+// force's kinks inside the steps (stick to slip, opening, closing), and the force coefficients
+// then correct the trapezoidal rule at each kink of jump J in dF/ds at fraction sigma:
+//   integral = trapezoidal sum + (h / 2) J B2(sigma) g(theta*),  B2(x) = x^2 - x + 1/6,
+// h the sample spacing in phase, g the basis function, theta* the kink's phase (the
+// Euler-Maclaurin term of a derivative jump; third order after it). The Jacobian carries the
+// correction's derivative through the kinks' reported derivatives.
+//
 // The force entering the equations is the law's force minus its force at u = 0 in the
 // initial state (the preload balanced by the static equilibrium the unknowns are measured
 // from); `force` in ContactTrace is the law's raw force.
@@ -39,10 +49,13 @@ struct TraceOptions {
   // tangents (laws that provide them); false: plain passes only. Either way the trace ends on
   // a pass that repeats its start to relative_tolerance.
   bool newton_on_periodic_state = true;
+  // Laws that step along the motion do so (false: their sample-only step(), e.g. to compare).
+  bool along_motion = true;
 };
 
 struct ContactTrace {
   Eigen::MatrixXd displacement;        // N x d, local relative displacement samples (m)
+  Eigen::MatrixXd rate;                // N x d, du/ds at the samples, m per sample step
   Eigen::MatrixXd force;               // N x d, raw law force samples (N)
   Eigen::MatrixXd state;               // N x S, the law's state after each sample (last pass)
   Eigen::VectorXd force_coefficients;  // d*C, of (force - reference force)
@@ -53,6 +66,7 @@ struct ContactTrace {
   bool periodic = true;                // false: max_passes reached (the diagnostic says so)
   bool used_finite_differences = false;
   std::string diagnostic;
+  int kinks = 0;  // force kinks inside steps in the last pass (laws that step along the motion)
 };
 
 // The energy dissipated per cycle by a traced contact: the closed integral of f . du over its
@@ -80,6 +94,8 @@ class PeriodicTracer {
   int unknown_count() const { return dimension() * layout_.coefficient_count(); }
   const HarmonicLayout& layout() const { return layout_; }
   const Eigen::Vector3d& reference_force() const { return reference_force_; }
+  // True when the law steps along the motion between samples (and TraceOptions allow it).
+  bool along_motion() const { return along_; }
 
   // Returns false with `error` when the law fails. kAnalytic on a law without tangents falls
   // back to finite differences (out.used_finite_differences).
@@ -87,12 +103,23 @@ class PeriodicTracer {
              std::string* error);
 
  private:
+  // One force kink of the last pass: its phase, jump of dF/ds per used component, and with
+  // the Jacobian their derivatives with respect to the unknowns (rows of length d*C).
+  struct Kink {
+    int sample = 0;  // the step ends at this sample
+    double fraction = 0;
+    Eigen::VectorXd jump;          // d
+    Eigen::RowVectorXd dfraction;  // d*C
+    Eigen::MatrixXd djump;         // d x d*C
+  };
+  void sample_motion(const Eigen::VectorXd& u_coefficients, ContactTrace& out);
   bool run_passes(ContactTrace& out, bool with_derivative, std::string* error);
-  bool run_period(const Eigen::MatrixXd& u, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
+  bool run_period(const ContactTrace& motion, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
                   Eigen::MatrixXd& force, Eigen::MatrixXd& states,
                   std::vector<Eigen::MatrixXd>* dforce, Eigen::MatrixXd* monodromy,
-                  std::string* error) const;
-  void transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce);
+                  std::vector<Kink>* kinks, std::string* error) const;
+  void transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce,
+                        const std::vector<Kink>& kinks);
 
   const ContactLawInstance& law_;
   HarmonicLayout layout_;
@@ -100,7 +127,9 @@ class PeriodicTracer {
   Aft aft_;
   std::vector<int> components_;
   int state_size_;
-  Eigen::MatrixXd basis_;  // N x C
+  Eigen::MatrixXd basis_;   // N x C
+  Eigen::MatrixXd dbasis_;  // N x C, d basis / ds (per sample step)
+  bool along_ = false;
   Eigen::Vector3d reference_force_ = Eigen::Vector3d::Zero();
 };
 
