@@ -75,6 +75,7 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   TraceOptions trace_options;
   trace_options.max_passes = scene.harmonic_balance.max_trace_passes;
   trace_options.newton_on_periodic_state = scene.harmonic_balance.periodic_state_newton;
+  trace_options.along_motion = scene.harmonic_balance.trace_along_motion;
   for (const auto& spec : scene.contacts) {
     ContactModel c;
     c.name = spec.name;

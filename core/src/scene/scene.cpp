@@ -144,6 +144,11 @@ const std::vector<frichb_param_spec>& harmonic_balance_schema() {
                      "between passes, Newton steps onto the periodic state of contacts whose law "
                      "gives tangents (false: plain passes only)")
           .defaults_to(1),
+      Param::boolean("trace_along_motion",
+                     "laws that can (coupled_3d) follow the harmonic series between samples, "
+                     "with their events inside the steps and the force harmonics corrected at "
+                     "the kinks (false: their sample-only step)")
+          .defaults_to(1),
   };
   return s;
 }
@@ -625,6 +630,7 @@ void read_harmonic_balance(Scene& scene, YAML::Node root, const YamlContext& ctx
   H.analytic_jacobian = hbv.text("jacobian") == "analytic";
   H.max_trace_passes = static_cast<int>(hbv.integer("max_trace_passes"));
   H.periodic_state_newton = hbv.boolean("periodic_state_newton");
+  H.trace_along_motion = hbv.boolean("trace_along_motion");
   H.trace_oversampling = static_cast<int>(hbv.integer("trace_oversampling"));
   scene.core_values["harmonic_balance"] = hb.to_json(harmonic_balance_schema());
 }

@@ -89,6 +89,7 @@ struct HarmonicBalanceSpec {
   bool analytic_jacobian = true;
   int max_trace_passes = 200;
   bool periodic_state_newton = true;  // TraceOptions::newton_on_periodic_state
+  bool trace_along_motion = true;     // TraceOptions::along_motion
   int trace_oversampling = 1;         // contacts traced on trace_oversampling * samples_per_period
 };
 
