@@ -43,10 +43,6 @@ Eigen::VectorXd ellipse(const PeriodicTracer& t, double a, double b) {
   return u;
 }
 
-double energy(const ContactTrace& t) {
-  return dissipated_energy(t);
-}
-
 template <class F>
 double seconds_per_call(F&& f, int repeats) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -85,22 +81,42 @@ int main() {
   std::printf("\n## Energy per cycle against samples per period (coupled_3d, circular motion)\n\n");
   std::printf(
       "Circle of radius a = 1.5 mu N / kt: the continuous closed form is "
-      "2 pi mu N sqrt(a^2 - (mu N/kt)^2). Oversampling k traces on k N samples.\n\n");
+      "2 pi mu N sqrt(a^2 - (mu N/kt)^2), here from the first force harmonics, "
+      "pi a (c1(T2) - s1(T1)). Along the motion: the default trace; sample-only step with "
+      "oversampling k: traced on k N samples.\n\n");
   std::printf(
-      "| N | k = 1: relative error | time per trace | k = 4: relative error | time per "
-      "trace |\n|---|---|---|---|---|\n");
+      "| N | along: relative error | time per trace | with Jacobian | sample-only k = 1 | "
+      "time per trace | with Jacobian | sample-only k = 4 | time per trace |\n"
+      "|---|---|---|---|---|---|---|---|---|\n");
   const double a = 1.5 * delta;
   const double exact = 2 * std::numbers::pi * slip * std::sqrt(a * a - delta * delta);
+  auto harmonic_energy = [&](const PeriodicTracer& tracer, const ContactTrace& t) {
+    const auto& l = tracer.layout();
+    const int c = l.coefficient_count();
+    std::size_t k1 = 0;
+    while (l.harmonics()[k1] != 1) ++k1;
+    return std::numbers::pi * a *
+           (t.force_coefficients(c + l.cos_index(k1)) - t.force_coefficients(l.sin_index(k1)));
+  };
   for (int n : {64, 128, 256, 512, 1024, 2048}) {
     std::printf("| %d |", n);
-    for (int k : {1, 4}) {
+    for (int variant = 0; variant < 3; ++variant) {
+      const int k = variant == 2 ? 4 : 1;
       const HarmonicLayout l({0, 1, 2, 3}, n * k);
-      PeriodicTracer tracer(*laws[2].instance, l);
+      TraceOptions options;
+      options.along_motion = variant == 0;
+      PeriodicTracer tracer(*laws[2].instance, l, options);
       ContactTrace t;
       const Eigen::VectorXd u = ellipse(tracer, a, a);
       const double s =
           seconds_per_call([&] { tracer.trace(u, JacobianMode::kNone, t, &error); }, 20);
-      std::printf(" %.2e | %.1f us |", std::abs(energy(t) - exact) / exact, 1e6 * s);
+      const double e = std::abs(harmonic_energy(tracer, t) - exact) / exact;
+      std::printf(" %.2e | %.1f us |", e, 1e6 * s);
+      if (variant < 2) {
+        const double sj =
+            seconds_per_call([&] { tracer.trace(u, JacobianMode::kAnalytic, t, &error); }, 10);
+        std::printf(" %.1f us |", 1e6 * sj);
+      }
     }
     std::printf("\n");
   }
@@ -149,19 +165,26 @@ int main() {
                {"hertz_3d",
                 "{normal_coefficient: 1.0e9, tangential_coefficient: 1.0e9, mu: 0.5, "
                 "static_penetration: 1.0e-5}"}};
-  for (const auto& c : cases) {
-    Law law = make(registry, c.name, c.params);
-    PeriodicTracer tracer(*law.instance, layout);
-    Eigen::VectorXd u = ellipse(tracer, 3 * delta, 1.5 * delta);
-    ContactTrace t;
-    double times[3];
-    const JacobianMode modes[] = {JacobianMode::kNone, JacobianMode::kAnalytic,
-                                  JacobianMode::kFiniteDifference};
-    for (int m = 0; m < 3; ++m)
-      times[m] = seconds_per_call([&] { tracer.trace(u, modes[m], t, &error); }, m == 2 ? 5 : 50);
-    std::printf("| %s%s | %.1f us | %.1f us | %.1f us |\n", c.name,
-                tracer.components().back() == 2 ? " (normal used)" : "", 1e6 * times[0],
-                1e6 * times[1], 1e6 * times[2]);
-  }
+  for (const auto& c : cases)
+    for (const bool along : {true, false}) {
+      Law law = make(registry, c.name, c.params);
+      TraceOptions options;
+      options.along_motion = along;
+      PeriodicTracer tracer(*law.instance, layout, options);
+      if (!along && !law.instance->traces_motion()) continue;
+      Eigen::VectorXd u = ellipse(tracer, 3 * delta, 1.5 * delta);
+      ContactTrace t;
+      double times[3];
+      const JacobianMode modes[] = {JacobianMode::kNone, JacobianMode::kAnalytic,
+                                    JacobianMode::kFiniteDifference};
+      for (int m = 0; m < 3; ++m)
+        times[m] = seconds_per_call([&] { tracer.trace(u, modes[m], t, &error); }, m == 2 ? 5 : 50);
+      std::printf("| %s%s%s | %.1f us | %.1f us | %.1f us |\n", c.name,
+                  tracer.components().back() == 2 ? " (normal used)" : "",
+                  law.instance->traces_motion()
+                      ? (along ? ", along the motion" : ", sample-only step")
+                      : "",
+                  1e6 * times[0], 1e6 * times[1], 1e6 * times[2]);
+    }
   return 0;
 }

@@ -74,6 +74,9 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
                                 ds_dun.data(), ds_dup.data(), ds_ds.data()};
   frichb_motion_tangents motion_tangents{df_dvp.data(), df_dvn.data(), ds_dvp.data(),
                                          ds_dvn.data()};
+  // A pass that carries only the monodromy asks a law stepping along the motion for the
+  // state's own derivative alone (ABI 1.2).
+  frichb_step_tangents state_tangent{nullptr, nullptr, nullptr, nullptr, nullptr, ds_ds.data()};
   const bool derivative = dstate != nullptr;
   const bool tangents_wanted = derivative || monodromy != nullptr;
   if (monodromy != nullptr) monodromy->setIdentity(s, s);
@@ -122,9 +125,10 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
     if (along_) {
       const frichb_step_motion step_motion{sizeof(frichb_step_motion), v_prev, v_now};
       kink_buffer.count = 0;
-      if (!law_.step_along(state.data(), u_prev, u_now, step_motion, f, next.data(),
-                           tangents_wanted ? &tangents : nullptr,
-                           tangents_wanted ? &motion_tangents : nullptr,
+      const frichb_step_tangents* wanted =
+          derivative ? &tangents : (tangents_wanted ? &state_tangent : nullptr);
+      if (!law_.step_along(state.data(), u_prev, u_now, step_motion, f, next.data(), wanted,
+                           derivative ? &motion_tangents : nullptr,
                            kinks != nullptr ? &kink_buffer : nullptr, error))
         return false;
     } else if (!law_.step(state.data(), u_prev, u_now, f, next.data(),
@@ -185,13 +189,14 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
         }
       }
       // The state depends on each used displacement component once (not once per force).
+      // Row by row: Eigen's outer products of dynamic blocks cost more than these axpys.
       for (int b = 0; b < d && s > 0; ++b) {
         const int cb = components_[b];
-        dnext.middleCols(b * c, c) +=
-            ds_dun.col(cb).head(s) * basis_.row(j) + ds_dup.col(cb).head(s) * basis_.row(jp);
-        if (along_)
-          dnext.middleCols(b * c, c) +=
-              ds_dvn.col(cb).head(s) * dbasis_.row(j) + ds_dvp.col(cb).head(s) * dbasis_.row(jp);
+        for (int l = 0; l < s; ++l) {
+          auto row = dnext.row(l).segment(b * c, c);
+          row += ds_dun(l, cb) * basis_.row(j) + ds_dup(l, cb) * basis_.row(jp);
+          if (along_) row += ds_dvn(l, cb) * dbasis_.row(j) + ds_dvp(l, cb) * dbasis_.row(jp);
+        }
       }
       dstate->swap(dnext);
     }

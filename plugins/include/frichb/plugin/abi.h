@@ -206,7 +206,10 @@ typedef struct frichb_contact_law_api {
   /*
    * ABI 1.2, optional (NULL, or past struct_size, for a law that only has step): the same
    * step along the motion `motion` between the samples, reporting the force's kinks inside
-   * it into `kinks` (may be NULL). `motion_tangents` is non-NULL exactly when `tangents` is.
+   * it into `kinks` (may be NULL). `tangents` is NULL (value only), or has all six blocks
+   * (with `motion_tangents` then non-NULL), or only dstate_dstate_prev (the other five NULL,
+   * and `motion_tangents` NULL): the host then wants the state's own derivative alone (the
+   * monodromy of a pass, for its Newton steps onto the periodic state).
    */
   frichb_status (*step_along)(const void* instance, const double* state_prev, const double* u_prev,
                               const double* u_now, const frichb_step_motion* motion,

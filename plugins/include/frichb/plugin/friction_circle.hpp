@@ -583,6 +583,36 @@ void friction_circle_step_along(const FrictionCircleSlider<Normal>& slider, bool
                                 frichb_force_kinks* kinks) {
   constexpr int kInputs = 14;
   const StepTangents tangent(tangents, 2);
+  if (!tangent.wanted() && tangents != nullptr && tangents->dstate_dstate_prev != nullptr) {
+    // The state's derivative alone: two directions.
+    using D2 = Dual<2>;
+    StepMotion<D2> m;
+    for (int i = 0; i < 3; ++i) {
+      m.u0[i] = u_prev[i];
+      m.u1[i] = u_now[i];
+      m.v0[i] = motion.rate_prev[i];
+      m.v1[i] = motion.rate_now[i];
+    }
+    const auto r = slider.template advance<D2>(
+        {D2::variable(state_prev[0], 0), D2::variable(state_prev[1], 1)}, m);
+    for (int a = 0; a < 3; ++a) force_now[a] = r.force[a].value();
+    if (!writes_normal) force_now[2] = 0.0;
+    for (int k = 0; k < 2; ++k) {
+      state_now[k] = r.slider[k].value();
+      for (int l = 0; l < 2; ++l)
+        tangents->dstate_dstate_prev[k * 2 + l] = r.slider[k].derivative(l);
+    }
+    if (kinks != nullptr) {
+      kinks->count = 0;
+      for (int k = 0; k < r.kink_count && kinks->count < kinks->capacity; ++k, ++kinks->count) {
+        kinks->fraction[kinks->count] = r.kinks[k].s.value();
+        for (int a = 0; a < 3; ++a)
+          kinks->rate_jump[kinks->count * 3 + static_cast<std::size_t>(a)] =
+              (a == 2 && !writes_normal) ? 0.0 : r.kinks[k].rate_jump[a].value();
+      }
+    }
+    return;
+  }
   if (!tangent.wanted() || motion_tangents == nullptr) {
     StepMotion<double> m;
     for (int i = 0; i < 3; ++i) {
