@@ -550,6 +550,67 @@ CheckResult determinism_check(const ContactLawInstance& instance, Period& p) {
   return c;
 }
 
+// The force harmonics of the test motion converge at the declared order in the sample
+// spacing: errors at N/4, N/2 and N samples against 8 N, and their fitted slope.
+CheckResult order_check(const ContactLawInstance& instance, const Period& p,
+                        const ContactLawOptions& options) {
+  CheckResult c{"force_harmonics_converge_at_declared_order", CheckStatus::kSkipped,
+                "no declared order (--order)"};
+  if (!(options.order > 0)) return c;
+  auto coefficients = [&](int samples, Eigen::VectorXd& out) {
+    const HarmonicLayout layout(p.layout.harmonics(), samples);
+    PeriodicTracer tracer(instance, layout);
+    ContactTrace t;
+    if (!trace(tracer, p.u, t)) return false;
+    out = t.force_coefficients;
+    return true;
+  };
+  const int n = p.layout.samples();
+  Eigen::VectorXd reference, at;
+  if (!coefficients(8 * n, reference)) {
+    c.status = CheckStatus::kFailed;
+    c.figure = "the reference trace failed";
+    return c;
+  }
+  const double scale = std::max(reference.cwiseAbs().maxCoeff(), 1e-300);
+  std::vector<double> samples, errors;
+  std::string figure = "errors";
+  for (int m : {n / 4, n / 2, n}) {
+    if (!coefficients(m, at)) {
+      c.status = CheckStatus::kFailed;
+      c.figure = "the trace on " + std::to_string(m) + " samples failed";
+      return c;
+    }
+    const double e = (at - reference).cwiseAbs().maxCoeff() / scale;
+    figure += format(" %.2e", e);
+    // Errors within rounding of the reference say nothing of the order.
+    if (e > 1e-12) {
+      samples.push_back(m);
+      errors.push_back(e);
+    }
+  }
+  if (samples.size() < 2) {
+    c.status = CheckStatus::kPassed;
+    c.figure = figure + ": at rounding already";
+    return c;
+  }
+  // Least-squares slope of log(error) against log(samples).
+  double mx = 0, my = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    mx += std::log(samples[i]) / static_cast<double>(samples.size());
+    my += std::log(errors[i]) / static_cast<double>(samples.size());
+  }
+  double sxy = 0, sxx = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    sxy += (std::log(samples[i]) - mx) * (std::log(errors[i]) - my);
+    sxx += (std::log(samples[i]) - mx) * (std::log(samples[i]) - mx);
+  }
+  const double order = -sxy / sxx;
+  c.figure = figure + format(" at N/4, N/2, N: order %.2f (declared %.2f)", order, options.order);
+  c.status = order >= options.order - 0.25 ? CheckStatus::kPassed : CheckStatus::kFailed;
+  return c;
+}
+
 }  // namespace
 
 int ContactLawReport::count(CheckStatus s) const {
@@ -589,6 +650,7 @@ ContactLawReport check_contact_law(const std::filesystem::path& plugin_file,
   report.checks.push_back(odd_symmetry_check(p));
   report.checks.push_back(frame_invariance_check(instance, p, per_component));
   report.checks.push_back(determinism_check(instance, p));
+  report.checks.push_back(order_check(instance, p, options));
   return report;
 }
 

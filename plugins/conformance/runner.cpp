@@ -14,7 +14,7 @@ int main(int argc, char** argv) {
   po::options_description opts(
       "frichb-conformance LIB.so [options]: checks a contact-law plugin through the real "
       "loader\n(tangents vs central differences, Coulomb bound, dissipation, periodicity, "
-      "separation,\nmu = 0, full stick, symmetry, frame invariance, determinism, schema)"
+      "separation,\nmu = 0, full stick, symmetry, frame invariance, determinism, schema, order)"
       "\n\nOptions");
   opts.add_options()("help,h", "show this help")(
       "params", po::value<std::string>(&options.params_yaml)->default_value("{}"),
@@ -28,7 +28,10 @@ int main(int argc, char** argv) {
       "tolerance", po::value<double>(&options.jacobian_tolerance)->default_value(1e-6),
       "relative tolerance of tangents vs central differences")(
       "per-component-bound", po::bool_switch(&options.per_component_bound),
-      "Coulomb bound per tangential component (independent directions)");
+      "Coulomb bound per tangential component (independent directions)")(
+      "order", po::value<double>(&options.order)->default_value(0.0),
+      "order in the sample spacing the law declares for its force harmonics, checked from "
+      "samples/4 to samples against 8 x samples (0: not checked)");
   po::options_description hidden;
   hidden.add_options()("library", po::value<std::string>(&library));
   po::options_description all;

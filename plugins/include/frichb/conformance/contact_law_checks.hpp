@@ -44,6 +44,11 @@ struct ContactLawOptions {
   // (|T| <= mu N): for laws whose directions slide independently (uncoupled_2d). Frame
   // invariance is then not expected and skipped.
   bool per_component_bound = false;
+  // The order in the sample spacing that the law declares for its force harmonics (0: not
+  // checked). The check traces the test motion on samples_per_period / 4, / 2 and x 1 samples
+  // against a trace on 8 x samples_per_period and requires the fitted slope to reach it
+  // (less 0.25).
+  double order = 0.0;
 };
 
 struct ContactLawReport {
