@@ -413,14 +413,19 @@ class FrictionCircleSlider {
       s = polish<S>(
           root, [&](const S& x) { return stick_excess(ph, m, x); }, g);
       const auto d = offset(ph, m, s);
-      ph.angle = atan2(d[1], d[0]);
-      ph.from_contact = false;
+      const S angle = atan2(d[1], d[0]);
       const double sd = value_of(s);
+      if (!(value_of(slip_rate(md, sd, value_of(angle))) > 0)) {
+        // Grazing the circle with the motion turning inwards: no slip, no kink; go on stuck.
+        s = S(std::min(1.0, sd + 1e-9));
+        return;
+      }
+      ph.angle = angle;
+      ph.from_contact = false;
+      ph.mode = Mode::kSlip;
       add_kink(out, s,
                difference(closed_rate(m, s, true, ph.w, ph.angle),
                           closed_rate(m, s, false, ph.w, S(0.0))));
-      ph.mode = value_of(slip_rate(md, sd, value_of(ph.angle))) > 0 ? Mode::kSlip : Mode::kStick;
-      if (ph.mode == Mode::kStick) s = S(std::min(1.0, sd + 1e-9));  // grazing: go on stuck
       return;
     }
     if (opens <= 1.0) {
