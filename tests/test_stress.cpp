@@ -267,7 +267,8 @@ TEST(Stress, SeveralResonancesInOneSweep) {
   ASSERT_EQ(c.outcome.exit_code, kExitOk) << c.outcome.message;
   // Local maxima of the curve: the resonance of t1 (slipping, near 364 Hz) and the one of
   // t2 and n, whose stuck stiffnesses are equal (5e5 + kt = 6e5 + kn = 7e5 N/m), near 411 Hz;
-  // no others (the sampled coupled law used to add micro-folds with spurious maxima there).
+  // no others (the sample-only step, trace_along_motion: false, adds micro-folds with spurious
+  // maxima there).
   int maxima = 0;
   for (std::size_t i = 1; i + 1 < c.amplitude.size(); ++i)
     maxima += c.amplitude[i] > c.amplitude[i - 1] && c.amplitude[i] >= c.amplitude[i + 1];
