@@ -149,11 +149,11 @@ class FrictionCircleSlider {
   struct Phase {
     Mode mode = Mode::kStick;
     std::array<S, 2> w;
-    S angle;  // the force's direction in slip
+    S angle{0.0};  // the force's direction in slip
     // Stuck since contact resumed at contact_s (w = u_t there): the elastic offset u_t - w is
     // then taken as the motion since contact_s, which keeps its direction where both are tiny.
     bool from_contact = false;
-    S contact_s;
+    S contact_s{0.0};
   };
 
   // u_t(s) - w of a stuck slider.
@@ -389,6 +389,7 @@ class FrictionCircleSlider {
     const S limit_rate = mu_ * n.dnormal * v[2];
     if (tangential_rate > limit_rate) {
       ph.mode = Mode::kSlip;
+      ph.from_contact = false;
       ph.angle = atan2(v[1], v[0]);
       add_kink(out, s, closed_rate(m, s, true, ph.w, ph.angle));
       return;
@@ -547,6 +548,7 @@ class FrictionCircleSlider {
   void stick_at(Phase<S>& ph, const StepMotion<S>& m, S& s) const {
     set_slider_from_angle(ph, m, s);
     ph.mode = Mode::kStick;
+    ph.from_contact = false;
     // Slip ends with lambda = 0: the force's rate is continuous, no kink. Move past the root
     // so that the stick scan does not start on the circle.
     s = S(std::min(1.0, value_of(s) + 1e-12)) + (s - value_of(s));

@@ -19,8 +19,10 @@
 //  - Ownership: the view owns nothing. It wraps the host's arrays, which stay valid for the
 //    step() call that received them; never keep a view (or a block) beyond that call.
 //  - wanted(): the host asks for tangents with a non-null pointer whose dforce_du_now is
-//    non-null, and then passes all six blocks. Otherwise (value only) no block may be
-//    touched: step() computes the force and state and returns.
+//    non-null, and then passes all six blocks. Otherwise no block may be touched through this
+//    view: step() computes the force and state and returns. (step_along, ABI 1.2, may also be
+//    given only dstate_dstate_prev, with the other five null: a law writes that S x S block
+//    directly; see abi.h.)
 //  - Every entry of every block must be written: the host zeroes the blocks before each
 //    call, but callers such as test harnesses may not. zero() clears all six blocks; a law
 //    calls it once and then writes its nonzero entries.
