@@ -119,6 +119,7 @@ class FrictionCircleSlider {
   static constexpr int kEventScan = 8;         // scan points per step for the events
   static constexpr double kMaxRateStep = 0.2;  // bound on kt |u_t'| ds / (mu N) per sub-step
   static constexpr int kMaxSubsteps = 512;
+  static constexpr int kMaxSegments = 64;
 
   FrictionCircleSlider(const Normal& normal, double mu) : normal_(normal), mu_(mu) {}
 
@@ -129,14 +130,17 @@ class FrictionCircleSlider {
     Phase<S> ph;
     ph.w = slider_prev;
     S s(0.0);
+    const StepMotion<double> md = values(motion);
     start(ph, motion, s);
-    for (int guard = 0; guard < 64 && s < 1.0; ++guard) {
+    // At most kMaxSegments phases per step (the laws' motions have a handful); a step with
+    // more ends in the phase it has reached, evaluated at s = 1.
+    for (int segment = 0; segment < kMaxSegments && s < 1.0; ++segment) {
       if (ph.mode == Mode::kOpen) {
-        open_segment(ph, motion, s, out);
+        open_segment(ph, motion, md, s, out);
       } else if (ph.mode == Mode::kStick) {
-        stick_segment(ph, motion, s, out);
+        stick_segment(ph, motion, md, s, out);
       } else {
-        slip_segment(ph, motion, s, out);
+        slip_segment(ph, motion, md, s, out);
       }
     }
     finish(ph, motion, out);
@@ -182,10 +186,11 @@ class FrictionCircleSlider {
   template <class S>
   SliderStep<S> frictionless(const StepMotion<S>& m) const {
     SliderStep<S> out;
+    const StepMotion<double> md = values(m);
     S s(0.0);
     bool closed = normal_.closure(m.position(s)[2]) > 0;
     for (int guard = 0; guard < 16; ++guard) {
-      const S change = contact_change(m, s, closed);
+      const S change = contact_change(m, md, s, closed);
       if (!(change <= 1.0)) break;
       s = change;
       const S rate = normal_.side(m.position(s)[2]).dnormal * m.rate(s)[2];
@@ -326,8 +331,8 @@ class FrictionCircleSlider {
   // The first s after `s` where a closed (open) contact opens (closes), or 2. The start
   // counts as being on its side even where rounding puts it on the other.
   template <class S>
-  S contact_change(const StepMotion<S>& m, const S& s, bool closed) const {
-    const auto md = values(m);
+  S contact_change(const StepMotion<S>& m, const StepMotion<double>& md, const S& s,
+                   bool closed) const {
     auto g = [&](double x) { return value_of(normal_.closure(md.position(x)[2])); };
     const double from = value_of(s);
     const double at = g(from);
@@ -370,8 +375,9 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void open_segment(Phase<S>& ph, const StepMotion<S>& m, S& s, SliderStep<S>& out) const {
-    const S closes = contact_change(m, s, false);
+  void open_segment(Phase<S>& ph, const StepMotion<S>& m, const StepMotion<double>& md, S& s,
+                    SliderStep<S>& out) const {
+    const S closes = contact_change(m, md, s, false);
     if (!(closes <= 1.0)) {
       s = S(1.0);
       return;
@@ -401,10 +407,10 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void stick_segment(Phase<S>& ph, const StepMotion<S>& m, S& s, SliderStep<S>& out) const {
-    const S opens = contact_change(m, s, true);
+  void stick_segment(Phase<S>& ph, const StepMotion<S>& m, const StepMotion<double>& md, S& s,
+                     SliderStep<S>& out) const {
+    const S opens = contact_change(m, md, s, true);
     const double end = std::min(1.0, value_of(opens));
-    const auto md = values(m);
     const Phase<double> pd = values(ph);
     auto g = [&](double x) { return stick_excess(pd, md, x); };
     const double from = value_of(s);
@@ -486,10 +492,10 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void slip_segment(Phase<S>& ph, const StepMotion<S>& m, S& s, SliderStep<S>& out) const {
-    const S opens = contact_change(m, s, true);
+  void slip_segment(Phase<S>& ph, const StepMotion<S>& m, const StepMotion<double>& md, S& s,
+                    SliderStep<S>& out) const {
+    const S opens = contact_change(m, md, s, true);
     const S end = opens <= 1.0 ? opens : S(1.0);
-    const auto md = values(m);
     // Sub-steps from the largest rate kt |u_t'| / (mu N) on the scan points.
     // Sub-steps from the largest rate on the scan points (infinite where N = 0: the most
     // sub-steps, those next to the zero taken by backward Euler).
@@ -581,11 +587,49 @@ class FrictionCircleSlider {
   double mu_;
 };
 
+namespace detail {
+
+// The values of a slider step, in the ABI's layout: force (the normal component 0 unless
+// `writes_normal`), state, and the kinks' locations and jumps.
+template <class S>
+void write_step_values(const SliderStep<S>& r, bool writes_normal, double* force_now,
+                       double* state_now, frichb_force_kinks* kinks) {
+  for (int a = 0; a < 3; ++a)
+    force_now[a] = (a == 2 && !writes_normal) ? 0.0 : value_of(r.force[a]);
+  state_now[0] = value_of(r.slider[0]);
+  state_now[1] = value_of(r.slider[1]);
+  if (kinks == nullptr) return;
+  kinks->count = 0;
+  for (int k = 0; k < r.kink_count && kinks->count < kinks->capacity; ++k, ++kinks->count) {
+    const std::size_t at = kinks->count;
+    kinks->fraction[at] = value_of(r.kinks[k].s);
+    for (std::size_t a = 0; a < 3; ++a)
+      kinks->rate_jump[at * 3 + a] =
+          (a == 2 && !writes_normal) ? 0.0 : value_of(r.kinks[k].rate_jump[a]);
+  }
+}
+
+template <class S>
+StepMotion<S> step_motion(const double* u_prev, const double* u_now,
+                          const frichb_step_motion& motion) {
+  StepMotion<S> m;
+  for (int i = 0; i < 3; ++i) {
+    m.u0[i] = S(u_prev[i]);
+    m.u1[i] = S(u_now[i]);
+    m.v0[i] = S(motion.rate_prev[i]);
+    m.v1[i] = S(motion.rate_now[i]);
+  }
+  return m;
+}
+
+}  // namespace detail
+
 // One step_along of a law whose tangential side is a FrictionCircleSlider (state: the
-// slider, 2 values), for the ABI: value only in doubles; with tangents, the step runs on
-// Dual<14> over the inputs [state_prev (2), u_prev (3), u_now (3), rate_prev (3),
-// rate_now (3)], which fills every tangent block and the kinks' derivatives. `writes_normal`:
-// the law reports its normal force (else force_now[2] = 0, a normal it does not use).
+// slider, 2 values), for the ABI. Value only: in doubles. The state's derivative alone (a
+// monodromy pass): on Dual<2> over the previous state. Every tangent: on Dual<14> over the
+// inputs [state_prev (2), u_prev (3), u_now (3), rate_prev (3), rate_now (3)], which fills
+// every tangent block and the kinks' derivatives. `writes_normal`: the law reports its normal
+// force (else force_now[2] = 0, a normal it does not use).
 template <class Normal>
 void friction_circle_step_along(const FrictionCircleSlider<Normal>& slider, bool writes_normal,
                                 const double* state_prev, const double* u_prev, const double* u_now,
@@ -596,57 +640,20 @@ void friction_circle_step_along(const FrictionCircleSlider<Normal>& slider, bool
   constexpr int kInputs = 14;
   const StepTangents tangent(tangents, 2);
   if (!tangent.wanted() && tangents != nullptr && tangents->dstate_dstate_prev != nullptr) {
-    // The state's derivative alone: two directions.
     using D2 = Dual<2>;
-    StepMotion<D2> m;
-    for (int i = 0; i < 3; ++i) {
-      m.u0[i] = u_prev[i];
-      m.u1[i] = u_now[i];
-      m.v0[i] = motion.rate_prev[i];
-      m.v1[i] = motion.rate_now[i];
-    }
     const auto r = slider.template advance<D2>(
-        {D2::variable(state_prev[0], 0), D2::variable(state_prev[1], 1)}, m);
-    for (int a = 0; a < 3; ++a) force_now[a] = r.force[a].value();
-    if (!writes_normal) force_now[2] = 0.0;
-    for (int k = 0; k < 2; ++k) {
-      state_now[k] = r.slider[k].value();
+        {D2::variable(state_prev[0], 0), D2::variable(state_prev[1], 1)},
+        detail::step_motion<D2>(u_prev, u_now, motion));
+    detail::write_step_values(r, writes_normal, force_now, state_now, kinks);
+    for (int k = 0; k < 2; ++k)
       for (int l = 0; l < 2; ++l)
         tangents->dstate_dstate_prev[k * 2 + l] = r.slider[k].derivative(l);
-    }
-    if (kinks != nullptr) {
-      kinks->count = 0;
-      for (int k = 0; k < r.kink_count && kinks->count < kinks->capacity; ++k, ++kinks->count) {
-        kinks->fraction[kinks->count] = r.kinks[k].s.value();
-        for (int a = 0; a < 3; ++a)
-          kinks->rate_jump[kinks->count * 3 + static_cast<std::size_t>(a)] =
-              (a == 2 && !writes_normal) ? 0.0 : r.kinks[k].rate_jump[a].value();
-      }
-    }
     return;
   }
   if (!tangent.wanted() || motion_tangents == nullptr) {
-    StepMotion<double> m;
-    for (int i = 0; i < 3; ++i) {
-      m.u0[i] = u_prev[i];
-      m.u1[i] = u_now[i];
-      m.v0[i] = motion.rate_prev[i];
-      m.v1[i] = motion.rate_now[i];
-    }
-    const auto r = slider.template advance<double>({state_prev[0], state_prev[1]}, m);
-    for (int a = 0; a < 3; ++a) force_now[a] = r.force[a];
-    if (!writes_normal) force_now[2] = 0.0;
-    state_now[0] = r.slider[0];
-    state_now[1] = r.slider[1];
-    if (kinks != nullptr) {
-      kinks->count = 0;
-      for (int k = 0; k < r.kink_count && kinks->count < kinks->capacity; ++k, ++kinks->count) {
-        kinks->fraction[kinks->count] = r.kinks[k].s;
-        for (int a = 0; a < 3; ++a)
-          kinks->rate_jump[kinks->count * 3 + a] =
-              (a == 2 && !writes_normal) ? 0.0 : r.kinks[k].rate_jump[a];
-      }
-    }
+    const auto r = slider.template advance<double>(
+        {state_prev[0], state_prev[1]}, detail::step_motion<double>(u_prev, u_now, motion));
+    detail::write_step_values(r, writes_normal, force_now, state_now, kinks);
     return;
   }
   using D = Dual<kInputs>;
@@ -659,6 +666,7 @@ void friction_circle_step_along(const FrictionCircleSlider<Normal>& slider, bool
   }
   const auto r =
       slider.template advance<D>({D::variable(state_prev[0], 0), D::variable(state_prev[1], 1)}, m);
+  detail::write_step_values(r, writes_normal, force_now, state_now, kinks);
   tangent.zero();
   auto fu = tangent.dforce_du_now();
   auto fp = tangent.dforce_du_prev();
@@ -667,7 +675,6 @@ void friction_circle_step_along(const FrictionCircleSlider<Normal>& slider, bool
   auto sp = tangent.dstate_du_prev();
   auto ss = tangent.dstate_dstate_prev();
   const int rows = writes_normal ? 3 : 2;
-  for (int a = 0; a < 3; ++a) force_now[a] = a < rows ? r.force[a].value() : 0.0;
   for (int a = 0; a < rows; ++a) {
     for (int i = 0; i < 3; ++i) {
       fp(a, i) = r.force[a].derivative(2 + i);
@@ -678,7 +685,6 @@ void friction_circle_step_along(const FrictionCircleSlider<Normal>& slider, bool
     for (int k = 0; k < 2; ++k) fs(a, k) = r.force[a].derivative(k);
   }
   for (int k = 0; k < 2; ++k) {
-    state_now[k] = r.slider[k].value();
     for (int i = 0; i < 3; ++i) {
       sp(k, i) = r.slider[k].derivative(2 + i);
       su(k, i) = r.slider[k].derivative(5 + i);
@@ -688,22 +694,15 @@ void friction_circle_step_along(const FrictionCircleSlider<Normal>& slider, bool
     for (int l = 0; l < 2; ++l) ss(k, l) = r.slider[k].derivative(l);
   }
   if (kinks == nullptr) return;
-  kinks->count = 0;
-  for (int k = 0; k < r.kink_count && kinks->count < kinks->capacity; ++k, ++kinks->count) {
-    const std::size_t at = kinks->count;
-    kinks->fraction[at] = r.kinks[k].s.value();
-    for (int i = 0; i < kInputs; ++i)
-      if (kinks->dfraction != nullptr)
-        kinks->dfraction[at * kInputs + static_cast<std::size_t>(i)] = r.kinks[k].s.derivative(i);
-    for (int a = 0; a < 3; ++a) {
-      const bool used = a < rows;
-      kinks->rate_jump[at * 3 + static_cast<std::size_t>(a)] =
-          used ? r.kinks[k].rate_jump[a].value() : 0.0;
-      for (int i = 0; i < kInputs && kinks->drate_jump != nullptr; ++i)
+  for (std::size_t at = 0; at < kinks->count; ++at) {
+    const auto& kink = r.kinks[at];
+    for (int i = 0; i < kInputs && kinks->dfraction != nullptr; ++i)
+      kinks->dfraction[at * kInputs + static_cast<std::size_t>(i)] = kink.s.derivative(i);
+    for (int a = 0; a < 3 && kinks->drate_jump != nullptr; ++a)
+      for (int i = 0; i < kInputs; ++i)
         kinks->drate_jump[(at * 3 + static_cast<std::size_t>(a)) * kInputs +
                           static_cast<std::size_t>(i)] =
-            used ? r.kinks[k].rate_jump[a].derivative(i) : 0.0;
-    }
+            a < rows ? kink.rate_jump[static_cast<std::size_t>(a)].derivative(i) : 0.0;
   }
 }
 
