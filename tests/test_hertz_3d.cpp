@@ -161,6 +161,104 @@ TEST(Hertz3d, AnalyticJacobianEqualsCentralDifferencesWithSlipAndSeparation) {
   }
 }
 
+// At zero preload the contact opens while slipping (the stick radius mu N / kt of Hertz
+// vanishes with the penetration), and the opening kink's jump of dT/ds vanishes with it: its
+// derivatives must too, wherever rounding leaves the located opening (p a hair below or above
+// 0). Phases of the normal motion shifted over a sample step move the openings across it.
+TEST(Hertz3d, AnalyticJacobianEqualsCentralDifferencesWhereTheContactOpensInSlip) {
+  auto h = test::make_law("hertz_3d",
+                          "{normal_coefficient: 1.0e9, tangential_coefficient: 2.0e9, mu: 0.5}");
+  HarmonicLayout layout({0, 1, 2, 3, 4, 5}, 128);
+  PeriodicTracer tracer(*h.law, layout);
+  ASSERT_TRUE(tracer.along_motion());
+  double worst = 0;
+  for (int shift = 0; shift < 8; ++shift) {
+    const double phase = 2 * kPi / 128 * shift / 8.0;
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * layout.coefficient_count());
+    u(cos_at(layout, 0, 1)) = 1e-5;
+    u(sin_at(layout, 1, 1)) = 8e-6;
+    u(cos_at(layout, 1, 2)) = 2e-6;
+    u(cos_at(layout, 2, 0)) = -3e-6;
+    u(cos_at(layout, 2, 1)) = 6e-6 * std::cos(phase);
+    u(sin_at(layout, 2, 1)) = 6e-6 * std::sin(phase);
+    u(sin_at(layout, 2, 2)) = 1e-6;
+    ContactTrace t;
+    std::string error;
+    ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+    ASSERT_TRUE(t.periodic);
+    EXPECT_GE(t.kinks, 2) << "shift " << shift;  // at least one opening and one closing
+    const Eigen::MatrixXd fd = central_differences(tracer, u);
+    const double scale = fd.cwiseAbs().maxCoeff();
+    const double err = (t.jacobian - fd).cwiseAbs().maxCoeff() / scale;
+    worst = std::max(worst, err);
+    EXPECT_LT(err, 1e-6) << "shift " << shift;
+  }
+  std::cout << "[ hertz_3d ] opening in slip: max |J - FD| / max |FD| = " << worst << "\n";
+}
+
+// The Hertz force is C1 where the contact opens (N ~ p^2 and kt ~ p in the regularisation,
+// so both T and N and their rates vanish there): the opening kink's jump of dF/ds is 0 for
+// every input, and so are its derivatives. Wherever rounding leaves the located opening (p a
+// hair below 0 or at 0), the step must report them as 0, not the 0/0 of the slip's turning
+// rate mu N a' = mu N kt (u_t' . e_a) / (mu N) evaluated just past contact.
+TEST(Hertz3d, TheOpeningKinkInSlipHasNoJumpAndNoJumpDerivatives) {
+  auto h = test::make_law("hertz_3d",
+                          "{normal_coefficient: 1.0e9, tangential_coefficient: 2.0e9, mu: 0.5}");
+  const ContactLawInstance& law = *h.law;
+  ASSERT_TRUE(law.traces_motion());
+  const double cn = 1e9, ct = 2e9, mu = 0.5, eps = 1e-9;
+  int openings = 0;
+  double worst_jump = 0, worst_derivative = 0;
+  for (int k = 0; k < 200; ++k) {
+    const double p0 = 3e-7, p1 = -4e-7 * (1 + 1e-3 * k);
+    const std::array<double, 3> u_prev{1e-5, 2e-6, p0}, u_now{9e-6, 2.5e-6 + 1e-9 * k, p1};
+    std::array<double, 3> rate_prev{}, rate_now{};
+    for (int i = 0; i < 3; ++i) {
+      rate_prev[i] = 1.1 * (u_now[i] - u_prev[i]);
+      rate_now[i] = 0.9 * (u_now[i] - u_prev[i]);
+    }
+    // The slider on the friction circle, behind u_t against the motion (slipping).
+    const double radius =
+        mu * cn * (std::pow(p0, 1.5) - std::pow(eps, 1.5) / 8) / (ct * std::sqrt(p0));
+    const double dx = u_now[0] - u_prev[0], dy = u_now[1] - u_prev[1], len = std::hypot(dx, dy);
+    const std::array<double, 2> w{u_prev[0] - radius * dx / len, u_prev[1] - radius * dy / len};
+    std::array<double, 3> force{};
+    std::array<double, 2> state{};
+    std::array<double, 9> fu{}, fup{}, mfp{}, mfn{};
+    std::array<double, 6> fs{}, su{}, sup{}, msp{}, msn{};
+    std::array<double, 4> ss{};
+    frichb_step_tangents tangents{fu.data(), fup.data(), fs.data(),
+                                  su.data(), sup.data(), ss.data()};
+    frichb_motion_tangents motion_tangents{mfp.data(), mfn.data(), msp.data(), msn.data()};
+    std::array<double, 4> fraction{};
+    std::array<double, 12> jump{};
+    std::array<double, 4 * 14> dfraction{};
+    std::array<double, 12 * 14> djump{};
+    frichb_force_kinks kinks{4, 0, fraction.data(), jump.data(), dfraction.data(), djump.data()};
+    const frichb_step_motion motion{sizeof(frichb_step_motion), rate_prev.data(), rate_now.data()};
+    std::string error;
+    ASSERT_TRUE(law.step_along(w.data(), u_prev.data(), u_now.data(), motion, force.data(),
+                               state.data(), &tangents, &motion_tangents, &kinks, &error))
+        << error;
+    EXPECT_EQ(force[2], 0.0);  // open at the step's end
+    for (std::size_t q = 0; q < kinks.count; ++q) {
+      ++openings;
+      for (std::size_t a = 0; a < 3; ++a) {
+        worst_jump = std::max(worst_jump, std::abs(jump[q * 3 + a]));
+        for (std::size_t i = 0; i < 14; ++i)
+          worst_derivative = std::max(worst_derivative, std::abs(djump[(q * 3 + a) * 14 + i]));
+      }
+    }
+  }
+  // The force's rates in the step are ~ kt |u'| ~ 1e6 N/m * 1e-6 m = 1 N per step; their
+  // derivatives ~ 1e6 N/m per step.
+  std::cout << "[ hertz_3d ] " << openings << " openings in slip: max |jump| " << worst_jump
+            << " N, max |d jump / d input| " << worst_derivative << "\n";
+  EXPECT_EQ(openings, 200);
+  EXPECT_LT(worst_jump, 1e-9);
+  EXPECT_LT(worst_derivative, 1e-3);
+}
+
 // ---------------------------------------------------------------------------------------
 // Step-level tangents, all six blocks, against central differences of one step, inside the
 // regularisation zone and above it, sticking and slipping.

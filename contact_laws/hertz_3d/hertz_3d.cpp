@@ -13,12 +13,18 @@
 //   slip   |T*| >  mu N : T = mu N T*/|T*|,    w = u_t - T / kt
 //   open   p <= 0      : T = 0, N = 0,         w = u_t   (the slider is released)
 // State: w = (w1, w2), the slider position in the tangential plane, m.
+//
+// step() (the samples alone) advances the slider by the return above, first order in the
+// step. step_along() (ABI 1.2, the host's periodic traces) advances it along the motion
+// between the samples with the SDK's FrictionCircleSlider (the law solved on the step's cubic
+// Hermite motion, its events located inside the step); its tangents come from dual numbers.
 #include <Eigen/Core>
 #include <array>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
 
+#include "frichb/plugin/friction_circle.hpp"
 #include "frichb/plugin/sdk.hpp"
 #include "frichb/plugin/tangents.hpp"
 
@@ -50,6 +56,34 @@ std::vector<frichb_param_spec> hertz_schema() {
   };
 }
 
+// The normal side for the slider: penetration p = p0 + u_n - g, and with the regularised root
+// s(p) (header comment) kt = c_t s, N = c_n * integral of 1.5 s, dN/du_n = 1.5 c_n s.
+struct HertzNormalSide {
+  double cn, ct, gap, p0, eps;
+  template <class S>
+  S closure(const S& un) const {
+    return un + (p0 - gap);
+  }
+  template <class S>
+  frichb::sdk::NormalSide<S> side(const S& un) const {
+    const S pen = closure(un);
+    if (!(pen > 0)) return {S(0.0), S(0.0), S(0.0), S(0.0)};  // open: the law's N = 0, kt = 0
+    const double sqrt_eps = std::sqrt(eps), e15 = eps * sqrt_eps;
+    S root, droot, integral;
+    if (pen >= eps) {
+      using std::sqrt;
+      root = sqrt(pen);
+      droot = 0.5 / root;
+      integral = pen * root - 0.125 * e15;
+    } else {
+      root = 1.5 * pen / sqrt_eps - 0.5 * pen * pen / e15;
+      droot = 1.5 / sqrt_eps - pen / e15;
+      integral = 1.125 * pen * pen / sqrt_eps - 0.25 * pen * pen * pen / e15;
+    }
+    return {cn * integral, 1.5 * cn * root, ct * root, ct * droot};
+  }
+};
+
 class Hertz3d final : public frichb::sdk::ContactLaw {
  public:
   explicit Hertz3d(const frichb::sdk::Params& p)
@@ -59,13 +93,23 @@ class Hertz3d final : public frichb::sdk::ContactLaw {
         gap_(p.real("gap")),
         p0_(p.real("static_penetration")),
         eps_(p.real("regularization")),
-        sqrt_eps_(std::sqrt(eps_)) {
+        sqrt_eps_(std::sqrt(eps_)),
+        slider_(HertzNormalSide{cn_, ct_, gap_, p0_, eps_}, mu_) {
     if (gap_ > 0 && p0_ > 0)
       throw std::invalid_argument("give either gap or static_penetration, not both");
   }
 
   frichb_contact_law_traits traits() const override {
-    return frichb::sdk::make_traits(2, true, 2, true);
+    return frichb::sdk::make_traits(2, true, 2, true, true);
+  }
+
+  void step_along(const double* state_prev, const double* u_prev, const double* u_now,
+                  const frichb_step_motion& motion, double* force_now, double* state_now,
+                  const frichb_step_tangents* tangents,
+                  const frichb_motion_tangents* motion_tangents,
+                  frichb_force_kinks* kinks) const override {
+    frichb::sdk::friction_circle_step_along(slider_, true, state_prev, u_prev, u_now, motion,
+                                            force_now, state_now, tangents, motion_tangents, kinks);
   }
 
   void step(const double* state_prev, const double* /*u_prev*/, const double* u_now,
@@ -157,6 +201,7 @@ class Hertz3d final : public frichb::sdk::ContactLaw {
   }
 
   double cn_, ct_, mu_, gap_, p0_, eps_, sqrt_eps_;
+  frichb::sdk::FrictionCircleSlider<HertzNormalSide> slider_;
 };
 
 }  // namespace

@@ -22,8 +22,9 @@
 // enough sub-steps that kt |u_t'| / (mu N) times a sub-step stays below kMaxRateStep, and by
 // backward Euler in the sub-steps where that product exceeds 1 (next to N = 0, at an opening
 // or a re-contact, where the direction relaxes onto its quasi-steady value at an unbounded
-// rate). Contact resumes unloaded (T = 0, w = u_t): stuck when kt |u_t'| <= mu N', else
-// slipping in the direction of u_t'. The step solves the law on the cubic to about 1e-8 of
+// rate). Contact resumes unloaded (T = 0, w = u_t): stuck when the stuck force just after
+// the contact stays within mu N (kt |u_t'| <= mu N' where kt > 0 at contact), else slipping
+// in the direction of u_t'. The step solves the law on the cubic to about 1e-8 of
 // mu N (measured: 4.4e-8 at a = 100 mu N / kt on a circle, below 1e-9 near the stick limit),
 // so the error of a trace is that of the interpolated motion, fourth order in the spacing,
 // plus the host's quadrature at the kinks.
@@ -111,8 +112,12 @@ struct SliderStep {
 
 // `Normal` provides, for a Scalar normal displacement u_n:
 //   Scalar closure(const Scalar& un) const;      > 0 exactly where N > 0 (m or N: any scale)
-//   NormalSide<Scalar> side(const Scalar& un) const;   where closure > 0
-// and `mu` is the friction coefficient (>= 0).
+//   NormalSide<Scalar> side(const Scalar& un) const;   the closed contact's N, kt
+// and `mu` is the friction coefficient (>= 0). side() is called where closure > 0 and at the
+// located contact changes, where rounding may leave closure a hair below 0: there it returns
+// the closed side's limit at closure = 0 (N = 0; for a law whose kt also vanishes at contact,
+// such as Hertz, all four 0 rather than an extension of its formulas past contact, which can
+// have N > 0 with kt < 0).
 template <class Normal>
 class FrictionCircleSlider {
  public:
@@ -257,7 +262,13 @@ class FrictionCircleSlider {
     const S d0 = u[0] - ph.w[0], d1 = u[1] - ph.w[1];
     const S limit = mu_ * n.normal;
     const S trial = n.stiffness * hypot(d0, d1);
-    if (trial < limit * (1.0 - 1e-12) || !(trial > 0)) {
+    // A slider on the circle (a step that ended in slip) is recomputed here from u - w, which
+    // loses the rounding of u where the circle's radius mu N / kt is tiny next to u (near an
+    // opening): within that rounding the slider counts as on the circle, and lambda decides.
+    const double rounding = 8.0 * std::numeric_limits<double>::epsilon() * value_of(n.stiffness) *
+                            (std::abs(value_of(u[0])) + std::abs(value_of(u[1])) +
+                             std::abs(value_of(ph.w[0])) + std::abs(value_of(ph.w[1])));
+    if (trial < limit * (1.0 - 1e-12) - rounding || !(trial > 0)) {
       ph.mode = Mode::kStick;
       return;
     }
@@ -367,11 +378,13 @@ class FrictionCircleSlider {
       return {kt_rate * (u[0] - w[0]) + n.stiffness * v[0],
               kt_rate * (u[1] - w[1]) + n.stiffness * v[1], normal_rate};
     }
-    const S a_rate = angle_rate(m, s, angle);
-    const S limit = mu_ * n.normal;
+    // dT/ds = mu N' e + mu N a' e_a, with mu N a' = kt (u_t' . e_a) taken without the
+    // division by N (its derivatives stay finite as N -> 0). At N = 0 the direction has
+    // relaxed onto u_t' (its rate is unbounded there), and the term is 0, its limit.
     const S c = cos(angle), sn = sin(angle);
-    return {mu_ * normal_rate * c - limit * sn * a_rate,
-            mu_ * normal_rate * sn + limit * c * a_rate, normal_rate};
+    const S turning = n.normal > 0 ? n.stiffness * (c * v[1] - sn * v[0]) : S(0.0);
+    return {mu_ * normal_rate * c - sn * turning, mu_ * normal_rate * sn + c * turning,
+            normal_rate};
   }
 
   template <class S>
@@ -386,14 +399,19 @@ class FrictionCircleSlider {
     const auto u = m.position(s);
     ph.w = {u[0], u[1]};
     // Contact resumes unloaded: T = 0 and mu N = 0. It sticks when the stuck force grows
-    // slower than the friction limit, kt |u_t'| <= mu N'; else it slips from the start, in
-    // the direction of u_t' (the one bounded solution of the direction's equation, whose
-    // rate kt / (mu N) is infinite there).
+    // slower than the friction limit; else it slips from the start, in the direction of u_t'
+    // (the one bounded solution of the direction's equation, whose rate kt / (mu N) is
+    // infinite there). Both grow from 0 at the same order in s - s_c (kt |u_t'| against mu N'
+    // where kt > 0 at contact; where kt vanishes with N, as for Hertz, at higher orders), so
+    // they are compared just after the contact, at s_c + 1e-6 (1 - s_c), on the stuck offset
+    // u_t(s) - u_t(s_c) taken without cancellation.
+    const double sc = value_of(s), after = sc + 1e-6 * (1.0 - sc);
+    const auto md_offset = md.between(sc, after);
+    const auto n_after = normal_.side(md.position(after)[2]);
+    const double stuck_force = value_of(n_after.stiffness) * std::hypot(md_offset[0], md_offset[1]);
+    const double limit_after = mu_ * value_of(n_after.normal);
     const auto v = m.rate(s);
-    const auto n = normal_.side(u[2]);
-    const S tangential_rate = n.stiffness * hypot(v[0], v[1]);
-    const S limit_rate = mu_ * n.dnormal * v[2];
-    if (tangential_rate > limit_rate) {
+    if (stuck_force > limit_after) {
       ph.mode = Mode::kSlip;
       ph.from_contact = false;
       ph.angle = atan2(v[1], v[0]);
