@@ -84,5 +84,23 @@ TEST(Aft, ProjectionDropsHarmonicsNotKept) {
   EXPECT_NEAR(c(3), -0.5, 1e-13);
 }
 
+// The Hurwitz zeta function against its closed forms at non-positive integers,
+// zeta(-n, a) = -B_{n+1}(a) / (n + 1), the Riemann value zeta(-3/2) and the recurrence
+// zeta(s, a) = a^(-s) + zeta(s, a + 1) at the fractional orders the onset correction uses.
+TEST(HurwitzZeta, MeetsItsClosedFormsAndRecurrence) {
+  for (double a : {0.0, 0.1, 0.37, 0.5, 0.9, 1.0}) {
+    EXPECT_NEAR(hurwitz_zeta(0.0, a), a == 0.0 ? -0.5 : 0.5 - a, 1e-13) << a;
+    EXPECT_NEAR(hurwitz_zeta(-1.0, a), -(a * a - a + 1.0 / 6) / 2, 1e-13) << a;
+    EXPECT_NEAR(hurwitz_zeta(-2.0, a), -(a * a * a - 1.5 * a * a + 0.5 * a) / 3, 1e-13) << a;
+  }
+  EXPECT_NEAR(hurwitz_zeta(-1.5, 1.0), -0.025485201889833036, 1e-13);
+  EXPECT_NEAR(hurwitz_zeta(-0.5, 1.0), -0.207886224977354566, 1e-13);
+  EXPECT_NEAR(hurwitz_zeta(-1.5, 0.0), hurwitz_zeta(-1.5, 1.0), 1e-13);
+  for (double a : {0.05, 0.3, 0.77})
+    for (double s : {-1.5, -0.5, -2.5})
+      EXPECT_NEAR(hurwitz_zeta(s, a), std::pow(a, -s) + hurwitz_zeta(s, a + 1.0), 1e-12)
+          << "s " << s << " a " << a;
+}
+
 }  // namespace
 }  // namespace frichb::core

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <numbers>
 #include <random>
@@ -89,8 +90,10 @@ TEST_P(HertzNormalForce, IsCoefficientTimesPenetrationToTheThreeHalves) {
   const double n_ref = c.p0 > 0 ? hertz_normal(cn, eps, c.p0) : 0.0;
   EXPECT_NEAR(tracer.reference_force()(2), n_ref, 1e-12 * n_ref);
   EXPECT_EQ(tracer.reference_force().head<2>().norm(), 0.0);
+  // The mean coefficient is the samples' mean less the reference, up to the quadrature's
+  // corrections at the contact changes (docs/theory.md, "Onsets"; 1e-5 to 6e-5 of the mean here).
   const double mean_n = t.force.col(2).mean();
-  EXPECT_NEAR(t.force_coefficients(cos_at(layout, 2, 0)), mean_n - n_ref, 1e-12 * mean_n);
+  EXPECT_NEAR(t.force_coefficients(cos_at(layout, 2, 0)), mean_n - n_ref, 1e-4 * mean_n);
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -234,7 +237,20 @@ TEST(Hertz3d, TheOpeningKinkInSlipHasNoJumpAndNoJumpDerivatives) {
     std::array<double, 12> jump{};
     std::array<double, 4 * 14> dfraction{};
     std::array<double, 12 * 14> djump{};
-    frichb_force_kinks kinks{4, 0, fraction.data(), jump.data(), dfraction.data(), djump.data()};
+    std::array<double, 12> onset{};
+    std::array<double, 4> onset_power{}, onset_side{};
+    std::array<double, 12 * 14> donset{};
+    frichb_force_kinks kinks{sizeof(frichb_force_kinks),
+                             4,
+                             0,
+                             fraction.data(),
+                             jump.data(),
+                             dfraction.data(),
+                             djump.data(),
+                             onset.data(),
+                             onset_power.data(),
+                             onset_side.data(),
+                             donset.data()};
     const frichb_step_motion motion{sizeof(frichb_step_motion), rate_prev.data(), rate_now.data()};
     std::string error;
     ASSERT_TRUE(law.step_along(w.data(), u_prev.data(), u_now.data(), motion, force.data(),
@@ -257,6 +273,68 @@ TEST(Hertz3d, TheOpeningKinkInSlipHasNoJumpAndNoJumpDerivatives) {
   EXPECT_EQ(openings, 200);
   EXPECT_LT(worst_jump, 1e-9);
   EXPECT_LT(worst_derivative, 1e-3);
+}
+
+// The normal force of a contact that closes and opens, N = c_n p^1.5 with p = a cos(theta -
+// phi) - g, against its Fourier integrals (independent: the substitution theta - phi =
+// +-(theta_c - tau^2) makes the integrand smooth at the contact points, then Simpson's rule
+// on 20000 intervals). N is C1 where the contact changes: the samples' trapezoidal sum errs
+// there by a term of order h^2.5 that oscillates as the contact point moves across a sample,
+// which the onsets the law reports remove; what is left is of order h^3.5.
+TEST(Hertz3d, NormalForceHarmonicsOfAClosingGapMeetTheirIntegralsAtAnyPhase) {
+  const double cn = 1e8, gap = 5e-5, a = 3.3e-4;
+  auto h = test::make_law("hertz_3d",
+                          "{normal_coefficient: 1.0e8, tangential_coefficient: 2.0e8, mu: 0.0, "
+                          "gap: 5.0e-5, regularization: 1.0e-12}");
+  const std::vector<int> harmonics{0, 1, 2, 3, 4, 5};
+  const double theta_c = std::acos(gap / a);
+  // Coefficients of N for phase phi = 0 (cosine series: N is even in theta).
+  std::vector<double> exact(harmonics.size());
+  const int intervals = 20000;
+  const double top = std::sqrt(theta_c);
+  for (std::size_t k = 0; k < harmonics.size(); ++k) {
+    double sum = 0;
+    for (int i = 0; i <= intervals; ++i) {
+      const double tau = top * i / intervals, x = theta_c - tau * tau;
+      const double p = std::max(0.0, a * std::cos(x) - gap);
+      const double f = 2 * cn * p * std::sqrt(p) * std::cos(harmonics[k] * x) * 2 * tau;
+      sum += f * (i == 0 || i == intervals ? 1 : (i % 2 ? 4 : 2));
+    }
+    const double integral = sum * top / intervals / 3;
+    exact[k] = integral / (harmonics[k] == 0 ? 2 * kPi : kPi);
+  }
+  const double largest = std::abs(exact[1]);
+  auto worst_error = [&](int samples, int shifts) {
+    HarmonicLayout layout(harmonics, samples);
+    PeriodicTracer tracer(*h.law, layout);
+    double worst = 0;
+    for (int q = 0; q < shifts; ++q) {
+      const double phi = 2 * kPi / samples * q / shifts;
+      Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * layout.coefficient_count());
+      u(cos_at(layout, 2, 1)) = a * std::cos(phi);
+      u(sin_at(layout, 2, 1)) = a * std::sin(phi);
+      ContactTrace t;
+      std::string error;
+      EXPECT_TRUE(tracer.trace(u, JacobianMode::kNone, t, &error)) << error;
+      for (std::size_t k = 0; k < harmonics.size(); ++k) {
+        const int n = harmonics[k];
+        const double c = exact[k] * std::cos(n * phi), sn = exact[k] * std::sin(n * phi);
+        worst = std::max(worst, std::abs(t.force_coefficients(cos_at(layout, 2, n)) - c));
+        if (n > 0)
+          worst = std::max(worst, std::abs(t.force_coefficients(sin_at(layout, 2, n)) - sn));
+      }
+    }
+    return worst / largest;
+  };
+  const double e64 = worst_error(64, 1), e128 = worst_error(128, 1), e256 = worst_error(256, 8),
+               e512 = worst_error(512, 1);
+  const double order = std::log2(e64 / e512) / 3;
+  std::printf(
+      "[ hertz_3d ] closing gap, N harmonics against their integrals: 64 %.2e, 128 %.2e, "
+      "256 %.2e (8 phases), 512 %.2e; order %.2f\n",
+      e64, e128, e256, e512, order);
+  EXPECT_LT(e256, 5e-7);
+  EXPECT_GT(order, 3.0);
 }
 
 // ---------------------------------------------------------------------------------------

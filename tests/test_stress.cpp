@@ -255,7 +255,9 @@ TEST(Stress, HertzAtZeroPreloadConvergesToTimeIntegration) {
                                       }) /
                                     reference -
                                 1);
-    EXPECT_LT(e12, 0.005) << hz << " Hz";
+    std::cout << "[ hertz_zero_preload ] " << hz << " Hz: off time integration by " << e5
+              << " with H = 5, " << e12 << " with H = 12\n";
+    EXPECT_LT(e12, 1e-4) << hz << " Hz";
     EXPECT_LT(e12, e5) << hz << " Hz";
   }
 }
@@ -572,9 +574,9 @@ TEST(Stress, FineControlLocatesTheFoldsOfAClosingGap) {
   const auto [with, with_folds] = timed("with fine control", {});
   const auto [without, without_folds] =
       timed("without", [](YAML::Node& d) { d["continuation"]["turning_point_control"] = false; });
-  // Two folds: the top of the bent resonance and the bottom of its unstable branch. The
-  // sampled contact force may fold the curve a few more times within 1e-3 Hz of the top
-  // (micro-folds of the time grid); the top fold is the highest, the bottom the lowest.
+  // Two folds: the top of the bent resonance and the bottom of its unstable branch, and no
+  // others (micro-folds of the time grid): the Hertz force's onsets where the gap closes and
+  // opens are corrected in the quadrature (docs/theory.md, "Onsets").
   auto top = [](const std::vector<double>& f) { return *std::max_element(f.begin(), f.end()); };
   auto bottom = [](const std::vector<double>& f) { return *std::min_element(f.begin(), f.end()); };
   for (const auto* f : {&fine_folds, &with_folds, &without_folds}) {
@@ -593,18 +595,31 @@ TEST(Stress, FineControlLocatesTheFoldsOfAClosingGap) {
   EXPECT_GT(with.summary.value("fine_control_restarts", 0), 0);
   EXPECT_EQ(without.summary.value("fine_control_restarts", 0), 0);
   // summary.json lists the turning points; those within 0.3 Hz (1e-3 of the span) of the
-  // next one are micro-folds. With 128 samples the time grid folds the top many times.
+  // next one are micro-folds: none, at 1024 samples and at 128.
   EXPECT_EQ(with.summary["turning_point_frequencies"].size(), with_folds.size());
   EXPECT_EQ(with.summary.value("micro_folds", -1), 0);
-  EXPECT_EQ(fine.summary.value("micro_folds", -1), static_cast<int>(fine_folds.size()) - 1);
+  EXPECT_EQ(fine.summary.value("micro_folds", -1), 0);
+  EXPECT_EQ(fine_folds.size(), 2u);
   const auto [coarse, coarse_folds] = timed(
       "128 samples", [](YAML::Node& d) { d["harmonic_balance"]["samples_per_period"] = 128; });
-  EXPECT_GE(coarse.summary.value("micro_folds", 0), 4);
-  EXPECT_NEAR(top(coarse_folds), top(fine_folds), 0.1);
+  EXPECT_EQ(coarse.summary.value("micro_folds", -1), 0);
+  EXPECT_EQ(coarse_folds.size(), 2u);
+  EXPECT_NEAR(top(coarse_folds), top(fine_folds), 1e-3);
+  EXPECT_NEAR(bottom(coarse_folds), bottom(fine_folds), 1e-3);
   // The Newton matrix's condition estimate is reported, finite and at least 1.
   EXPECT_GE(with.summary["newton_condition"].value("max", 0.0), 1.0);
   // Below the lower fold the curve is single-valued and the gap closes every period: there
-  // harmonic balance agrees with time integration.
+  // harmonic balance agrees with time integration. The point at 395 Hz ends a sweep from
+  // 370 Hz (Newton from the contact-free response does not converge at 395 Hz itself, where
+  // the gap closes over a quarter of the period).
   const double hz = 395.0;
-  EXPECT_NEAR(hb_at(file, hz) / timesim_amplitude(bound(file), hz), 1.0, 0.01);
+  const Curve below = run(bound(file,
+                                [hz](YAML::Node& d) {
+                                  d["continuation"]["frequency"]["from"] = 370.0;
+                                  d["continuation"]["frequency"]["to"] = hz;
+                                }),
+                          dir, "below");
+  ASSERT_EQ(below.outcome.exit_code, kExitOk) << below.outcome.message;
+  ASSERT_DOUBLE_EQ(below.hz.back(), hz);
+  EXPECT_NEAR(below.amplitude.back() / timesim_amplitude(bound(file), hz), 1.0, 0.01);
 }

@@ -60,6 +60,23 @@ std::vector<frichb_param_spec> hertz_schema() {
 // s(p) (header comment) kt = c_t s, N = c_n * integral of 1.5 s, dN/du_n = 1.5 c_n s.
 struct HertzNormalSide {
   double cn, ct, gap, p0, eps;
+  // At a contact change crossed at the normal rate v (m per step) the penetration grows as
+  // |v| |s - s_c|: N ~ c_n |v|^1.5 |s - s_c|^1.5 and kt ~ c_t |v|^0.5 |s - s_c|^0.5 (the
+  // regularisation below eps is a part 1e-4 of a step wide at these rates; its effect on the
+  // quadrature is of the order of c_n eps^1.5).
+  static constexpr double kOnsetPower = 1.5;
+  template <class S>
+  S normal_onset(const S& rate) const {
+    using std::sqrt;
+    const S speed = rate > 0 ? rate : S(0.0) - rate;
+    return speed > 0 ? cn * speed * sqrt(speed) : S(0.0);
+  }
+  template <class S>
+  S stiffness_onset(const S& rate) const {
+    using std::sqrt;
+    const S speed = rate > 0 ? rate : S(0.0) - rate;
+    return speed > 0 ? ct * sqrt(speed) : S(0.0);
+  }
   template <class S>
   S closure(const S& un) const {
     return un + (p0 - gap);

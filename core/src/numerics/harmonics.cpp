@@ -20,6 +20,24 @@ std::mutex& fftw_planner_mutex() {
 
 const char* const kContactAxisNames[3] = {"t1", "t2", "n"};
 
+double hurwitz_zeta(double s, double a) {
+  constexpr int kTerms = 10;
+  double sum = 0;
+  for (int n = 0; n < kTerms; ++n) sum += n + a > 0 ? std::pow(n + a, -s) : 0.0;
+  const double x = kTerms + a;
+  sum += std::pow(x, 1 - s) / (s - 1) + 0.5 * std::pow(x, -s);
+  // B_2k / (2k)! s (s + 1) ... (s + 2k - 2) x^(-s - 2k + 1), k = 1..6.
+  constexpr double kBernoulli[] = {1.0 / 6,   -1.0 / 30, 1.0 / 42,
+                                   -1.0 / 30, 5.0 / 66,  -691.0 / 2730};
+  double factorial = 1, rising = 1;
+  for (int k = 1; k <= 6; ++k) {
+    factorial *= (2.0 * k - 1) * (2.0 * k);
+    rising *= k == 1 ? s : (s + 2 * k - 3) * (s + 2 * k - 2);
+    sum += kBernoulli[k - 1] / factorial * rising * std::pow(x, -s - 2 * k + 1);
+  }
+  return sum;
+}
+
 std::string sampling_violation(int samples, double max_harmonic) {
   const double needed = min_samples_per_period(max_harmonic);
   if (samples >= needed) return {};

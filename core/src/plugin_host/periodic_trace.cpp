@@ -86,13 +86,21 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
   const int inputs = s + 12;
   std::vector<double> kink_fraction(kMaxKinksPerStep), kink_jump(3 * kMaxKinksPerStep),
       kink_dfraction(derivative ? kMaxKinksPerStep * static_cast<std::size_t>(inputs) : 0),
-      kink_djump(derivative ? 3 * kMaxKinksPerStep * static_cast<std::size_t>(inputs) : 0);
-  frichb_force_kinks kink_buffer{kMaxKinksPerStep,
+      kink_djump(derivative ? 3 * kMaxKinksPerStep * static_cast<std::size_t>(inputs) : 0),
+      kink_onset(3 * kMaxKinksPerStep), kink_onset_power(kMaxKinksPerStep),
+      kink_onset_side(kMaxKinksPerStep),
+      kink_donset(derivative ? 3 * kMaxKinksPerStep * static_cast<std::size_t>(inputs) : 0);
+  frichb_force_kinks kink_buffer{sizeof(frichb_force_kinks),
+                                 kMaxKinksPerStep,
                                  0,
                                  kink_fraction.data(),
                                  kink_jump.data(),
                                  derivative ? kink_dfraction.data() : nullptr,
-                                 derivative ? kink_djump.data() : nullptr};
+                                 derivative ? kink_djump.data() : nullptr,
+                                 kink_onset.data(),
+                                 kink_onset_power.data(),
+                                 kink_onset_side.data(),
+                                 derivative ? kink_donset.data() : nullptr};
   if (kinks != nullptr) kinks->clear();
   Eigen::MatrixXd dnext, mnext;
   double u_now[3], u_prev[3], v_now[3], v_prev[3], f[3];
@@ -125,6 +133,7 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
     if (along_) {
       const frichb_step_motion step_motion{sizeof(frichb_step_motion), v_prev, v_now};
       kink_buffer.count = 0;
+      std::fill(kink_onset_power.begin(), kink_onset_power.end(), 0.0);
       const frichb_step_tangents* wanted =
           derivative ? &tangents : (tangents_wanted ? &state_tangent : nullptr);
       if (!law_.step_along(state.data(), u_prev, u_now, step_motion, f, next.data(), wanted,
@@ -142,6 +151,12 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
         kink.fraction = kink_fraction[k];
         kink.jump.resize(d);
         for (int a = 0; a < d; ++a) kink.jump(a) = kink_jump[3 * k + components_[a]];
+        kink.onset_power = kink_onset_power[k];
+        kink.onset_side = kink_onset_side[k];
+        if (kink.onset_power > 0) {
+          kink.onset.resize(d);
+          for (int a = 0; a < d; ++a) kink.onset(a) = kink_onset[3 * k + components_[a]];
+        }
         if (derivative) {
           // Chain rule as for the force below, from the step's inputs to the unknowns.
           auto chain = [&](const double* di) {
@@ -161,6 +176,13 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
             kink.djump.row(a) =
                 chain(kink_djump.data() + (3 * k + static_cast<std::size_t>(components_[a])) *
                                               static_cast<std::size_t>(inputs));
+          if (kink.onset_power > 0) {
+            kink.donset.resize(d, unknown_count());
+            for (int a = 0; a < d; ++a)
+              kink.donset.row(a) =
+                  chain(kink_donset.data() + (3 * k + static_cast<std::size_t>(components_[a])) *
+                                                 static_cast<std::size_t>(inputs));
+          }
         }
         kinks->push_back(std::move(kink));
       }
@@ -368,6 +390,25 @@ void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen
           0.5 * h * jump * weight.cwiseProduct(db2 * g + b2 * h * dg);
       out.jacobian.middleRows(a * c, c) +=
           0.5 * h * b2 * weight.cwiseProduct(g) * kink.djump.row(a) + along_sigma * kink.dfraction;
+    }
+    if (!(kink.onset_power > 0)) continue;
+    // The onset F ~ A |s - s*|^p on one side: the trapezoidal sum errs by h A zeta(-p, a) g(theta*)
+    // per unit weight, a the distance in steps from the kink to the first sample on that side
+    // (after it for a closing, before it for an opening); the coefficients gain its opposite.
+    const double p_onset = kink.onset_power;
+    const bool after = kink.onset_side > 0;
+    const double distance = after ? 1.0 - sigma : sigma;
+    const double zeta = hurwitz_zeta(-p_onset, distance);
+    const double dzeta_dsigma =
+        (after ? -1.0 : 1.0) * p_onset * hurwitz_zeta(1.0 - p_onset, distance);
+    for (int a = 0; a < d; ++a) {
+      const double onset = kink.onset(a);
+      out.force_coefficients.segment(a * c, c) -= h * onset * zeta * weight.cwiseProduct(g);
+      if (!dforce) continue;
+      const Eigen::VectorXd along_sigma =
+          h * onset * weight.cwiseProduct(dzeta_dsigma * g + zeta * h * dg);
+      out.jacobian.middleRows(a * c, c) -=
+          h * zeta * weight.cwiseProduct(g) * kink.donset.row(a) + along_sigma * kink.dfraction;
     }
   }
 }

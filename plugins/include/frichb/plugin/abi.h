@@ -170,16 +170,28 @@ typedef struct frichb_motion_tangents {
  * assumes smoothness corrects it there. The law writes at most `capacity` kinks and sets
  * `count`. With tangents, it also writes each kink's derivatives with respect to the step's
  * inputs, in the order [state_prev (S), u_prev (3), u_now (3), rate_prev (3), rate_now (3)],
- * I = S + 12 of them: dfraction[k * I + i] and drate_jump[(k * 3 + a) * I + i]; without
- * tangents those two pointers are NULL.
+ * I = S + 12 of them: dfraction[k * I + i], drate_jump[(k * 3 + a) * I + i] and
+ * donset[(k * 3 + a) * I + i]; without tangents those pointers are NULL.
+ *
+ * An onset: a force that starts from a kink like a power of the distance from it,
+ * F ~ onset |s - s*|^p on one side only (a Hertz contact closing or opening: N ~ c_n p^1.5),
+ * which no rate jump describes (its rate is continuous, 0 at s*) but which bends the
+ * trapezoidal sum as h^(p+1). The law sets onset_power[k] = p (> 1) and onset_side[k] = +1 for
+ * s > s* (a closing), -1 for s < s* (an opening), or onset_power[k] = 0 for none. A law reads
+ * struct_size before writing the onset (hosts built before it have no such fields).
  */
 typedef struct frichb_force_kinks {
+  size_t struct_size;
   size_t capacity;
   size_t count;
   double* fraction;  /* s of each kink, in [0, 1] */
   double* rate_jump; /* 3 per kink: (dforce/ds after) - (before), N per step */
   double* dfraction;
   double* drate_jump;
+  double* onset;       /* 3 per kink: the coefficient, N per step^p */
+  double* onset_power; /* 1 per kink: p, or 0 for no onset */
+  double* onset_side;  /* 1 per kink: +1 (after s*) or -1 (before s*) */
+  double* donset;
 } frichb_force_kinks;
 
 typedef struct frichb_contact_law_api {

@@ -43,6 +43,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 
 #include "frichb/plugin/abi.h"
@@ -94,11 +95,16 @@ struct NormalSide {
 };
 
 // One location inside a step where the force's rate jumps: s in [0, 1] and
-// (dF/ds after) - (dF/ds before), (T1, T2, N), N.
+// (dF/ds after) - (dF/ds before), (T1, T2, N), N. At a contact change of a Normal with an
+// onset (below), also the onset: F ~ onset |s - s*|^onset_power on the closed side
+// (onset_side +1: after s*, a closing; -1: before, an opening); onset_power 0: none.
 template <class S>
 struct ForceKink {
   S s{0.0};
   std::array<S, 3> rate_jump{S(0.0), S(0.0), S(0.0)};
+  std::array<S, 3> onset{S(0.0), S(0.0), S(0.0)};
+  double onset_power = 0.0;
+  double onset_side = 0.0;
 };
 
 template <class S>
@@ -113,8 +119,14 @@ struct SliderStep {
 // `Normal` provides, for a Scalar normal displacement u_n:
 //   Scalar closure(const Scalar& un) const;      > 0 exactly where N > 0 (m or N: any scale)
 //   NormalSide<Scalar> side(const Scalar& un) const;   the closed contact's N, kt
-// and `mu` is the friction coefficient (>= 0). side() is called where closure > 0 and at the
-// located contact changes, where rounding may leave closure a hair below 0: there it returns
+// and `mu` is the friction coefficient (>= 0). Optionally, for a contact whose N and kt
+// vanish at contact like powers of the penetration d (Hertz: N ~ c_n d^1.5, kt ~ c_t d^0.5):
+//   static constexpr double kOnsetPower = p;                 N ~ d^p, kt ~ d^(p - 1)
+//   Scalar normal_onset(const Scalar& un_rate) const;        N ~ normal_onset |s - s_c|^p
+//   Scalar stiffness_onset(const Scalar& un_rate) const;     kt ~ stiffness_onset |s - s_c|^(p-1)
+// for a contact change at s_c crossed at the normal rate un_rate (du_n/ds): the kinks of the
+// contact changes then carry the force's onset (ForceKink). side() is called where closure > 0 and
+// at the located contact changes, where rounding may leave closure a hair below 0: there it returns
 // the closed side's limit at closure = 0 (N = 0; for a law whose kt also vanishes at contact,
 // such as Hertz, all four 0 rather than an extension of its formulas past contact, which can
 // have N > 0 with kt < 0).
@@ -199,7 +211,8 @@ class FrictionCircleSlider {
       if (!(change <= 1.0)) break;
       s = change;
       const S rate = normal_.side(m.position(s)[2]).dnormal * m.rate(s)[2];
-      add_kink(out, s, {S(0.0), S(0.0), closed ? S(0.0) - rate : rate});
+      add_onset(add_kink(out, s, {S(0.0), S(0.0), closed ? S(0.0) - rate : rate}), m, s, !closed,
+                false, S(0.0));
       closed = !closed;
     }
     const auto u = m.position(S(1.0));
@@ -355,10 +368,40 @@ class FrictionCircleSlider {
         root, [&](const S& x) { return normal_.closure(m.position(x)[2]); }, g);
   }
 
+  // Appends a kink; nullptr when the step's kinks are full.
   template <class S>
-  static void add_kink(SliderStep<S>& out, const S& s, const std::array<S, 3>& jump) {
-    if (out.kink_count >= SliderStep<S>::kMaxKinks) return;
-    out.kinks[static_cast<std::size_t>(out.kink_count++)] = ForceKink<S>{s, jump};
+  static ForceKink<S>* add_kink(SliderStep<S>& out, const S& s, const std::array<S, 3>& jump) {
+    if (out.kink_count >= SliderStep<S>::kMaxKinks) return nullptr;
+    auto& kink = out.kinks[static_cast<std::size_t>(out.kink_count++)];
+    kink = ForceKink<S>{};
+    kink.s = s;
+    kink.rate_jump = jump;
+    return &kink;
+  }
+  // The force's onset at a contact change at s (closing: the contact closed after s; else
+  // opening: closed before s), for a Normal that declares one: N ~ normal_onset |s - s_c|^p;
+  // slipping, T = mu N (cos a, sin a); stuck from a closing, T = kt (u_t(s) - u_t(s_c)) ~
+  // stiffness_onset u_t' |s - s_c|^p; stuck at an opening the offset vanishes with kt (the
+  // stick radius mu N / kt ~ d shrinks to 0), so T has no term of order p; mu = 0: T = 0.
+  template <class S>
+  void add_onset(ForceKink<S>* kink, const StepMotion<S>& m, const S& s, bool closing,
+                 bool slipping, const S& angle) const {
+    if constexpr (requires { Normal::kOnsetPower; }) {
+      if (kink == nullptr) return;
+      const auto v = m.rate(s);
+      const S normal = normal_.normal_onset(v[2]);
+      kink->onset = {S(0.0), S(0.0), normal};
+      if (slipping) {
+        kink->onset[0] = mu_ * normal * cos(angle);
+        kink->onset[1] = mu_ * normal * sin(angle);
+      } else if (closing && mu_ > 0) {
+        const S stiffness = normal_.stiffness_onset(v[2]);
+        kink->onset[0] = stiffness * v[0];
+        kink->onset[1] = stiffness * v[1];
+      }
+      kink->onset_power = Normal::kOnsetPower;
+      kink->onset_side = closing ? 1.0 : -1.0;
+    }
   }
   template <class S>
   static std::array<S, 3> difference(const std::array<S, 3>& a, const std::array<S, 3>& b) {
@@ -415,13 +458,14 @@ class FrictionCircleSlider {
       ph.mode = Mode::kSlip;
       ph.from_contact = false;
       ph.angle = atan2(v[1], v[0]);
-      add_kink(out, s, closed_rate(m, s, true, ph.w, ph.angle));
+      add_onset(add_kink(out, s, closed_rate(m, s, true, ph.w, ph.angle)), m, s, true, true,
+                ph.angle);
       return;
     }
     ph.mode = Mode::kStick;
     ph.from_contact = true;
     ph.contact_s = s;
-    add_kink(out, s, closed_rate(m, s, false, ph.w, S(0.0)));
+    add_onset(add_kink(out, s, closed_rate(m, s, false, ph.w, S(0.0))), m, s, true, false, S(0.0));
   }
 
   template <class S>
@@ -455,8 +499,10 @@ class FrictionCircleSlider {
     }
     if (opens <= 1.0) {
       s = opens;
-      add_kink(out, s,
-               difference({S(0.0), S(0.0), S(0.0)}, closed_rate(m, s, false, ph.w, S(0.0))));
+      add_onset(
+          add_kink(out, s,
+                   difference({S(0.0), S(0.0), S(0.0)}, closed_rate(m, s, false, ph.w, S(0.0)))),
+          m, s, false, false, S(0.0));
       ph.mode = Mode::kOpen;
       return;
     }
@@ -550,8 +596,10 @@ class FrictionCircleSlider {
       ph.angle = next;
     }
     if (end < 1.0) {
-      add_kink(out, s,
-               difference({S(0.0), S(0.0), S(0.0)}, closed_rate(m, s, true, ph.w, ph.angle)));
+      add_onset(
+          add_kink(out, s,
+                   difference({S(0.0), S(0.0), S(0.0)}, closed_rate(m, s, true, ph.w, ph.angle))),
+          m, s, false, true, ph.angle);
       ph.mode = Mode::kOpen;
       return;
     }
@@ -607,6 +655,12 @@ class FrictionCircleSlider {
 
 namespace detail {
 
+// True when the host's kink buffer has the onset fields (ABI 1.2 with onsets) and passed them.
+inline bool has_onsets(const frichb_force_kinks& kinks) {
+  return kinks.struct_size >= offsetof(frichb_force_kinks, donset) + sizeof(double*) &&
+         kinks.onset != nullptr && kinks.onset_power != nullptr && kinks.onset_side != nullptr;
+}
+
 // The values of a slider step, in the ABI's layout: force (the normal component 0 unless
 // `writes_normal`), state, and the kinks' locations and jumps.
 template <class S>
@@ -624,6 +678,11 @@ void write_step_values(const SliderStep<S>& r, bool writes_normal, double* force
     for (std::size_t a = 0; a < 3; ++a)
       kinks->rate_jump[at * 3 + a] =
           (a == 2 && !writes_normal) ? 0.0 : value_of(r.kinks[k].rate_jump[a]);
+    if (!has_onsets(*kinks)) continue;
+    kinks->onset_power[at] = r.kinks[k].onset_power;
+    kinks->onset_side[at] = r.kinks[k].onset_side;
+    for (std::size_t a = 0; a < 3; ++a)
+      kinks->onset[at * 3 + a] = (a == 2 && !writes_normal) ? 0.0 : value_of(r.kinks[k].onset[a]);
   }
 }
 
@@ -721,6 +780,12 @@ void friction_circle_step_along(const FrictionCircleSlider<Normal>& slider, bool
         kinks->drate_jump[(at * 3 + static_cast<std::size_t>(a)) * kInputs +
                           static_cast<std::size_t>(i)] =
             a < rows ? kink.rate_jump[static_cast<std::size_t>(a)].derivative(i) : 0.0;
+    if (!detail::has_onsets(*kinks) || kinks->donset == nullptr) continue;
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < kInputs; ++i)
+        kinks->donset[(at * 3 + static_cast<std::size_t>(a)) * kInputs +
+                      static_cast<std::size_t>(i)] =
+            a < rows ? kink.onset[static_cast<std::size_t>(a)].derivative(i) : 0.0;
   }
 }
 

@@ -111,6 +111,10 @@ class PeriodicTracer {
     Eigen::VectorXd jump;          // d
     Eigen::RowVectorXd dfraction;  // d*C
     Eigen::MatrixXd djump;         // d x d*C
+    // The force's onset at the kink (frichb_force_kinks): power 0 for none.
+    double onset_power = 0, onset_side = 0;
+    Eigen::VectorXd onset;   // d
+    Eigen::MatrixXd donset;  // d x d*C
   };
   void sample_motion(const Eigen::VectorXd& u_coefficients, ContactTrace& out);
   bool run_passes(ContactTrace& out, bool with_derivative, std::string* error);
