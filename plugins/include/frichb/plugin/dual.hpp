@@ -62,7 +62,7 @@ class Dual {
   }
   Dual& operator/=(const Dual& o) {
     const double inv = 1.0 / o.value_;
-    value_ *= inv;
+    value_ /= o.value_;  // a true division: the value is bitwise the double code's
     for (int i = 0; i < N; ++i) derivative_[i] = (derivative_[i] - value_ * o.derivative_[i]) * inv;
     return *this;
   }
@@ -190,7 +190,8 @@ template <int N>
 Dual<N> hypot(const Dual<N>& a, const Dual<N>& b) {
   const double h = std::hypot(a.value(), b.value());
   if (h == 0) return Dual<N>(0.0);
-  return (a * a.value() + b * b.value()) / h;
+  // The value is std::hypot's own (bitwise what the double code computes).
+  return a.chain(h, a.value() / h) + b.chain(0.0, b.value() / h);
 }
 template <int N>
 Dual<N> abs(const Dual<N>& x) {

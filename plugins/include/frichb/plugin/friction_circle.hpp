@@ -87,6 +87,56 @@ struct StepMotion {
   }
 };
 
+// A step's motion as the polynomial u(s) = a + b s + c s^2 + d s^3 (the cubic Hermite of a
+// StepMotion), evaluated by Horner's rule: what the slider evaluates many times per step.
+template <class S>
+class HermiteCubic {
+ public:
+  HermiteCubic() = default;
+  explicit HermiteCubic(const StepMotion<S>& m) {
+    for (std::size_t i = 0; i < 3; ++i) {
+      a_[i] = m.u0[i];
+      b_[i] = m.v0[i];
+      c_[i] = 3.0 * (m.u1[i] - m.u0[i]) - 2.0 * m.v0[i] - m.v1[i];
+      d_[i] = 2.0 * (m.u0[i] - m.u1[i]) + m.v0[i] + m.v1[i];
+    }
+  }
+  std::array<S, 3> position(const S& s) const {
+    std::array<S, 3> u;
+    for (std::size_t i = 0; i < 3; ++i) u[i] = a_[i] + s * (b_[i] + s * (c_[i] + s * d_[i]));
+    return u;
+  }
+  // position(y) - position(x), without the cancellation of subtracting two positions when y
+  // is near x: (y - x) (b + c (x + y) + d (x^2 + x y + y^2)).
+  std::array<S, 3> between(const S& x, const S& y) const {
+    std::array<S, 3> u;
+    const S sum = x + y, square = x * x + x * y + y * y;
+    for (std::size_t i = 0; i < 3; ++i) u[i] = (y - x) * (b_[i] + c_[i] * sum + d_[i] * square);
+    return u;
+  }
+  std::array<S, 3> rate(const S& s) const {
+    std::array<S, 3> v;
+    for (std::size_t i = 0; i < 3; ++i) v[i] = b_[i] + s * (2.0 * c_[i] + 3.0 * s * d_[i]);
+    return v;
+  }
+  // The same cubic in doubles (the values of a dual-number one).
+  HermiteCubic<double> values() const {
+    HermiteCubic<double> out;
+    for (std::size_t i = 0; i < 3; ++i)
+      out.set(i, value_of(a_[i]), value_of(b_[i]), value_of(c_[i]), value_of(d_[i]));
+    return out;
+  }
+  void set(std::size_t i, const S& a, const S& b, const S& c, const S& d) {
+    a_[i] = a;
+    b_[i] = b;
+    c_[i] = c;
+    d_[i] = d;
+  }
+
+ private:
+  std::array<S, 3> a_{}, b_{}, c_{}, d_{};
+};
+
 // The normal side of a contact at one normal displacement: N (N), dN/du_n (N/m), kt (N/m),
 // dkt/du_n (N/m^2).
 template <class S>
@@ -141,13 +191,14 @@ class FrictionCircleSlider {
   FrictionCircleSlider(const Normal& normal, double mu) : normal_(normal), mu_(mu) {}
 
   template <class S>
-  SliderStep<S> advance(const std::array<S, 2>& slider_prev, const StepMotion<S>& motion) const {
+  SliderStep<S> advance(const std::array<S, 2>& slider_prev, const StepMotion<S>& step) const {
+    const HermiteCubic<S> motion(step);
     SliderStep<S> out;
     if (!(mu_ > 0)) return frictionless(motion);
     Phase<S> ph;
     ph.w = slider_prev;
     S s(0.0);
-    const StepMotion<double> md = values(motion);
+    const HermiteCubic<double> md = motion.values();
     start(ph, motion, s);
     // At most kMaxSegments phases per step (the laws' motions have a handful); a step with
     // more ends in the phase it has reached, evaluated at s = 1.
@@ -179,7 +230,7 @@ class FrictionCircleSlider {
 
   // u_t(s) - w of a stuck slider.
   template <class S>
-  static std::array<S, 2> offset(const Phase<S>& ph, const StepMotion<S>& m, const S& s) {
+  static std::array<S, 2> offset(const Phase<S>& ph, const HermiteCubic<S>& m, const S& s) {
     if (ph.from_contact) {
       const auto d = m.between(ph.contact_s, s);
       return {d[0], d[1]};
@@ -201,9 +252,9 @@ class FrictionCircleSlider {
   // mu = 0: no tangential force, the slider follows u_t; the normal force opens and closes
   // with its kinks.
   template <class S>
-  SliderStep<S> frictionless(const StepMotion<S>& m) const {
+  SliderStep<S> frictionless(const HermiteCubic<S>& m) const {
     SliderStep<S> out;
-    const StepMotion<double> md = values(m);
+    const HermiteCubic<double> md = m.values();
     S s(0.0);
     bool closed = normal_.closure(m.position(s)[2]) > 0;
     for (int guard = 0; guard < 16; ++guard) {
@@ -223,7 +274,7 @@ class FrictionCircleSlider {
 
   // |kt (u_t - w)|^2 - (mu N)^2 at s (> 0: outside the circle), for a closed contact.
   template <class S>
-  S stick_excess(const Phase<S>& ph, const StepMotion<S>& m, const S& s) const {
+  S stick_excess(const Phase<S>& ph, const HermiteCubic<S>& m, const S& s) const {
     const auto u = m.position(s);
     const auto n = normal_.side(u[2]);
     const auto d = offset(ph, m, s);
@@ -234,7 +285,7 @@ class FrictionCircleSlider {
 
   // lambda at s for a slider in slip with direction `angle` (per unit s, m).
   template <class S>
-  S slip_rate(const StepMotion<S>& m, const S& s, const S& angle) const {
+  S slip_rate(const HermiteCubic<S>& m, const S& s, const S& angle) const {
     const auto u = m.position(s);
     const auto v = m.rate(s);
     const auto n = normal_.side(u[2]);
@@ -246,7 +297,7 @@ class FrictionCircleSlider {
 
   // d angle / ds.
   template <class S>
-  S angle_rate(const StepMotion<S>& m, const S& s, const S& angle) const {
+  S angle_rate(const HermiteCubic<S>& m, const S& s, const S& angle) const {
     const auto u = m.position(s);
     const auto v = m.rate(s);
     const auto n = normal_.side(u[2]);
@@ -259,7 +310,7 @@ class FrictionCircleSlider {
   // Decides the phase at s (the step's start): open, a slider outside the circle returned
   // onto it (a state a host gave or the start of a trace), then stick or slip by lambda.
   template <class S>
-  void start(Phase<S>& ph, const StepMotion<S>& m, const S& s) const {
+  void start(Phase<S>& ph, const HermiteCubic<S>& m, const S& s) const {
     const auto u = m.position(s);
     if (!(normal_.closure(u[2]) > 0) || !(mu_ > 0)) {
       ph.mode = Mode::kOpen;
@@ -269,7 +320,7 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void enter_closed(Phase<S>& ph, const StepMotion<S>& m, const S& s) const {
+  void enter_closed(Phase<S>& ph, const HermiteCubic<S>& m, const S& s) const {
     const auto u = m.position(s);
     const auto n = normal_.side(u[2]);
     const S d0 = u[0] - ph.w[0], d1 = u[1] - ph.w[1];
@@ -340,22 +391,10 @@ class FrictionCircleSlider {
     return S(root) - (at - value_of(at)) / slope;
   }
 
-  template <class S>
-  static StepMotion<double> values(const StepMotion<S>& m) {
-    StepMotion<double> d;
-    for (int i = 0; i < 3; ++i) {
-      d.u0[i] = value_of(m.u0[i]);
-      d.u1[i] = value_of(m.u1[i]);
-      d.v0[i] = value_of(m.v0[i]);
-      d.v1[i] = value_of(m.v1[i]);
-    }
-    return d;
-  }
-
   // The first s after `s` where a closed (open) contact opens (closes), or 2. The start
   // counts as being on its side even where rounding puts it on the other.
   template <class S>
-  S contact_change(const StepMotion<S>& m, const StepMotion<double>& md, const S& s,
+  S contact_change(const HermiteCubic<S>& m, const HermiteCubic<double>& md, const S& s,
                    bool closed) const {
     auto g = [&](double x) { return value_of(normal_.closure(md.position(x)[2])); };
     const double from = value_of(s);
@@ -384,7 +423,7 @@ class FrictionCircleSlider {
   // stiffness_onset u_t' |s - s_c|^p; stuck at an opening the offset vanishes with kt (the
   // stick radius mu N / kt ~ d shrinks to 0), so T has no term of order p; mu = 0: T = 0.
   template <class S>
-  void add_onset(ForceKink<S>* kink, const StepMotion<S>& m, const S& s, bool closing,
+  void add_onset(ForceKink<S>* kink, const HermiteCubic<S>& m, const S& s, bool closing,
                  bool slipping, const S& angle) const {
     if constexpr (requires { Normal::kOnsetPower; }) {
       if (kink == nullptr) return;
@@ -410,7 +449,7 @@ class FrictionCircleSlider {
 
   // dF/ds of a closed contact at s: stuck (w fixed) or slipping with direction `angle`.
   template <class S>
-  std::array<S, 3> closed_rate(const StepMotion<S>& m, const S& s, bool slipping,
+  std::array<S, 3> closed_rate(const HermiteCubic<S>& m, const S& s, bool slipping,
                                const std::array<S, 2>& w, const S& angle) const {
     const auto u = m.position(s);
     const auto v = m.rate(s);
@@ -431,7 +470,7 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void open_segment(Phase<S>& ph, const StepMotion<S>& m, const StepMotion<double>& md, S& s,
+  void open_segment(Phase<S>& ph, const HermiteCubic<S>& m, const HermiteCubic<double>& md, S& s,
                     SliderStep<S>& out) const {
     const S closes = contact_change(m, md, s, false);
     if (!(closes <= 1.0)) {
@@ -469,7 +508,7 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void stick_segment(Phase<S>& ph, const StepMotion<S>& m, const StepMotion<double>& md, S& s,
+  void stick_segment(Phase<S>& ph, const HermiteCubic<S>& m, const HermiteCubic<double>& md, S& s,
                      SliderStep<S>& out) const {
     const S opens = contact_change(m, md, s, true);
     const double end = std::min(1.0, value_of(opens));
@@ -511,7 +550,7 @@ class FrictionCircleSlider {
 
   // Classical Runge-Kutta step of the direction from (s, angle) over ds.
   template <class S>
-  S rk4(const StepMotion<S>& m, const S& s, const S& angle, const S& ds) const {
+  S rk4(const HermiteCubic<S>& m, const S& s, const S& angle, const S& ds) const {
     const S k1 = angle_rate(m, s, angle);
     const S k2 = angle_rate(m, s + 0.5 * ds, angle + 0.5 * ds * k1);
     const S k3 = angle_rate(m, s + 0.5 * ds, angle + 0.5 * ds * k2);
@@ -524,7 +563,7 @@ class FrictionCircleSlider {
   // re-contact, where mu N -> 0. There the direction is pulled onto its quasi-steady value at
   // that rate, and any error is forgotten as fast; the force is small. Newton in Scalar.
   template <class S>
-  S backward_euler(const StepMotion<S>& m, const S& s, const S& angle, const S& ds) const {
+  S backward_euler(const HermiteCubic<S>& m, const S& s, const S& angle, const S& ds) const {
     const S at = s + ds;
     S next = angle;
     for (int it = 0; it < 8; ++it) {
@@ -541,13 +580,13 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  S advance_angle(const StepMotion<S>& m, const S& s, const S& angle, const S& ds,
+  S advance_angle(const HermiteCubic<S>& m, const S& s, const S& angle, const S& ds,
                   bool stiff) const {
     return stiff ? backward_euler(m, s, angle, ds) : rk4(m, s, angle, ds);
   }
 
   // The relaxation rate kt |u_t'| / (mu N) at s (infinite where N = 0).
-  double relaxation_rate(const StepMotion<double>& m, double s) const {
+  double relaxation_rate(const HermiteCubic<double>& m, double s) const {
     const auto u = m.position(s);
     const auto v = m.rate(s);
     const auto n = normal_.side(u[2]);
@@ -556,7 +595,7 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void slip_segment(Phase<S>& ph, const StepMotion<S>& m, const StepMotion<double>& md, S& s,
+  void slip_segment(Phase<S>& ph, const HermiteCubic<S>& m, const HermiteCubic<double>& md, S& s,
                     SliderStep<S>& out) const {
     const S opens = contact_change(m, md, s, true);
     const S end = opens <= 1.0 ? opens : S(1.0);
@@ -608,7 +647,7 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void set_slider_from_angle(Phase<S>& ph, const StepMotion<S>& m, const S& s) const {
+  void set_slider_from_angle(Phase<S>& ph, const HermiteCubic<S>& m, const S& s) const {
     const auto u = m.position(s);
     const auto n = normal_.side(u[2]);
     const S radius = mu_ * n.normal / n.stiffness;
@@ -617,7 +656,7 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void stick_at(Phase<S>& ph, const StepMotion<S>& m, S& s) const {
+  void stick_at(Phase<S>& ph, const HermiteCubic<S>& m, S& s) const {
     set_slider_from_angle(ph, m, s);
     ph.mode = Mode::kStick;
     ph.from_contact = false;
@@ -627,7 +666,7 @@ class FrictionCircleSlider {
   }
 
   template <class S>
-  void finish(const Phase<S>& ph, const StepMotion<S>& m, SliderStep<S>& out) const {
+  void finish(const Phase<S>& ph, const HermiteCubic<S>& m, SliderStep<S>& out) const {
     const S one(1.0);
     const auto u = m.position(one);
     out.force = {S(0.0), S(0.0), S(0.0)};
