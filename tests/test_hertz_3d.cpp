@@ -93,7 +93,7 @@ TEST_P(HertzNormalForce, IsCoefficientTimesPenetrationToTheThreeHalves) {
   // The mean coefficient is the samples' mean less the reference, up to the quadrature's
   // corrections at the contact changes (docs/theory.md, "Onsets"; 1e-5 to 6e-5 of the mean here).
   const double mean_n = t.force.col(2).mean();
-  EXPECT_NEAR(t.force_coefficients(cos_at(layout, 2, 0)), mean_n - n_ref, 1e-4 * mean_n);
+  EXPECT_NEAR(t.force_coefficients(cos_at(layout, 2, 0)), mean_n - n_ref, 3e-4 * mean_n);
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -259,6 +259,13 @@ TEST(Hertz3d, TheOpeningKinkInSlipHasNoJumpAndNoJumpDerivatives) {
     EXPECT_EQ(force[2], 0.0);  // open at the step's end
     for (std::size_t q = 0; q < kinks.count; ++q) {
       ++openings;
+      // Slipping into the opening: its onset is mu N's, along the force.
+      EXPECT_EQ(onset_power[q], 1.5);
+      EXPECT_EQ(onset_side[q], -1.0);
+      EXPECT_NEAR(std::hypot(onset[q * 3], onset[q * 3 + 1]), mu * onset[q * 3 + 2],
+                  1e-12 * onset[q * 3 + 2]);
+      EXPECT_NEAR(onset[q * 3 + 2], cn * std::pow(std::abs(rate_now[2] + rate_prev[2]) / 2, 1.5),
+                  0.2 * onset[q * 3 + 2]);
       for (std::size_t a = 0; a < 3; ++a) {
         worst_jump = std::max(worst_jump, std::abs(jump[q * 3 + a]));
         for (std::size_t i = 0; i < 14; ++i)
@@ -326,12 +333,12 @@ TEST(Hertz3d, NormalForceHarmonicsOfAClosingGapMeetTheirIntegralsAtAnyPhase) {
     }
     return worst / largest;
   };
-  const double e64 = worst_error(64, 1), e128 = worst_error(128, 1), e256 = worst_error(256, 8),
-               e512 = worst_error(512, 1);
+  const double e64 = worst_error(64, 8), e128 = worst_error(128, 8), e256 = worst_error(256, 8),
+               e512 = worst_error(512, 8);
   const double order = std::log2(e64 / e512) / 3;
   std::printf(
       "[ hertz_3d ] closing gap, N harmonics against their integrals: 64 %.2e, 128 %.2e, "
-      "256 %.2e (8 phases), 512 %.2e; order %.2f\n",
+      "256 %.2e, 512 %.2e (worst of 8 phases); order %.2f\n",
       e64, e128, e256, e512, order);
   EXPECT_LT(e256, 5e-7);
   EXPECT_GT(order, 3.0);

@@ -10,7 +10,7 @@
 // State: w = (w1, w2), the slider (stick-point) position in m.
 //
 // step() (the samples alone) advances the slider by the radial return above, first order in
-// the step. step_along() (ABI 1.2, the host's periodic traces) advances it along the motion
+// the step. step_along() (ABI 1.3, the host's periodic traces) advances it along the motion
 // between the samples with the SDK's FrictionCircleSlider: the law solved on the step's cubic
 // Hermite motion with its events located inside the step, fourth order in the step before the
 // host's quadrature; its tangents come from dual numbers.

@@ -15,7 +15,7 @@
 // State: w = (w1, w2), the slider position in the tangential plane, m.
 //
 // step() (the samples alone) advances the slider by the return above, first order in the
-// step. step_along() (ABI 1.2, the host's periodic traces) advances it along the motion
+// step. step_along() (ABI 1.3, the host's periodic traces) advances it along the motion
 // between the samples with the SDK's FrictionCircleSlider (the law solved on the step's cubic
 // Hermite motion, its events located inside the step); its tangents come from dual numbers.
 #include <Eigen/Core>
@@ -62,8 +62,8 @@ struct HertzNormalSide {
   double cn, ct, gap, p0, eps;
   // At a contact change crossed at the normal rate v (m per step) the penetration grows as
   // |v| |s - s_c|: N ~ c_n |v|^1.5 |s - s_c|^1.5 and kt ~ c_t |v|^0.5 |s - s_c|^0.5 (the
-  // regularisation below eps is a part 1e-4 of a step wide at these rates; its effect on the
-  // quadrature is of the order of c_n eps^1.5).
+  // regularisation below eps spans eps / |v| of a step, 1e-4 at 1e-5 m per step; its effect
+  // on the quadrature is of the order of c_n eps^1.5).
   static constexpr double kOnsetPower = 1.5;
   template <class S>
   S normal_onset(const S& rate) const {

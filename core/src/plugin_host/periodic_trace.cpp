@@ -75,7 +75,7 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
   frichb_motion_tangents motion_tangents{df_dvp.data(), df_dvn.data(), ds_dvp.data(),
                                          ds_dvn.data()};
   // A pass that carries only the monodromy asks a law stepping along the motion for the
-  // state's own derivative alone (ABI 1.2).
+  // state's own derivative alone (ABI 1.3).
   frichb_step_tangents state_tangent{nullptr, nullptr, nullptr, nullptr, nullptr, ds_ds.data()};
   const bool derivative = dstate != nullptr;
   const bool tangents_wanted = derivative || monodromy != nullptr;

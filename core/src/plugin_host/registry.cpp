@@ -171,14 +171,16 @@ ContactLawInstance::ContactLawInstance(std::shared_ptr<const LoadedPlugin> plugi
     api_->destroy(instance_);  // the destructor does not run for a throwing constructor
     throw PluginError("contact law '" + plugin_->name() + "' reports invalid traits");
   }
-  // ABI 1.2: a law steps along the motion when its traits say so and its table has the entry.
+  // A law steps along the motion when its traits say so and its table has the entry, and it
+  // was built for ABI 1.3 or later (the layout of frichb_force_kinks that step_along uses).
   const bool traits_cover =
       traits_.struct_size >=
       offsetof(frichb_contact_law_traits, traces_motion) + sizeof(traits_.traces_motion);
   const bool api_covers =
       api_->struct_size >= offsetof(frichb_contact_law_api, step_along) + sizeof(api_->step_along);
-  traces_motion_ =
-      traits_cover && api_covers && traits_.traces_motion != 0 && api_->step_along != nullptr;
+  const bool kinks_layout = plugin_->descriptor().abi_minor >= 3;
+  traces_motion_ = traits_cover && api_covers && kinks_layout && traits_.traces_motion != 0 &&
+                   api_->step_along != nullptr;
   if (!traits_cover) traits_.traces_motion = 0;
 }
 

@@ -35,9 +35,11 @@ extern "C" {
 #define FRICHB_ABI_MAJOR 1
 #endif
 #ifndef FRICHB_ABI_MINOR
-#define FRICHB_ABI_MINOR                                \
-  2 /* 1.1: frichb_structure_api.sector_count appended; \
-       1.2: steps along the motion (step_along, traces_motion) */
+#define FRICHB_ABI_MINOR                                                                 \
+  3 /* 1.1: frichb_structure_api.sector_count appended;                                  \
+       1.2: steps along the motion (step_along, traces_motion);                          \
+       1.3: frichb_force_kinks with struct_size and onsets (the host calls step_along of \
+       plugins built for 1.3 or later only, and steps 1.2 plugins by step()) */
 #endif
 
 #define FRICHB_PLUGIN_ENTRY_SYMBOL "frichb_plugin_entry"
@@ -177,8 +179,9 @@ typedef struct frichb_motion_tangents {
  * F ~ onset |s - s*|^p on one side only (a Hertz contact closing or opening: N ~ c_n p^1.5),
  * which no rate jump describes (its rate is continuous, 0 at s*) but which bends the
  * trapezoidal sum as h^(p+1). The law sets onset_power[k] = p (> 1) and onset_side[k] = +1 for
- * s > s* (a closing), -1 for s < s* (an opening), or onset_power[k] = 0 for none. A law reads
- * struct_size before writing the onset (hosts built before it have no such fields).
+ * s > s* (a closing), -1 for s < s* (an opening), or onset_power[k] = 0 for none. This
+ * layout is that of ABI 1.3 (a host calls step_along of 1.3 plugins only); struct_size lets
+ * later minors append fields.
  */
 typedef struct frichb_force_kinks {
   size_t struct_size;

@@ -175,11 +175,11 @@ struct SliderStep {
 //   Scalar normal_onset(const Scalar& un_rate) const;        N ~ normal_onset |s - s_c|^p
 //   Scalar stiffness_onset(const Scalar& un_rate) const;     kt ~ stiffness_onset |s - s_c|^(p-1)
 // for a contact change at s_c crossed at the normal rate un_rate (du_n/ds): the kinks of the
-// contact changes then carry the force's onset (ForceKink). side() is called where closure > 0 and
-// at the located contact changes, where rounding may leave closure a hair below 0: there it returns
-// the closed side's limit at closure = 0 (N = 0; for a law whose kt also vanishes at contact,
-// such as Hertz, all four 0 rather than an extension of its formulas past contact, which can
-// have N > 0 with kt < 0).
+// contact changes then carry the force's onset (ForceKink). side() is called where
+// closure > 0 and at the located contact changes, where rounding may leave closure a hair
+// below 0: there it returns the closed side's limit at closure = 0 (N = 0; for a law whose kt
+// also vanishes at contact, such as Hertz, zeros for all four, the open contact's, rather
+// than an extension of its formulas past contact, which can have N > 0 with kt < 0).
 template <class Normal>
 class FrictionCircleSlider {
  public:
@@ -274,13 +274,15 @@ class FrictionCircleSlider {
 
   // |kt (u_t - w)|^2 - (mu N)^2 at s (> 0: outside the circle), for a closed contact.
   template <class S>
+  // In the slider's own measure |u_t - w|^2 - (mu N / kt)^2, m^2, whose stick radius
+  // mu N / kt is 0 where the contact is open (kt = 0): a stuck slider with an offset is then
+  // outside it, so a Hertz contact approaching an opening stuck always meets the circle first.
   S stick_excess(const Phase<S>& ph, const HermiteCubic<S>& m, const S& s) const {
     const auto u = m.position(s);
     const auto n = normal_.side(u[2]);
     const auto d = offset(ph, m, s);
-    const S d0 = n.stiffness * d[0], d1 = n.stiffness * d[1];
-    const S limit = mu_ * n.normal;
-    return d0 * d0 + d1 * d1 - limit * limit;
+    const S radius = n.stiffness > 0 ? mu_ * n.normal / n.stiffness : S(0.0);
+    return d[0] * d[0] + d[1] * d[1] - radius * radius;
   }
 
   // lambda at s for a slider in slip with direction `angle` (per unit s, m).
@@ -417,6 +419,20 @@ class FrictionCircleSlider {
     kink.rate_jump = jump;
     return &kink;
   }
+  // Whether a contact resuming at s_c slips from the start (see open_segment).
+  bool slips_at_contact(const HermiteCubic<double>& md, double sc) const {
+    if constexpr (requires { Normal::kOnsetPower; }) {
+      const auto v = md.rate(sc);
+      return normal_.stiffness_onset(v[2]) * std::hypot(v[0], v[1]) >
+             mu_ * normal_.normal_onset(v[2]);
+    } else {
+      const double after = sc + 1e-6 * (1.0 - sc);
+      const auto offset = md.between(sc, after);
+      const auto n = normal_.side(md.position(after)[2]);
+      return n.stiffness * std::hypot(offset[0], offset[1]) > mu_ * n.normal;
+    }
+  }
+
   // The force's onset at a contact change at s (closing: the contact closed after s; else
   // opening: closed before s), for a Normal that declares one: N ~ normal_onset |s - s_c|^p;
   // slipping, T = mu N (cos a, sin a); stuck from a closing, T = kt (u_t(s) - u_t(s_c)) ~
@@ -483,17 +499,13 @@ class FrictionCircleSlider {
     // Contact resumes unloaded: T = 0 and mu N = 0. It sticks when the stuck force grows
     // slower than the friction limit; else it slips from the start, in the direction of u_t'
     // (the one bounded solution of the direction's equation, whose rate kt / (mu N) is
-    // infinite there). Both grow from 0 at the same order in s - s_c (kt |u_t'| against mu N'
-    // where kt > 0 at contact; where kt vanishes with N, as for Hertz, at higher orders), so
-    // they are compared just after the contact, at s_c + 1e-6 (1 - s_c), on the stuck offset
-    // u_t(s) - u_t(s_c) taken without cancellation.
-    const double sc = value_of(s), after = sc + 1e-6 * (1.0 - sc);
-    const auto md_offset = md.between(sc, after);
-    const auto n_after = normal_.side(md.position(after)[2]);
-    const double stuck_force = value_of(n_after.stiffness) * std::hypot(md_offset[0], md_offset[1]);
-    const double limit_after = mu_ * value_of(n_after.normal);
+    // infinite there). Both grow from 0 at the same order in s - s_c. A Normal with an onset
+    // compares their leading terms, stiffness_onset |u_t'| against mu normal_onset (the
+    // choice then agrees with the onset reported, continuously at equality); else they are
+    // compared just after the contact, at s_c + 1e-6 (1 - s_c), on the stuck offset
+    // u_t(s) - u_t(s_c) taken without cancellation (kt |u_t'| against mu N').
     const auto v = m.rate(s);
-    if (stuck_force > limit_after) {
+    if (slips_at_contact(md, value_of(s))) {
       ph.mode = Mode::kSlip;
       ph.from_contact = false;
       ph.angle = atan2(v[1], v[0]);
@@ -634,7 +646,7 @@ class FrictionCircleSlider {
       s = next_s;
       ph.angle = next;
     }
-    if (end < 1.0) {
+    if (opens <= 1.0) {
       add_onset(
           add_kink(out, s,
                    difference({S(0.0), S(0.0), S(0.0)}, closed_rate(m, s, true, ph.w, ph.angle))),
@@ -650,7 +662,7 @@ class FrictionCircleSlider {
   void set_slider_from_angle(Phase<S>& ph, const HermiteCubic<S>& m, const S& s) const {
     const auto u = m.position(s);
     const auto n = normal_.side(u[2]);
-    const S radius = mu_ * n.normal / n.stiffness;
+    const S radius = n.stiffness > 0 ? mu_ * n.normal / n.stiffness : S(0.0);
     ph.w[0] = u[0] - radius * cos(ph.angle);
     ph.w[1] = u[1] - radius * sin(ph.angle);
   }
@@ -694,7 +706,7 @@ class FrictionCircleSlider {
 
 namespace detail {
 
-// True when the host's kink buffer has the onset fields (ABI 1.2 with onsets) and passed them.
+// True when the host's kink buffer has the onset fields (ABI 1.3) and passed them.
 inline bool has_onsets(const frichb_force_kinks& kinks) {
   return kinks.struct_size >= offsetof(frichb_force_kinks, donset) + sizeof(double*) &&
          kinks.onset != nullptr && kinks.onset_power != nullptr && kinks.onset_side != nullptr;

@@ -193,7 +193,7 @@ class ContactLaw {
   virtual void step(const double* state_prev, const double* u_prev, const double* u_now,
                     double* force_now, double* state_now,
                     const frichb_step_tangents* tangents) const = 0;
-  // ABI 1.2 (frichb_contact_law_api::step_along): the step along the motion between the
+  // ABI 1.3 (frichb_contact_law_api::step_along): the step along the motion between the
   // samples. A law that overrides it says so with traits().traces_motion = 1; the host calls
   // it only then. `tangents` is null (value only), or has all six blocks with `motion_tangents`
   // non-null, or only dstate_dstate_prev (the monodromy of a pass; `motion_tangents` null):

@@ -20,7 +20,7 @@
 //    step() call that received them; never keep a view (or a block) beyond that call.
 //  - wanted(): the host asks for tangents with a non-null pointer whose dforce_du_now is
 //    non-null, and then passes all six blocks. Otherwise no block may be touched through this
-//    view: step() computes the force and state and returns. (step_along, ABI 1.2, may also be
+//    view: step() computes the force and state and returns. (step_along, ABI 1.3, may also be
 //    given only dstate_dstate_prev, with the other five null: a law writes that S x S block
 //    directly; see abi.h.)
 //  - Every entry of every block must be written: the host zeroes the blocks before each

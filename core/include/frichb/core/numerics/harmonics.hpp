@@ -29,9 +29,10 @@ std::string sampling_violation(int samples, double max_harmonic);
 
 // The Hurwitz zeta function zeta(s, a) = sum_{n >= 0} (n + a)^(-s), continued analytically to
 // s <= 0, for a in [0, 1] (zeta(s, 0) = zeta(s, 1) there): the Euler-Maclaurin sum with ten
-// terms and six Bernoulli corrections, about 1e-14 absolute. The trapezoidal rule's error for
-// a force that starts like |t - t*|^p from t* is -h^(p+1) zeta(-p, a) (a the distance from t*
-// to the first sample past it, in samples); p = 1, a kink, gives zeta(-1, a) = -B2(a) / 2.
+// terms and six Bernoulli corrections, about 1e-14 absolute. For a force that starts like
+// |t - t*|^p from t*, the trapezoidal sum less the integral is h^(p+1) zeta(-p, a) (a the
+// distance from t* to the first sample on the force's side, in samples); p = 1, a kink,
+// gives zeta(-1, a) = -B2(a) / 2.
 double hurwitz_zeta(double s, double a);
 
 class HarmonicLayout {

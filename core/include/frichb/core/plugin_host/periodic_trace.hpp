@@ -16,15 +16,19 @@
 // A contact that never slips keeps its initial state, so its mean tangential force is kt
 // times the mean relative displacement (docs/theory.md, "full stick convention").
 //
-// Laws that step along the motion (ABI 1.2, traits.traces_motion) receive, with each step's
+// Laws that step along the motion (ABI 1.3, traits.traces_motion) receive, with each step's
 // end samples, the rates du/ds of the harmonic series there (s the step's fraction), so they
 // integrate along the series' cubic Hermite interpolant between samples; they also report the
 // force's kinks inside the steps (stick to slip, opening, closing), and the force coefficients
 // then correct the trapezoidal rule at each kink of jump J in dF/ds at fraction sigma:
 //   integral = trapezoidal sum + (h / 2) J B2(sigma) g(theta*),  B2(x) = x^2 - x + 1/6,
 // h the sample spacing in phase, g the basis function, theta* the kink's phase (the
-// Euler-Maclaurin term of a derivative jump; third order after it). The Jacobian carries the
-// correction's derivative through the kinks' reported derivatives.
+// Euler-Maclaurin term of a derivative jump; third order after it). A kink may also carry an
+// onset, a force F ~ A |s - s*|^p on one side of it (Hertz: p = 1.5), whose term is
+//   integral = trapezoidal sum - h A zeta(-p, a) g(theta*),
+// zeta the Hurwitz zeta function and a the distance in steps from the kink to the first sample
+// on the force's side. The Jacobian carries the corrections' derivatives through the kinks'
+// reported derivatives.
 //
 // The force entering the equations is the law's force minus its force at u = 0 in the
 // initial state (the preload balanced by the static equilibrium the unknowns are measured

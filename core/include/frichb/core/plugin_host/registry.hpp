@@ -100,7 +100,7 @@ class ContactLawInstance {
   // Returns false and fills `error` when the plugin reports a failure.
   bool step(const double* state_prev, const double* u_prev, const double* u_now, double* force_now,
             double* state_now, const frichb_step_tangents* tangents, std::string* error) const;
-  // ABI 1.2: true when the law steps along the motion between samples (step_along).
+  // ABI 1.3: true when the law steps along the motion between samples (step_along).
   bool traces_motion() const { return traces_motion_; }
   // The step along the motion (frichb_contact_law_api::step_along); only when traces_motion().
   bool step_along(const double* state_prev, const double* u_prev, const double* u_now,
