@@ -35,6 +35,13 @@ PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayo
   for (int j = 0; j < n; ++j)
     for (int k = 0; k < c; ++k) basis_(j, k) = layout_.basis(j, k);
   along_ = options_.along_motion && law_.traces_motion();
+  if (along_) {
+    const std::size_t rows = kMaxKinksPerStep, inputs = static_cast<std::size_t>(state_size_) + 12;
+    kink_report_ = {std::vector<double>(rows),          std::vector<double>(3 * rows),
+                    std::vector<double>(rows * inputs), std::vector<double>(3 * rows * inputs),
+                    std::vector<double>(3 * rows),      std::vector<double>(rows),
+                    std::vector<double>(rows),          std::vector<double>(3 * rows * inputs)};
+  }
   // d/ds of the basis (s: the fraction of a sample step, h = 2 pi / N of phase).
   dbasis_ = Eigen::MatrixXd::Zero(n, c);
   const double h = 2 * std::numbers::pi / n;
@@ -59,8 +66,8 @@ PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayo
 bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& state,
                                 Eigen::MatrixXd* dstate, Eigen::MatrixXd& force,
                                 Eigen::MatrixXd& states, std::vector<Eigen::MatrixXd>* dforce,
-                                Eigen::MatrixXd* monodromy, std::vector<Kink>* kinks,
-                                std::string* error) const {
+                                Eigen::MatrixXd* monodromy, KinkList* kinks,
+                                std::string* error) {
   const Eigen::MatrixXd& u = motion.displacement;
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   const int s = state_size_;
@@ -83,25 +90,20 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
   // Kinks of this pass: fraction, jump (3 per kink) and, with the derivative, their
   // derivatives with respect to the step's inputs [state_prev, u_prev, u_now, rate_prev,
   // rate_now].
-  const int inputs = s + 12;
-  std::vector<double> kink_fraction(kMaxKinksPerStep), kink_jump(3 * kMaxKinksPerStep),
-      kink_dfraction(derivative ? kMaxKinksPerStep * static_cast<std::size_t>(inputs) : 0),
-      kink_djump(derivative ? 3 * kMaxKinksPerStep * static_cast<std::size_t>(inputs) : 0),
-      kink_onset(3 * kMaxKinksPerStep), kink_onset_power(kMaxKinksPerStep),
-      kink_onset_side(kMaxKinksPerStep),
-      kink_donset(derivative ? 3 * kMaxKinksPerStep * static_cast<std::size_t>(inputs) : 0);
+  const auto inputs = static_cast<std::size_t>(s + 12);
+  KinkReport& report = kink_report_;
   frichb_force_kinks kink_buffer{sizeof(frichb_force_kinks),
                                  kMaxKinksPerStep,
                                  0,
-                                 kink_fraction.data(),
-                                 kink_jump.data(),
-                                 derivative ? kink_dfraction.data() : nullptr,
-                                 derivative ? kink_djump.data() : nullptr,
-                                 kink_onset.data(),
-                                 kink_onset_power.data(),
-                                 kink_onset_side.data(),
-                                 derivative ? kink_donset.data() : nullptr};
-  if (kinks != nullptr) kinks->clear();
+                                 report.fraction.data(),
+                                 report.jump.data(),
+                                 derivative ? report.dfraction.data() : nullptr,
+                                 derivative ? report.djump.data() : nullptr,
+                                 report.onset.data(),
+                                 report.onset_power.data(),
+                                 report.onset_side.data(),
+                                 derivative ? report.donset.data() : nullptr};
+  if (kinks != nullptr) kinks->count = 0;
   Eigen::MatrixXd dnext, mnext;
   double u_now[3], u_prev[3], v_now[3], v_prev[3], f[3];
   for (int j = 0; j < n; ++j) {
@@ -133,7 +135,7 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
     if (along_) {
       const frichb_step_motion step_motion{sizeof(frichb_step_motion), v_prev, v_now};
       kink_buffer.count = 0;
-      std::fill(kink_onset_power.begin(), kink_onset_power.end(), 0.0);
+      std::fill(report.onset_power.begin(), report.onset_power.end(), 0.0);
       const frichb_step_tangents* wanted =
           derivative ? &tangents : (tangents_wanted ? &state_tangent : nullptr);
       if (!law_.step_along(state.data(), u_prev, u_now, step_motion, f, next.data(), wanted,
@@ -146,21 +148,20 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
     }
     if (kinks != nullptr) {
       for (std::size_t k = 0; k < std::min(kink_buffer.count, kMaxKinksPerStep); ++k) {
-        Kink kink;
+        Kink& kink = kinks->append();
         kink.sample = j;
-        kink.fraction = kink_fraction[k];
+        kink.fraction = report.fraction[k];
         kink.jump.resize(d);
-        for (int a = 0; a < d; ++a) kink.jump(a) = kink_jump[3 * k + components_[a]];
-        kink.onset_power = kink_onset_power[k];
-        kink.onset_side = kink_onset_side[k];
-        if (kink.onset_power > 0) {
-          kink.onset.resize(d);
-          for (int a = 0; a < d; ++a) kink.onset(a) = kink_onset[3 * k + components_[a]];
-        }
+        for (int a = 0; a < d; ++a) kink.jump(a) = report.jump[3 * k + components_[a]];
+        kink.onset_power = report.onset_power[k];
+        kink.onset_side = report.onset_side[k];
+        kink.onset.resize(d);
+        for (int a = 0; a < d; ++a)
+          kink.onset(a) = kink.onset_power > 0 ? report.onset[3 * k + components_[a]] : 0.0;
         if (derivative) {
           // Chain rule as for the force below, from the step's inputs to the unknowns.
-          auto chain = [&](const double* di) {
-            Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(unknown_count());
+          auto chain = [&](const double* di, auto&& row) {
+            row.setZero();
             for (int l = 0; l < s; ++l) row += di[l] * dstate->row(l);
             for (int b = 0; b < d; ++b) {
               const int cb = components_[b];
@@ -168,23 +169,20 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
                   di[s + cb] * basis_.row(jp) + di[s + 3 + cb] * basis_.row(j) +
                   di[s + 6 + cb] * dbasis_.row(jp) + di[s + 9 + cb] * dbasis_.row(j);
             }
-            return row;
           };
-          kink.dfraction = chain(kink_dfraction.data() + k * static_cast<std::size_t>(inputs));
+          auto component_row = [&](const std::vector<double>& rows, int a) {
+            return rows.data() + (3 * k + static_cast<std::size_t>(components_[a])) * inputs;
+          };
+          kink.dfraction.resize(unknown_count());
+          chain(report.dfraction.data() + k * inputs, kink.dfraction);
           kink.djump.resize(d, unknown_count());
-          for (int a = 0; a < d; ++a)
-            kink.djump.row(a) =
-                chain(kink_djump.data() + (3 * k + static_cast<std::size_t>(components_[a])) *
-                                              static_cast<std::size_t>(inputs));
+          for (int a = 0; a < d; ++a) chain(component_row(report.djump, a), kink.djump.row(a));
           if (kink.onset_power > 0) {
             kink.donset.resize(d, unknown_count());
             for (int a = 0; a < d; ++a)
-              kink.donset.row(a) =
-                  chain(kink_donset.data() + (3 * k + static_cast<std::size_t>(components_[a])) *
-                                                 static_cast<std::size_t>(inputs));
+              chain(component_row(report.donset, a), kink.donset.row(a));
           }
         }
-        kinks->push_back(std::move(kink));
       }
     }
     if (monodromy != nullptr) {
@@ -258,7 +256,6 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
   // stick). Passes end when the state and, if carried, its derivative repeat.
   std::vector<Eigen::MatrixXd> dforce;
   Eigen::MatrixXd dstate, dstart, monodromy;
-  std::vector<Kink> kinks;
   if (with_derivative) {
     dforce.assign(static_cast<std::size_t>(dimension()), Eigen::MatrixXd::Zero(n, p));
     dstate = Eigen::MatrixXd::Zero(s, p);
@@ -273,7 +270,7 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
     const bool track = newton && out.passes > 0;
     if (!run_period(out, state, with_derivative ? &dstate : nullptr, out.force, out.state,
                     with_derivative ? &dforce : nullptr, track ? &monodromy : nullptr,
-                    along_ ? &kinks : nullptr, error))
+                    along_ ? &kinks_ : nullptr, error))
       return false;
     ++out.passes;
     const double change = s ? (state - start).cwiseAbs().maxCoeff() : 0.0;
@@ -332,13 +329,13 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
     ++out.newton_passes;
   }
   if (with_derivative) out.derivative_passes = out.passes;
-  out.kinks = static_cast<int>(kinks.size());
-  transform_forces(out, with_derivative ? &dforce : nullptr, kinks);
+  out.kinks = along_ ? static_cast<int>(kinks_.count) : 0;
+  transform_forces(out, with_derivative ? &dforce : nullptr, kinks_);
   return true;
 }
 
 void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce,
-                                      const std::vector<Kink>& kinks) {
+                                      const KinkList& kinks) {
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   out.force_coefficients.resize(d * c);
   Eigen::VectorXd column(n);
@@ -364,7 +361,8 @@ void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen
   Eigen::VectorXd g(c), dg(c), weight(c);
   for (int k = 0; k < c; ++k) weight(k) = 1.0 / std::numbers::pi;
   if (layout_.has_static()) weight(0) = 0.5 / std::numbers::pi;
-  for (const Kink& kink : kinks) {
+  for (std::size_t index = 0; index < kinks.count; ++index) {
+    const Kink& kink = kinks.items[index];
     const double sigma = kink.fraction;
     const double theta = (kink.sample - 1 + sigma) * h;
     g.setZero();

@@ -52,39 +52,11 @@
 
 namespace frichb::sdk {
 
-// The motion of one step: positions and rates (d/ds) at both ends, local frame (t1, t2, n), m.
+// The motion of one step: positions and rates (d/ds) at both ends, local frame (t1, t2, n), m;
+// s in [0, 1] is the step's fraction. Plain data: HermiteCubic evaluates it.
 template <class S>
 struct StepMotion {
   std::array<S, 3> u0, u1, v0, v1;
-
-  std::array<S, 3> position(const S& s) const {
-    const S s2 = s * s, s3 = s2 * s;
-    const S h00 = 2.0 * s3 - 3.0 * s2 + 1.0, h10 = s3 - 2.0 * s2 + s;
-    const S h01 = 3.0 * s2 - 2.0 * s3, h11 = s3 - s2;
-    std::array<S, 3> u;
-    for (int i = 0; i < 3; ++i) u[i] = h00 * u0[i] + h10 * v0[i] + h01 * u1[i] + h11 * v1[i];
-    return u;
-  }
-  // position(b) - position(a), without the cancellation of subtracting two positions when b
-  // is near a: (b - a) (B + C (a + b) + D (a^2 + a b + b^2)) for u = A + B s + C s^2 + D s^3.
-  std::array<S, 3> between(const S& a, const S& b) const {
-    std::array<S, 3> d;
-    const S sum = a + b, square = a * a + a * b + b * b;
-    for (int i = 0; i < 3; ++i) {
-      const S c2 = 3.0 * (u1[i] - u0[i]) - 2.0 * v0[i] - v1[i];
-      const S c3 = 2.0 * (u0[i] - u1[i]) + v0[i] + v1[i];
-      d[i] = (b - a) * (v0[i] + c2 * sum + c3 * square);
-    }
-    return d;
-  }
-  std::array<S, 3> rate(const S& s) const {
-    const S s2 = s * s;
-    const S d00 = 6.0 * s2 - 6.0 * s, d10 = 3.0 * s2 - 4.0 * s + 1.0;
-    const S d11 = 3.0 * s2 - 2.0 * s;
-    std::array<S, 3> v;
-    for (int i = 0; i < 3; ++i) v[i] = d00 * (u0[i] - u1[i]) + d10 * v0[i] + d11 * v1[i];
-    return v;
-  }
 };
 
 // A step's motion as the polynomial u(s) = a + b s + c s^2 + d s^3 (the cubic Hermite of a

@@ -120,14 +120,28 @@ class PeriodicTracer {
     Eigen::VectorXd onset;   // d
     Eigen::MatrixXd donset;  // d x d*C
   };
+  // The kinks of a pass: the first `count` of `items` (kept between passes and traces, so
+  // that their rows are not allocated again).
+  struct KinkList {
+    std::vector<Kink> items;
+    std::size_t count = 0;
+    Kink& append() {
+      if (count == items.size()) items.emplace_back();
+      return items[count++];
+    }
+  };
+  // The law's kink report of one step (frichb_force_kinks' arrays), sized once for the law.
+  struct KinkReport {
+    std::vector<double> fraction, jump, dfraction, djump, onset, onset_power, onset_side, donset;
+  };
   void sample_motion(const Eigen::VectorXd& u_coefficients, ContactTrace& out);
   bool run_passes(ContactTrace& out, bool with_derivative, std::string* error);
   bool run_period(const ContactTrace& motion, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
                   Eigen::MatrixXd& force, Eigen::MatrixXd& states,
                   std::vector<Eigen::MatrixXd>* dforce, Eigen::MatrixXd* monodromy,
-                  std::vector<Kink>* kinks, std::string* error) const;
+                  KinkList* kinks, std::string* error);
   void transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce,
-                        const std::vector<Kink>& kinks);
+                        const KinkList& kinks);
 
   const ContactLawInstance& law_;
   HarmonicLayout layout_;
@@ -138,6 +152,8 @@ class PeriodicTracer {
   Eigen::MatrixXd basis_;   // N x C
   Eigen::MatrixXd dbasis_;  // N x C, d basis / ds (per sample step)
   bool along_ = false;
+  KinkReport kink_report_;
+  KinkList kinks_;
   Eigen::Vector3d reference_force_ = Eigen::Vector3d::Zero();
 };
 
