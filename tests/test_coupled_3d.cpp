@@ -108,10 +108,8 @@ TEST_P(CoupledCircularSlip, ForceOnTheFrictionCircleAndLoopEnergy) {
   ASSERT_TRUE(tracer.trace(circular_motion(layout, a), JacobianMode::kNone, t, &error)) << error;
   ASSERT_TRUE(t.periodic) << t.diagnostic;
   const double energy = loop_energy(t);
-  const int c = layout.coefficient_count();
-  const auto [ic, is] = first_harmonic_index(layout);
-  const double energy_from_harmonics =
-      kPi * a * (t.force_coefficients(c + ic) - t.force_coefficients(is));
+  // The trace's energy comes from the harmonics: pi a (c1(T2) - s1(T1)) on this circle.
+  const double energy_from_harmonics = t.energy_per_cycle;
   if (a <= delta) {
     for (int j = 0; j < n; ++j)
       EXPECT_NEAR(t.force.row(j).norm(), kt * a, 1e-9 * kt * a) << "sample " << j;
@@ -181,7 +179,9 @@ TEST_P(CoupledCircularSlipAlongTheMotion, MeetsTheContinuousClosedFormAt256Sampl
   // Measured: 1e-16 (stick), 9e-10 (a = 1.01 delta, the cubic motion's error) to 4.4e-8
   // (a = 100 delta: the Runge-Kutta sub-steps, kt |u'| ds / (mu N) <= 0.2, dominate).
   EXPECT_LT(err, 1e-6) << "a / delta = " << GetParam();
-  const double energy = kPi * a * (t.force_coefficients(c + ic) - t.force_coefficients(is));
+  const double energy = t.energy_per_cycle;
+  EXPECT_NEAR(energy, kPi * a * (t.force_coefficients(c + ic) - t.force_coefficients(is)),
+              1e-12 * slip_force * a);
   const double exact = a <= delta ? 0.0 : 2 * kPi * slip_force * std::sqrt(a * a - delta * delta);
   EXPECT_NEAR(energy, exact, 1e-6 * slip_force * a) << "a / delta = " << GetParam();
   std::cout << "along the motion, a / delta = " << GetParam() << ": force harmonics " << err

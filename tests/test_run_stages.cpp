@@ -152,7 +152,7 @@ TEST(RunStages, StagesGiveTheFilesOfTheComposedRun) {
   const ContactTrace& stuck = loops[0].trace;
   const auto u_stuck = stuck.displacement.col(0);
   EXPECT_LT(stuck.force.col(0).cwiseAbs().maxCoeff(), kLimit);
-  EXPECT_LE(std::abs(dissipated_energy(stuck)),
+  EXPECT_LE(std::abs(stuck.energy_per_cycle),
             1e-9 * kLimit * (u_stuck.maxCoeff() - u_stuck.minCoeff()));
   const ContactTrace& slipping = loops[1].trace;
   const Eigen::VectorXd u = slipping.displacement.col(0);
@@ -162,7 +162,7 @@ TEST(RunStages, StagesGiveTheFilesOfTheComposedRun) {
   const double half_range = 0.5 * (u.maxCoeff() - u.minCoeff());
   ASSERT_GT(half_range, kLimit / kKt);
   const double closed_form = 4 * kLimit * (half_range - kLimit / kKt);
-  EXPECT_NEAR(dissipated_energy(slipping), closed_form, kKt * step * step);
+  EXPECT_NEAR(slipping.energy_per_cycle, closed_form, kKt * step * step);
 }
 
 // prepare_run locates an error that needs the structure's instance at the scene's key.

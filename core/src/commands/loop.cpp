@@ -225,7 +225,7 @@ LoopAnalysis analyse_loop(const LoopInput& in, const PeriodicTracer& tracer,
     r.open += s == 2;
   }
   // Energy dissipated per cycle: the closed integral of f . du (tangential and normal).
-  r.energy = dissipated_energy(trace);
+  r.energy = trace.energy_per_cycle;
   r.harmonics = force_harmonics(trace.force, comps, in.max_harmonic);
   r.threshold = view(sampling_schema(), in.sampling).real("significance");
   for (int a = 0; a < d; ++a) {

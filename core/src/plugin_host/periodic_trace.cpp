@@ -411,6 +411,22 @@ void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen
   }
 }
 
+double PeriodicTracer::energy_per_cycle(const Eigen::VectorXd& u_coefficients,
+                                        const Eigen::VectorXd& force_coefficients) const {
+  const int c = layout_.coefficient_count();
+  double energy = 0;
+  for (int a = 0; a < dimension(); ++a) {
+    for (std::size_t q = 0; q < layout_.harmonics().size(); ++q) {
+      const int harmonic = layout_.harmonics()[q];
+      if (harmonic == 0) continue;
+      const int ic = a * c + layout_.cos_index(q), is = a * c + layout_.sin_index(q);
+      energy += harmonic * (force_coefficients(ic) * u_coefficients(is) -
+                            force_coefficients(is) * u_coefficients(ic));
+    }
+  }
+  return std::numbers::pi * energy;
+}
+
 void PeriodicTracer::sample_motion(const Eigen::VectorXd& u_coefficients, ContactTrace& out) {
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   out.displacement.resize(n, d);
@@ -430,10 +446,11 @@ bool PeriodicTracer::trace(const Eigen::VectorXd& u_coefficients, JacobianMode m
   sample_motion(u_coefficients, out);
   out.used_finite_differences = false;
   const bool analytic = mode == JacobianMode::kAnalytic && law_.traits().provides_tangent != 0;
-  if (mode == JacobianMode::kNone || analytic) return run_passes(out, analytic, error);
+  if (!run_passes(out, analytic, error)) return false;
+  out.energy_per_cycle = energy_per_cycle(u_coefficients, out.force_coefficients);
+  if (mode == JacobianMode::kNone || analytic) return true;
 
   // Finite differences local to this contact: central differences on each coefficient.
-  if (!run_passes(out, false, error)) return false;
   out.used_finite_differences = true;
   const int p = unknown_count();
   out.jacobian.resize(p, p);
@@ -451,18 +468,6 @@ bool PeriodicTracer::trace(const Eigen::VectorXd& u_coefficients, JacobianMode m
     out.jacobian.col(q) = (plus.force_coefficients - minus.force_coefficients) / (2 * h);
   }
   return true;
-}
-
-double dissipated_energy(const ContactTrace& trace) {
-  const auto samples = trace.displacement.rows();
-  double energy = 0;
-  for (Eigen::Index j = 0; j < samples; ++j) {
-    const Eigen::Index jn = (j + 1) % samples;
-    for (Eigen::Index a = 0; a < trace.force.cols(); ++a)
-      energy += 0.5 * (trace.force(j, a) + trace.force(jn, a)) *
-                (trace.displacement(jn, a) - trace.displacement(j, a));
-  }
-  return energy;
 }
 
 SlipShares slip_shares(const ContactTrace& trace, const std::vector<int>& components) {

@@ -245,7 +245,7 @@ nlohmann::json write_loop(StagedOutput& out, const RunRecord& run, const Frictio
           {"file", base + ".csv"},
           {"harmonics_file", base + "_harmonics.csv"},
           {"force_harmonic_amplitudes_N", force_amplitudes},
-          {"dissipated_energy_per_cycle_J", dissipated_energy(trace)},
+          {"dissipated_energy_per_cycle_J", trace.energy_per_cycle},
           {"trace_passes", trace.passes}};
 }
 

@@ -71,11 +71,12 @@ struct ContactTrace {
   bool used_finite_differences = false;
   std::string diagnostic;
   int kinks = 0;  // force kinks inside steps in the last pass (laws that step along the motion)
+  // The energy the contact dissipates per cycle (J): the closed integral of f . du over every
+  // axis the law uses, from the harmonics, pi sum_k k (F_ck U_sk - F_sk U_ck). The motion is
+  // its harmonic series, so this is the integral of the force's exact Fourier coefficients
+  // (as accurate as force_coefficients) and the energy the harmonic balance equations put in.
+  double energy_per_cycle = 0;
 };
-
-// The energy dissipated per cycle by a traced contact: the closed integral of f . du over its
-// samples (trapezoidal, over every axis the law uses), in J.
-double dissipated_energy(const ContactTrace& trace);
 
 // The shares of a traced period (fractions of its samples, summing to 1) a contact spends
 // open, stuck and slipping. A sample is open when the law uses the normal direction
@@ -135,6 +136,8 @@ class PeriodicTracer {
     std::vector<double> fraction, jump, dfraction, djump, onset, onset_power, onset_side, donset;
   };
   void sample_motion(const Eigen::VectorXd& u_coefficients, ContactTrace& out);
+  double energy_per_cycle(const Eigen::VectorXd& u_coefficients,
+                          const Eigen::VectorXd& force_coefficients) const;
   bool run_passes(ContactTrace& out, bool with_derivative, std::string* error);
   bool run_period(const ContactTrace& motion, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
                   Eigen::MatrixXd& force, Eigen::MatrixXd& states,
