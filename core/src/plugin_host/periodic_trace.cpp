@@ -355,8 +355,12 @@ void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen
       }
     }
   }
-  // The trapezoidal rule's error at each kink (see the header): coefficient k of component a
-  // gains w_k (h / 2) J_a B2(sigma) g_k(theta*), w_k = 1 / (2 pi) for the mean, 1 / pi else.
+  // The trapezoidal rule's error at each kink (see the header). A force F ~ A |s - s*|^p on one
+  // side of the kink errs by h A zeta(-p, a) g(theta*) per unit weight, a the distance in steps
+  // from the kink to the first sample on that side (after it for a closing, before it for an
+  // opening); the coefficients gain its opposite, w_k = 1 / (2 pi) for the mean, 1 / pi else.
+  // A jump J of dF/ds is the onset J (s - s*) after the kink (p = 1): -zeta(-1, 1 - sigma) =
+  // B2(sigma) / 2, the Euler-Maclaurin term of a derivative jump.
   const double h = 2 * std::numbers::pi / n;
   Eigen::VectorXd g(c), dg(c), weight(c);
   for (int k = 0; k < c; ++k) weight(k) = 1.0 / std::numbers::pi;
@@ -378,36 +382,24 @@ void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen
       dg(layout_.cos_index(q)) = -harmonic * std::sin(harmonic * theta);
       dg(layout_.sin_index(q)) = harmonic * std::cos(harmonic * theta);
     }
-    const double b2 = sigma * sigma - sigma + 1.0 / 6.0, db2 = 2 * sigma - 1;
-    for (int a = 0; a < d; ++a) {
-      const double jump = kink.jump(a);
-      out.force_coefficients.segment(a * c, c) += 0.5 * h * jump * b2 * weight.cwiseProduct(g);
-      if (!dforce) continue;
-      // d/dU of (h / 2) J B2(sigma) g(theta*), theta* = (j - 1 + sigma) h.
-      const Eigen::VectorXd along_sigma =
-          0.5 * h * jump * weight.cwiseProduct(db2 * g + b2 * h * dg);
-      out.jacobian.middleRows(a * c, c) +=
-          0.5 * h * b2 * weight.cwiseProduct(g) * kink.djump.row(a) + along_sigma * kink.dfraction;
-    }
-    if (!(kink.onset_power > 0)) continue;
-    // The onset F ~ A |s - s*|^p on one side: the trapezoidal sum errs by h A zeta(-p, a) g(theta*)
-    // per unit weight, a the distance in steps from the kink to the first sample on that side
-    // (after it for a closing, before it for an opening); the coefficients gain its opposite.
-    const double p_onset = kink.onset_power;
-    const bool after = kink.onset_side > 0;
-    const double distance = after ? 1.0 - sigma : sigma;
-    const double zeta = hurwitz_zeta(-p_onset, distance);
-    const double dzeta_dsigma =
-        (after ? -1.0 : 1.0) * p_onset * hurwitz_zeta(1.0 - p_onset, distance);
-    for (int a = 0; a < d; ++a) {
-      const double onset = kink.onset(a);
-      out.force_coefficients.segment(a * c, c) -= h * onset * zeta * weight.cwiseProduct(g);
-      if (!dforce) continue;
-      const Eigen::VectorXd along_sigma =
-          h * onset * weight.cwiseProduct(dzeta_dsigma * g + zeta * h * dg);
-      out.jacobian.middleRows(a * c, c) -=
-          h * zeta * weight.cwiseProduct(g) * kink.donset.row(a) + along_sigma * kink.dfraction;
-    }
+    auto subtract_onset = [&](const Eigen::VectorXd& amplitude,
+                              const Eigen::MatrixXd& damplitude, double power, bool after) {
+      const double distance = after ? 1.0 - sigma : sigma;
+      const double zeta = hurwitz_zeta(-power, distance);
+      const double dzeta_dsigma = (after ? -1.0 : 1.0) * power * hurwitz_zeta(1.0 - power, distance);
+      for (int a = 0; a < d; ++a) {
+        out.force_coefficients.segment(a * c, c) -= h * amplitude(a) * zeta * weight.cwiseProduct(g);
+        if (!dforce) continue;
+        // d/dU of h A zeta(-p, a(sigma)) g(theta*), theta* = (j - 1 + sigma) h.
+        const Eigen::VectorXd along_sigma =
+            h * amplitude(a) * weight.cwiseProduct(dzeta_dsigma * g + zeta * h * dg);
+        out.jacobian.middleRows(a * c, c) -=
+            h * zeta * weight.cwiseProduct(g) * damplitude.row(a) + along_sigma * kink.dfraction;
+      }
+    };
+    subtract_onset(kink.jump, kink.djump, 1.0, true);
+    if (kink.onset_power > 0)
+      subtract_onset(kink.onset, kink.donset, kink.onset_power, kink.onset_side > 0);
   }
 }
 

@@ -20,15 +20,16 @@
 // end samples, the rates du/ds of the harmonic series there (s the step's fraction), so they
 // integrate along the series' cubic Hermite interpolant between samples; they also report the
 // force's kinks inside the steps (stick to slip, opening, closing), and the force coefficients
-// then correct the trapezoidal rule at each kink of jump J in dF/ds at fraction sigma:
-//   integral = trapezoidal sum + (h / 2) J B2(sigma) g(theta*),  B2(x) = x^2 - x + 1/6,
-// h the sample spacing in phase, g the basis function, theta* the kink's phase (the
-// Euler-Maclaurin term of a derivative jump; third order after it). A kink may also carry an
-// onset, a force F ~ A |s - s*|^p on one side of it (Hertz: p = 1.5), whose term is
+// then correct the trapezoidal rule at each kink. A force F ~ A |s - s*|^p on one side of
+// the kink (s the step's fraction, s* the kink's) leaves the trapezoidal sum a term short:
 //   integral = trapezoidal sum - h A zeta(-p, a) g(theta*),
-// zeta the Hurwitz zeta function and a the distance in steps from the kink to the first sample
-// on the force's side. The Jacobian carries the corrections' derivatives through the kinks'
-// reported derivatives.
+// zeta the Hurwitz zeta function, a the distance in steps from the kink to the first sample
+// on the force's side, h the sample spacing in phase, g the basis function and theta* the
+// kink's phase (Navot's generalised Euler-Maclaurin term). A jump J in dF/ds is the onset
+// J (s - s*) after the kink, p = 1, whose term is (h / 2) J B2(sigma) g(theta*), B2(x) =
+// x^2 - x + 1/6, sigma the kink's fraction (third order after it); a kink may also carry an
+// onset of its own (Hertz: p = 1.5 where the contact closes or opens). The Jacobian carries
+// the corrections' derivatives through the kinks' reported derivatives.
 //
 // The force entering the equations is the law's force minus its force at u = 0 in the
 // initial state (the preload balanced by the static equilibrium the unknowns are measured
