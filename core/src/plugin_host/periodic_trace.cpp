@@ -66,8 +66,7 @@ PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayo
 bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& state,
                                 Eigen::MatrixXd* dstate, Eigen::MatrixXd& force,
                                 Eigen::MatrixXd& states, std::vector<Eigen::MatrixXd>* dforce,
-                                Eigen::MatrixXd* monodromy, KinkList* kinks,
-                                std::string* error) {
+                                Eigen::MatrixXd* monodromy, KinkList* kinks, std::string* error) {
   const Eigen::MatrixXd& u = motion.displacement;
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   const int s = state_size_;
@@ -90,7 +89,7 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
   // Kinks of this pass: fraction, jump (3 per kink) and, with the derivative, their
   // derivatives with respect to the step's inputs [state_prev, u_prev, u_now, rate_prev,
   // rate_now].
-  const auto inputs = static_cast<std::size_t>(s + 12);
+  const auto inputs = static_cast<std::size_t>(s) + 12;
   KinkReport& report = kink_report_;
   frichb_force_kinks kink_buffer{sizeof(frichb_force_kinks),
                                  kMaxKinksPerStep,
@@ -179,8 +178,7 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
           for (int a = 0; a < d; ++a) chain(component_row(report.djump, a), kink.djump.row(a));
           if (kink.onset_power > 0) {
             kink.donset.resize(d, unknown_count());
-            for (int a = 0; a < d; ++a)
-              chain(component_row(report.donset, a), kink.donset.row(a));
+            for (int a = 0; a < d; ++a) chain(component_row(report.donset, a), kink.donset.row(a));
           }
         }
       }
@@ -382,13 +380,15 @@ void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen
       dg(layout_.cos_index(q)) = -harmonic * std::sin(harmonic * theta);
       dg(layout_.sin_index(q)) = harmonic * std::cos(harmonic * theta);
     }
-    auto subtract_onset = [&](const Eigen::VectorXd& amplitude,
-                              const Eigen::MatrixXd& damplitude, double power, bool after) {
+    auto subtract_onset = [&](const Eigen::VectorXd& amplitude, const Eigen::MatrixXd& damplitude,
+                              double power, bool after) {
       const double distance = after ? 1.0 - sigma : sigma;
       const double zeta = hurwitz_zeta(-power, distance);
-      const double dzeta_dsigma = (after ? -1.0 : 1.0) * power * hurwitz_zeta(1.0 - power, distance);
+      const double dzeta_dsigma =
+          (after ? -1.0 : 1.0) * power * hurwitz_zeta(1.0 - power, distance);
       for (int a = 0; a < d; ++a) {
-        out.force_coefficients.segment(a * c, c) -= h * amplitude(a) * zeta * weight.cwiseProduct(g);
+        out.force_coefficients.segment(a * c, c) -=
+            h * amplitude(a) * zeta * weight.cwiseProduct(g);
         if (!dforce) continue;
         // d/dU of h A zeta(-p, a(sigma)) g(theta*), theta* = (j - 1 + sigma) h.
         const Eigen::VectorXd along_sigma =

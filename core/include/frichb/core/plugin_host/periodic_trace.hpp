@@ -142,8 +142,8 @@ class PeriodicTracer {
   bool run_passes(ContactTrace& out, bool with_derivative, std::string* error);
   bool run_period(const ContactTrace& motion, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
                   Eigen::MatrixXd& force, Eigen::MatrixXd& states,
-                  std::vector<Eigen::MatrixXd>* dforce, Eigen::MatrixXd* monodromy,
-                  KinkList* kinks, std::string* error);
+                  std::vector<Eigen::MatrixXd>* dforce, Eigen::MatrixXd* monodromy, KinkList* kinks,
+                  std::string* error);
   void transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce,
                         const KinkList& kinks);
 
