@@ -18,12 +18,11 @@
 // which a host interpolating a harmonic series gives to fourth order in the sample spacing
 // (with v0 = v1 = u1 - u0 it is the chord). Events are located on this cubic by a scan of
 // kEventScan points and a bracketed root (stick to slip, open and closed), or inside the slip
-// integration (slip to stick); the direction a is integrated by classical Runge-Kutta on
-// sub-steps sized by the local rate, so that kt |u_t'| / (mu N) times a sub-step stays below
-// kMaxRateStep (they shrink geometrically towards an opening, down to 1 / kMaxSubsteps of the
-// segment), and by backward Euler in the sub-steps where that product exceeds 1 (next to N = 0, at
-// an opening or a re-contact, where the direction relaxes onto its quasi-steady value at an
-// unbounded rate). Contact resumes unloaded (T = 0, w = u_t): stuck when the stuck force just after
+// integration (slip to stick); the direction a is integrated by classical Runge-Kutta with
+// enough sub-steps that kt |u_t'| / (mu N) times a sub-step stays below kMaxRateStep, and by
+// backward Euler in the sub-steps where that product exceeds 1 (next to N = 0, at an opening
+// or a re-contact, where the direction relaxes onto its quasi-steady value at an unbounded
+// rate). Contact resumes unloaded (T = 0, w = u_t): stuck when the stuck force just after
 // the contact stays within mu N (kt |u_t'| <= mu N' where kt > 0 at contact), else slipping
 // in the direction of u_t'. The step solves the law on the cubic to about 1e-8 of
 // mu N (measured: 4.4e-8 at a = 100 mu N / kt on a circle, below 1e-9 near the stick limit),
@@ -579,40 +578,23 @@ class FrictionCircleSlider {
     return n.stiffness * std::hypot(v[0], v[1]) / (mu_ * n.normal);
   }
 
-  // The end of the slip sub-step that starts at x, in a segment ending at `to`: the rest split
-  // evenly into sub-steps of rate times length <= kMaxRateStep at the rate at x (a constant
-  // rate gives even sub-steps), halved while the rate at the sub-step's middle times its
-  // length exceeds twice that (the rate grows like 1 / distance towards an opening, so the
-  // sub-steps shrink geometrically there), and no shorter than `shortest`.
-  double next_substep_end(const HermiteCubic<double>& md, double x, double to,
-                          double shortest) const {
-    const double rest = to - x;
-    if (!(rest > 0)) return to;
-    const double rate = relaxation_rate(md, x);
-    const double count = std::ceil(std::min(rate * rest / kMaxRateStep, 1e9));
-    double dx = std::max(rest / std::max(count, 1.0), shortest);
-    while (dx > shortest && relaxation_rate(md, x + 0.5 * dx) * dx > 2 * kMaxRateStep)
-      dx = std::max(0.5 * dx, shortest);
-    return dx >= rest * (1 - 1e-12) ? to : x + dx;
-  }
-
   template <class S>
   void slip_segment(Phase<S>& ph, const HermiteCubic<S>& m, const HermiteCubic<double>& md, S& s,
                     SliderStep<S>& out) const {
     const S opens = contact_change(m, md, s, true);
     const S end = opens <= 1.0 ? opens : S(1.0);
-    // Sub-steps sized by the local rate kt |u_t'| / (mu N) (next_substep_end), never shorter
-    // than the segment over kMaxSubsteps (next to N = 0, where backward Euler takes them).
+    // Sub-steps from the largest rate kt |u_t'| / (mu N) on the scan points.
+    // Sub-steps from the largest rate on the scan points (infinite where N = 0: the most
+    // sub-steps, those next to the zero taken by backward Euler).
+    double rate = 0;
     const double from = value_of(s), to = value_of(end);
-    const double shortest = (to - from) / kMaxSubsteps;
-    const S start = s, length = end - s;
-    double position = from;
-    for (int k = 0;; ++k) {
-      const double next_position =
-          k == kMaxSubsteps ? to : next_substep_end(md, position, to, shortest);
-      const bool last = next_position >= to;
-      const S next_s = last ? end : start + length * ((next_position - from) / (to - from));
-      position = next_position;
+    for (int k = 0; k <= kEventScan; ++k)
+      rate = std::max(rate, relaxation_rate(md, from + (to - from) * k / kEventScan));
+    const double wanted = std::ceil(std::min(rate * (to - from) / kMaxRateStep, 1e9));
+    const int substeps = std::clamp(static_cast<int>(wanted), 1, kMaxSubsteps);
+    const S ds = (end - s) / static_cast<double>(substeps);
+    for (int k = 0; k < substeps; ++k) {
+      const S next_s = k + 1 == substeps ? end : s + ds;
       const double sd = value_of(s), dsd = value_of(next_s) - sd;
       const bool stiff = relaxation_rate(md, sd + 0.5 * dsd) * dsd > 1.0;
       const S next = advance_angle(m, s, ph.angle, next_s - s, stiff);
@@ -635,7 +617,6 @@ class FrictionCircleSlider {
       }
       s = next_s;
       ph.angle = next;
-      if (last) break;
     }
     if (opens <= 1.0) {
       add_onset(
