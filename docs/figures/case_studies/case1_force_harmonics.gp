@@ -8,7 +8,7 @@ set xlabel 'harmonic'
 set ylabel 'amplitude [N]'
 set xtics 1
 set xrange [-0.5:10.5]
-plot '../../../../../tmp/diag/s8/cs2/test_case_1/runs/0002/loops/shroud_90Hz_1_harmonics.csv' using ($1 + -0.1):'f_t1_amplitude_N' with impulses lw 6 title 'tangential, 90 Hz, crossing 1', \
-     '../../../../../tmp/diag/s8/cs2/test_case_1/runs/0002/loops/shroud_118.5Hz_1_harmonics.csv' using ($1 + 0.1):'f_t1_amplitude_N' with impulses lw 6 title 'tangential, 118.5 Hz, crossing 1', \
-     '../../../../../tmp/diag/s8/cs2/test_case_1/runs/0002/loops/shroud_118.5Hz_2_harmonics.csv' using ($1 + 0.30000000000000004):'f_t1_amplitude_N' with impulses lw 6 title 'tangential, 118.5 Hz, crossing 2', \
-     '../../../../../tmp/diag/s8/cs2/test_case_1/runs/0002/loops/shroud_118.5Hz_3_harmonics.csv' using ($1 + 0.5000000000000001):'f_t1_amplitude_N' with impulses lw 6 title 'tangential, 118.5 Hz, crossing 3'
+plot '../../../out/case_studies/test_case_1/runs/0002/loops/shroud_90Hz_1_harmonics.csv' using ($1 + -0.1):'f_t1_amplitude_N' with impulses lw 6 title 'tangential, 90 Hz, crossing 1', \
+     '../../../out/case_studies/test_case_1/runs/0002/loops/shroud_118.5Hz_1_harmonics.csv' using ($1 + 0.1):'f_t1_amplitude_N' with impulses lw 6 title 'tangential, 118.5 Hz, crossing 1', \
+     '../../../out/case_studies/test_case_1/runs/0002/loops/shroud_118.5Hz_2_harmonics.csv' using ($1 + 0.30000000000000004):'f_t1_amplitude_N' with impulses lw 6 title 'tangential, 118.5 Hz, crossing 2', \
+     '../../../out/case_studies/test_case_1/runs/0002/loops/shroud_118.5Hz_3_harmonics.csv' using ($1 + 0.5000000000000001):'f_t1_amplitude_N' with impulses lw 6 title 'tangential, 118.5 Hz, crossing 3'

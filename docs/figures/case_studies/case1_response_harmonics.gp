@@ -8,8 +8,8 @@ set xlabel 'frequency [Hz]'
 set ylabel 'response amplitude [m]'
 set logscale y
 set format y '%.0e'
-plot '../../../../../tmp/diag/s8/cs2/test_case_1/runs/0000/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'H = 1', \
-     '../../../../../tmp/diag/s8/cs2/test_case_1/runs/0001/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'H = 3', \
-     '../../../../../tmp/diag/s8/cs2/test_case_1/runs/0002/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'H = 5', \
-     '../../../../../tmp/diag/s8/cs2/test_case_1/runs/0003/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'H = 10', \
-     '../../../../../tmp/diag/s8/cs2/test_case_1_free/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'no contact'
+plot '../../../out/case_studies/test_case_1/runs/0000/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'H = 1', \
+     '../../../out/case_studies/test_case_1/runs/0001/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'H = 3', \
+     '../../../out/case_studies/test_case_1/runs/0002/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'H = 5', \
+     '../../../out/case_studies/test_case_1/runs/0003/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'H = 10', \
+     '../../../out/case_studies/test_case_1_free/response.csv' using 'frequency_hz':'response_amplitude_m' with lines lw 2 title 'no contact'

@@ -9,4 +9,4 @@ set ylabel 'shroud_right peak amplitude [m]'
 set logscale y
 set format y '%.0e'
 set logscale x
-plot '../../../../../tmp/diag/s8/cs2/test_case_2/study.csv' using (column(3) > 0 ? column(3) : 1/0):'shroud_right_peak_amplitude_m' with linespoints pt 7 lw 2 title 'preloaded'
+plot '../../../out/case_studies/test_case_2/study.csv' using (column(3) > 0 ? column(3) : 1/0):'shroud_right_peak_amplitude_m' with linespoints pt 7 lw 2 title 'preloaded'
