@@ -51,8 +51,14 @@ def main():
         run([str(frichb), "run", str(scene), "-q", "-o", str(out),
              "--set", "contacts.shroud.params.mu=0.8",
              "--set", f"harmonic_balance.samples_per_period={samples}",
+             "--set", "harmonic_balance.trace_along_motion=true",
              "--set", "output.plots=false"])
         summary = json.loads((out / "summary.json").read_text())
+        missing = [key for key in ("termination", "turning_points", "micro_folds",
+                                   "turning_point_frequencies", "peak", "points")
+                   if key not in summary]
+        if missing or "response" not in summary["peak"]:
+            fail(f"{out / 'summary.json'} lacks {missing or ['peak.response']}")
         termination = summary["termination"]
         reason = termination["reason"] if isinstance(termination, dict) else termination
         if reason != "reached_end":

@@ -384,8 +384,11 @@ void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen
                               double power, bool after) {
       const double distance = after ? 1.0 - sigma : sigma;
       const double zeta = hurwitz_zeta(-power, distance);
-      const double dzeta_dsigma =
-          (after ? -1.0 : 1.0) * power * hurwitz_zeta(1.0 - power, distance);
+      // d zeta(-p, a) / da = p zeta(1 - p, a), its limit a -> 0+ for a kink at the step's end
+      // (or start): zeta(0, 0+) = 1/2 where hurwitz_zeta takes zeta(s, 0) = zeta(s, 1).
+      const double zeta_below =
+          power == 1.0 && distance == 0.0 ? 0.5 : hurwitz_zeta(1.0 - power, distance);
+      const double dzeta_dsigma = (after ? -1.0 : 1.0) * power * zeta_below;
       for (int a = 0; a < d; ++a) {
         out.force_coefficients.segment(a * c, c) -=
             h * amplitude(a) * zeta * weight.cwiseProduct(g);
@@ -437,6 +440,7 @@ bool PeriodicTracer::trace(const Eigen::VectorXd& u_coefficients, JacobianMode m
                            ContactTrace& out, std::string* error) {
   sample_motion(u_coefficients, out);
   out.used_finite_differences = false;
+  out.energy_per_cycle = 0;
   const bool analytic = mode == JacobianMode::kAnalytic && law_.traits().provides_tangent != 0;
   if (!run_passes(out, analytic, error)) return false;
   out.energy_per_cycle = energy_per_cycle(u_coefficients, out.force_coefficients);

@@ -89,6 +89,8 @@ struct SlipShares {
 };
 SlipShares slip_shares(const ContactTrace& trace, const std::vector<int>& components);
 
+// Not thread-safe: a tracer keeps its buffers between traces; use one per thread (the
+// harmonic balance model has one per contact, and a thread traces its own contacts).
 class PeriodicTracer {
  public:
   PeriodicTracer(const ContactLawInstance& law, const HarmonicLayout& layout,
