@@ -155,7 +155,7 @@ struct SliderStep {
 template <class Normal>
 class FrictionCircleSlider {
  public:
-  static constexpr int kEventScan = 8;         // scan points per step for the events
+  static constexpr int kEventScan = 16;        // scan points per step for the events
   static constexpr double kMaxRateStep = 0.2;  // bound on kt |u_t'| ds / (mu N) per sub-step
   static constexpr int kMaxSubsteps = 512;
   static constexpr int kMaxSegments = 64;
