@@ -17,7 +17,9 @@
 #     (three response curves on the test-case blade, 18-36 s in Release, over 300 s here), whose
 #     patch code runs under the sanitizers in test_contact_patch;
 #  2. fuzz_scene_bounded: libFuzzer on scene parsing and validation for FRICHB_FUZZ_SECONDS
-#     (default 60) from the shipped scenes.
+#     (default 60) from the shipped scenes; then fuzz_import_*_bounded: libFuzzer on each
+#     `frichb import` reader (four matrix formats, node coordinates, equation maps) for
+#     FRICHB_FUZZ_IMPORT_SECONDS each (default 20) from tests/fuzz/import_seeds/.
 # Warnings are errors in the main GCC build (scripts/test.sh), not here.
 # Jobs default to the core count (FRICHB_JOBS overrides it).
 set -euo pipefail
@@ -25,13 +27,14 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh
 jobs=${FRICHB_JOBS:-$(nproc 2>/dev/null || echo 2)}
 seconds=${FRICHB_FUZZ_SECONDS:-60}
+import_seconds=${FRICHB_FUZZ_IMPORT_SECONDS:-20}
 start=$(date +%s)
 stamp() { echo "sanitize: $1 ($(($(date +%s) - start)) s)"; }
 
 cmake -S . -B build-sanitize -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
   -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DFRICHB_FUZZ=ON \
-  -DFRICHB_FUZZ_SECONDS="$seconds" >/dev/null
+  -DFRICHB_FUZZ_SECONDS="$seconds" -DFRICHB_FUZZ_IMPORT_SECONDS="$import_seconds" >/dev/null
 cmake --build build-sanitize -j"$jobs"
 stamp "build-sanitize built"
 # libgomp (CHOLMOD's OpenMP runtime, loaded with the fe_sector plugin) is preloaded so that it
@@ -44,5 +47,5 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
   -E "^(fe_pipeline_matches_calculix_cyclic|fe_patch_scene_matches_hand_written_contact|large_case_folds_are_physical|Cyclic\.BladedDiskPeakConvergesWithTheNumberOfHarmonics|Stress\.(StiffContactSlippingReachesTheEndAndItsPeakAgrees|HertzAtZeroPreloadConvergesToTimeIntegration|SeveralResonancesInOneSweep|GapFoldsEndRightOrSayWhy|FineControlLocatesTheFoldsOfAClosingGap|IterativePathsAndDenseLuSolveTheSameCurve))$"
 stamp "ASan/UBSan tests passed"
 ctest --test-dir build-sanitize -L fuzz --output-on-failure
-grep -h "^stat::" build-sanitize/fuzz-scene/fuzz.log || true
+grep -h "^stat::" build-sanitize/fuzz-scene/fuzz.log build-sanitize/fuzz-import-*/fuzz.log || true
 stamp "fuzzing passed"

@@ -307,6 +307,25 @@ TEST(ContactPatch, RefusesANodeWithoutPartnerNamingTheDistance) {
                      {"has no partner"});
 }
 
+// A pairs file pairing nodes that cannot touch (farther apart in the face plane than the
+// faces' mesh spacing, here 0.1 m) was accepted and gave contacts between distant nodes.
+TEST(ContactPatch, PairsFileRefusesNodesThatCannotTouch) {
+  frichb::test::TempDir dir;
+  const auto patch_with = [&](const std::string& rows) {
+    const auto pairs = dir.write("pairs.csv", "node_a,node_b\n" + rows);
+    return "{patch: {faces: [{face: right, sector: 0}, {face: left, sector: 1}], pairs_file: '" +
+           pairs.string() + "'}}";
+  };
+  const ContactPatch patch = pair_faces(FaceGeometry{}, patch_with("1,101\n2,102\n3,103\n4,104\n"));
+  ASSERT_EQ(patch.pairs.size(), 4u);
+  EXPECT_EQ(patch.pairs[3].node_b, 104);
+  // Node 1 (r = 1.0, z = -0.1) with node 104 (r = 1.1, z = 0.1): 0.224 m in the face plane.
+  expect_scene_error(
+      [&] { pair_faces(FaceGeometry{}, patch_with("1,104\n2,102\n3,103\n4,101\n")); },
+      {"contacts[0].patch.pairs_file", "node 1 pairs with node 104, 0.224 m away in the face plane",
+       "mesh spacing (0.1 m)"});
+}
+
 TEST(ContactPatch, NormalDistanceIsRefusedOrBecomesTheGap) {
   // Node 101 moved by 2e-4 m into sector 1 (away from the right face): a gap of 2e-4 m.
   FaceGeometry g;

@@ -499,9 +499,22 @@ TEST(FeSector, RefusesBadFilesAndMatrices) {
       "complex.mtx", "%%MatrixMarket matrix coordinate complex general\n1 1 1\n1 1 1 0\n");
   EXPECT_THAT(message_of(with(complex_file.string(), ok_k, plain)), HasSubstr("field 'complex'"));
   const auto short_file =
-      f.dir.write("short.mtx", "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 1\n");
+      f.dir.write("short.mtx",
+                  "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 1.000000000\n"
+                  "2 1 0.500000000\n");
   EXPECT_THAT(message_of(with(short_file.string(), ok_k, plain)),
-              HasSubstr("ends after 1 of 3 entries"));
+              HasSubstr("short.mtx:4: the file ends after 2 of 3 entries"));
+  // Fewer bytes than the announced entries need: refused before anything is allocated.
+  const auto huge = f.dir.write(
+      "huge.mtx", "%%MatrixMarket matrix coordinate real general\n100000 100000 9000000000\n");
+  EXPECT_THAT(message_of(with(huge.string(), ok_k, plain)),
+              HasSubstr("huge.mtx:2: the size line announces 9000000000 entries, which the 0 "
+                        "bytes after it cannot hold"));
+  // Both triangles of a symmetric file: the upper one is not the format's.
+  const auto upper = f.dir.write(
+      "upper.mtx", "%%MatrixMarket matrix coordinate real symmetric\n2 2 2\n1 1 1\n1 2 0.5\n");
+  EXPECT_THAT(message_of(with(upper.string(), ok_k, plain)),
+              HasSubstr("upper.mtx:4: entry (1, 2) lies above the diagonal"));
   const auto out_of_range =
       f.dir.write("range.mtx", "%%MatrixMarket matrix coordinate real general\n2 2 1\n3 1 1\n");
   EXPECT_THAT(message_of(with(out_of_range.string(), ok_k, plain)),

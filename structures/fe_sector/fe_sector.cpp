@@ -41,6 +41,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "frichb/plugin/matrix_market.hpp"
 #include "frichb/plugin/modal_basis.hpp"
 #include "frichb/plugin/sdk.hpp"
 
@@ -126,23 +127,18 @@ std::vector<frichb_param_spec> fe_sector_schema() {
 // ---------------------------------------------------------------------------------------
 // Matrix Market
 
-std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return s;
-}
-
 bool blank(const std::string& line) {
   return std::all_of(line.begin(), line.end(),
                      [](unsigned char c) { return std::isspace(c) != 0; });
 }
 
-// A real Matrix Market matrix (coordinate or array; real or integer; general or symmetric),
-// with symmetric storage expanded to both triangles and repeated coordinates summed.
+// A real Matrix Market matrix (frichb/plugin/matrix_market.hpp: coordinate or array; real or
+// integer; general or symmetric), with symmetric storage expanded to both triangles and
+// repeated coordinates summed.
 SpMat<double> read_market(const std::string& file, const std::string& what) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  std::ifstream in(file);
+  std::ifstream in(file, std::ios::binary);
   if (!fs::is_regular_file(fs::path(file), ec) || !in) {
     std::string where;
     if (fs::path(file).is_relative()) {
@@ -150,115 +146,34 @@ SpMat<double> read_market(const std::string& file, const std::string& what) {
       where = " (a relative path is relative to the current working directory" +
               (ec ? std::string() : ", here '" + cwd.string() + "'") + ")";
     }
-    throw std::invalid_argument("cannot open the " + what + " matrix file '" + file + "'" + where);
+    throw std::invalid_argument("cannot open the " + what + " matrix file '" + file + "'" + where +
+                                " (or it is not a regular file)");
   }
-  long line_no = 0;
-  auto fail = [&](const std::string& message) {
-    throw std::invalid_argument(what + " matrix " + file + ":" + std::to_string(line_no) + ": " +
-                                message);
-  };
-  std::string line;
-  std::getline(in, line);
-  ++line_no;
-  std::istringstream header(line);
-  std::string banner, object, format, field, symmetry;
-  header >> banner >> object >> format >> field >> symmetry;
-  if (banner != "%%MatrixMarket")
-    fail("not a Matrix Market file (the first line must start with %%MatrixMarket)");
-  object = lower(object);
-  format = lower(format);
-  field = lower(field);
-  symmetry = lower(symmetry);
-  if (object != "matrix") fail("object '" + object + "' is not 'matrix'");
-  if (format != "coordinate" && format != "array")
-    fail("format '" + format + "' is neither 'coordinate' nor 'array'");
-  if (field != "real" && field != "integer" && field != "double")
-    fail("field '" + field + "' is not supported (real or integer only)");
-  if (symmetry != "general" && symmetry != "symmetric")
-    fail("symmetry '" + symmetry + "' is not supported (general or symmetric only)");
-  const bool symmetric = symmetry == "symmetric";
-  const bool coordinate = format == "coordinate";
-
-  auto next_line = [&]() -> bool {
-    while (std::getline(in, line)) {
-      ++line_no;
-      if (!line.empty() && line[0] == '%') continue;
-      if (blank(line)) continue;
-      return true;
-    }
-    return false;
-  };
-  auto parse_index = [&](const char*& p, long long count, const char* name) {
-    char* end = nullptr;
-    errno = 0;
-    const long long v = std::strtoll(p, &end, 10);
-    if (end == p || errno != 0) fail(std::string("expected an integer ") + name);
-    if (v < 1 || v > count)
-      fail(std::string(name) + " " + std::to_string(v) + " is outside [1, " +
-           std::to_string(count) + "]");
-    p = end;
-    return v - 1;
-  };
-  auto parse_value = [&](const char*& p) {
-    char* end = nullptr;
-    const double v = std::strtod(p, &end);
-    if (end == p || !std::isfinite(v)) fail("expected a finite number");
-    p = end;
-    return v;
-  };
-
-  if (!next_line()) fail("the size line is missing");
-  long long rows = 0, cols = 0, entries = 0;
-  {
-    std::istringstream size(line);
-    size >> rows >> cols;
-    if (coordinate) size >> entries;
-    if (!size || rows < 1 || cols < 1 || entries < 0)
-      fail("bad size line '" + line + "' (expected rows, columns" +
-           (coordinate ? std::string(" and entry count") : std::string()) + ")");
-    if (rows > 2147483647LL || cols > 2147483647LL) fail("the matrix is too large");
-  }
-  if (symmetric && rows != cols)
-    fail("a symmetric matrix must be square, not " + std::to_string(rows) + " x " +
-         std::to_string(cols));
-
   std::vector<Eigen::Triplet<double>> triplets;
-  bool upper = false, lower_part = false;
-  auto add = [&](long long i, long long j, double v) {
-    const auto r = static_cast<Index>(i), c = static_cast<Index>(j);
-    triplets.emplace_back(r, c, v);
-    if (symmetric && i != j) {
-      triplets.emplace_back(c, r, v);
-      (i < j ? upper : lower_part) = true;
-    }
-  };
-  if (coordinate) {
-    triplets.reserve(static_cast<std::size_t>(symmetric ? 2 * entries : entries));
-    for (long long e = 0; e < entries; ++e) {
-      if (!next_line())
-        fail("the file ends after " + std::to_string(e) + " of " + std::to_string(entries) +
-             " entries");
-      const char* p = line.c_str();
-      const long long i = parse_index(p, rows, "row");
-      const long long j = parse_index(p, cols, "column");
-      add(i, j, parse_value(p));
-    }
-    if (upper && lower_part)
-      throw std::invalid_argument(
-          what + " matrix " + file +
-          ": a symmetric Matrix Market file must list one triangle only, this one lists "
-          "entries on both sides of the diagonal");
-  } else {
-    // Column-major; symmetric arrays give the lower triangle, diagonal included.
-    for (long long j = 0; j < cols; ++j)
-      for (long long i = symmetric ? j : 0; i < rows; ++i) {
-        if (!next_line()) fail("the file ends before all array values were read");
-        const char* p = line.c_str();
-        const double v = parse_value(p);
-        if (v != 0.0) add(i, j, v);
-      }
+  Index rows = 0, columns = 0;
+  bool symmetric = false, array = false;
+  try {
+    frichb::sdk::read_matrix_market(
+        in,
+        [&](const frichb::sdk::MatrixMarketHeader& h) {
+          rows = static_cast<Index>(h.rows);
+          columns = static_cast<Index>(h.columns);
+          symmetric = h.symmetric;
+          array = !h.coordinate;
+          // The reader has checked that the file can hold the entries.
+          triplets.reserve(static_cast<std::size_t>(symmetric ? 2 * h.entries : h.entries));
+        },
+        [&](long long i, long long j, double v, long /*line*/) {
+          if (array && v == 0.0) return;
+          const auto r = static_cast<Index>(i - 1), c = static_cast<Index>(j - 1);
+          triplets.emplace_back(r, c, v);
+          if (symmetric && r != c) triplets.emplace_back(c, r, v);
+        });
+  } catch (const frichb::sdk::MatrixMarketError& e) {
+    throw std::invalid_argument(what + " matrix " + file + ":" + std::to_string(e.line()) + ": " +
+                                e.what());
   }
-  SpMat<double> a(static_cast<Index>(rows), static_cast<Index>(cols));
+  SpMat<double> a(rows, columns);
   a.setFromTriplets(triplets.begin(), triplets.end());
   a.makeCompressed();
   return a;

@@ -1,12 +1,21 @@
-# Runs a libFuzzer executable for a bounded time: fresh seeds (every *.yaml under SEEDS), a
-# corpus folder that keeps what it finds, crash artifacts in WORK/artifacts.
-# cmake -DFUZZER=exe -DSEEDS=dir -DDICT=file -DWORK=dir -DSECONDS=n -P run_fuzzer.cmake
+# Runs a libFuzzer executable for a bounded time: fresh seeds (every file matching PATTERN,
+# default *.yaml, under SEEDS), a corpus folder that keeps what it finds, crash artifacts in
+# WORK/artifacts. DICT (a libFuzzer dictionary) is optional.
+# cmake -DFUZZER=exe -DSEEDS=dir [-DPATTERN=glob] [-DDICT=file] -DWORK=dir -DSECONDS=n
+#       -P run_fuzzer.cmake
+if(NOT PATTERN)
+  set(PATTERN "*.yaml")
+endif()
 file(REMOVE_RECURSE ${WORK}/seeds)
 file(MAKE_DIRECTORY ${WORK}/seeds ${WORK}/corpus ${WORK}/artifacts)
-file(GLOB_RECURSE seeds ${SEEDS}/*.yaml)
+file(GLOB_RECURSE seeds ${SEEDS}/${PATTERN})
 list(LENGTH seeds count)
 if(count EQUAL 0)
-  message(FATAL_ERROR "no seed scenes under ${SEEDS}")
+  message(FATAL_ERROR "no seeds matching ${PATTERN} under ${SEEDS}")
+endif()
+set(dict_option "")
+if(DICT)
+  set(dict_option "-dict=${DICT}")
 endif()
 foreach(seed ${seeds})
   file(RELATIVE_PATH name ${SEEDS} ${seed})
@@ -16,7 +25,7 @@ endforeach()
 message(STATUS "fuzzing ${FUZZER} for ${SECONDS} s from ${count} seeds")
 execute_process(
   COMMAND ${FUZZER} -max_total_time=${SECONDS} -timeout=10 -rss_limit_mb=2048
-          -dict=${DICT} -print_final_stats=1 -artifact_prefix=${WORK}/artifacts/
+          ${dict_option} -print_final_stats=1 -artifact_prefix=${WORK}/artifacts/
           ${WORK}/corpus ${WORK}/seeds
   WORKING_DIRECTORY ${WORK}
   RESULT_VARIABLE status

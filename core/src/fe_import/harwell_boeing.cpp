@@ -3,6 +3,11 @@
 // right-hand side line when there is one), then the column pointers, the row indices and the
 // values, each in fixed-width fields of its format. Described in I. S. Duff, R. G. Grimes,
 // J. G. Lewis, "Users' Guide for the Harwell-Boeing Sparse Matrix Collection", 1992.
+//
+// Read exactly or refused: every field is read at the position its format gives, the line
+// counts of the header must be those the counts and formats need, a line holds nothing beyond
+// its fields, and a real field must carry its decimal point (without one, Fortran would place
+// it by the format's digit count, which a mismatched format silently gets wrong).
 #include <regex>
 #include <string>
 
@@ -16,13 +21,19 @@ using fe_import_detail::LineReader;
 using fe_import_detail::parse_integer;
 using fe_import_detail::parse_real;
 using fe_import_detail::split_fields;
+using fe_import_detail::trim;
 using fe_import_detail::upper;
 
 namespace {
 
+// The longest record a format may describe (fields per line x width), in characters.
+constexpr long kMaxRecord = 1000;
+
 struct FieldFormat {
-  std::size_t per_line = 0;
-  std::size_t width = 0;
+  std::string text;  // as written, for messages
+  long per_line = 0;
+  long width = 0;
+  char kind = 'I';  // I, E, D, F or G
 };
 
 struct HbHeader {
@@ -38,69 +49,182 @@ struct HbHeader {
   FieldFormat value_format;
 };
 
-// "(8I10)", "(1P,4E20.12)", "(5D16.8)": fields per line and width.
-FieldFormat parse_format(const LineReader& in, const std::string& text) {
-  static const std::regex kFormat(R"(\((?:\s*\d*P\s*,?)?\s*(\d+)\s*[IEDFG]\s*(\d+))",
-                                  std::regex::icase);
-  std::smatch m;
-  if (!std::regex_search(text, m, kFormat))
-    in.fail("Fortran format '" + text + "' is not of the form (nIw) or (nEw.d)");
-  return FieldFormat{std::stoul(m[1].str()), std::stoul(m[2].str())};
+// A small decimal number of a format ("" counts as `absent`); false when it has more digits
+// than any sensible format.
+bool format_count(const std::string& digits, long absent, long& value) {
+  if (digits.empty()) {
+    value = absent;
+    return true;
+  }
+  if (digits.size() > 6) return false;
+  value = std::stol(digits);
+  return true;
 }
 
-HbHeader read_header(LineReader& in) {
+// "(8I10)", "(1P,4E20.12)", "(5D16.8)", "(3E26.18E3)": fields per line, type and width.
+FieldFormat parse_format(const LineReader& in, const std::string& text, const char* what,
+                         bool integers) {
+  static const std::regex kFormat(
+      R"(\(\s*(?:[+-]?\d+\s*P\s*,?\s*)?(\d*)\s*([IEDFG])\s*(\d+)\s*(?:\.\s*(\d+))?\s*(?:E\s*\d+)?\s*\))",
+      std::regex::icase);
+  std::smatch m;
+  const std::string shown = "the " + std::string(what) + " format '" + text + "'";
+  if (!std::regex_match(text, m, kFormat))
+    in.fail(shown + " is not a Fortran format of the form (nIw), (nEw.d) or (kP,nEw.d)");
+  FieldFormat f;
+  f.text = text;
+  f.kind = upper(m[2].str())[0];
+  long digits = -1;
+  if (!format_count(m[1].str(), 1, f.per_line) || !format_count(m[3].str(), 0, f.width) ||
+      !format_count(m[4].str(), -1, digits))
+    in.fail(shown + " has a count or width of more than six digits");
+  if (integers != (f.kind == 'I'))
+    in.fail(shown + (integers ? " must be an integer format (nIw)"
+                              : " must be a real format (nEw.d, nDw.d, nFw.d or nGw.d)"));
+  if (f.per_line < 1 || f.width < 1)
+    in.fail(shown + " gives " + std::to_string(f.per_line) + " fields of width " +
+            std::to_string(f.width) + " per line: both must be at least 1");
+  if (f.per_line * f.width > kMaxRecord)
+    in.fail(shown + " describes lines of " + std::to_string(f.per_line * f.width) +
+            " characters, more than the " + std::to_string(kMaxRecord) + " this reader accepts");
+  if (digits >= (integers ? f.width + 1 : f.width))
+    in.fail(shown + ": " + std::to_string(digits) + " digits do not fit a field of width " +
+            std::to_string(f.width));
+  return f;
+}
+
+// The parenthesised groups of the format line, in order; anything else but blanks is refused.
+std::vector<std::string> format_groups(const LineReader& in, const std::string& line) {
+  std::vector<std::string> groups;
+  std::size_t at = 0;
+  while (at < line.size()) {
+    if (line[at] == ' ' || line[at] == '\t') {
+      ++at;
+      continue;
+    }
+    const std::size_t close = line.find(')', at);
+    if (line[at] != '(' || close == std::string::npos)
+      in.fail("expected the Fortran formats '(PTRFMT) (INDFMT) (VALFMT) [(RHSFMT)]', found '" +
+              line + "'");
+    groups.push_back(line.substr(at, close + 1 - at));
+    at = close + 1;
+  }
+  return groups;
+}
+
+long lines_needed(long count, long per_line) {
+  return count == 0 ? 0 : (count - 1) / per_line + 1;
+}
+
+HbHeader read_header(LineReader& in, const fs::path& map_file, const EquationMap& map) {
   std::string line;
   HbHeader h;
   if (!in.next(line)) in.fail("empty file, expected a Harwell-Boeing title line");
   if (!in.next(line)) in.fail("missing the card-count line");
+  const long counts_line = in.number();
   auto f = split_fields(line);
   long total = 0;
-  if (f.size() < 4 || !parse_integer(f[0], total) || !parse_integer(f[1], h.pointer_lines) ||
-      !parse_integer(f[2], h.index_lines) || !parse_integer(f[3], h.value_lines) ||
-      (f.size() > 4 && !parse_integer(f[4], h.rhs_lines)))
+  if (f.size() < 4 || f.size() > 5 || !parse_integer(f[0], total) ||
+      !parse_integer(f[1], h.pointer_lines) || !parse_integer(f[2], h.index_lines) ||
+      !parse_integer(f[3], h.value_lines) || (f.size() > 4 && !parse_integer(f[4], h.rhs_lines)))
     in.fail("expected 'TOTCRD PTRCRD INDCRD VALCRD [RHSCRD]', found '" + line + "'");
+  if (h.pointer_lines < 0 || h.index_lines < 0 || h.value_lines < 0 || h.rhs_lines < 0 ||
+      total != h.pointer_lines + h.index_lines + h.value_lines + h.rhs_lines)
+    in.fail("the card counts in '" + line +
+            "' are not TOTCRD = PTRCRD + INDCRD + VALCRD + RHSCRD with none negative");
   if (!in.next(line)) in.fail("missing the matrix-type line");
   f = split_fields(line);
   long rows = 0;
-  if (f.size() < 4 || !parse_integer(f[1], rows) || !parse_integer(f[2], h.columns) ||
-      !parse_integer(f[3], h.nonzeros) || rows != h.columns || h.nonzeros < 0)
-    in.fail("expected 'MXTYPE NROW NCOL NNZERO' of a square matrix, found '" + line + "'");
+  long elements = 0;
+  if (f.size() < 4 || f.size() > 5 || !parse_integer(f[1], rows) ||
+      !parse_integer(f[2], h.columns) || !parse_integer(f[3], h.nonzeros) ||
+      (f.size() == 5 && !parse_integer(f[4], elements)) || rows != h.columns || rows < 1 ||
+      h.nonzeros < 0 || elements != 0)
+    in.fail("expected 'MXTYPE NROW NCOL NNZERO [0]' of an assembled square matrix, found '" + line +
+            "'");
   h.type = upper(f[0]);
   if (h.type != "RSA" && h.type != "RUA")
-    in.fail("matrix type '" + f[0] + "': only real assembled matrices (RSA, RUA) are read");
+    in.fail("matrix type '" + f[0] +
+            "': only real assembled matrices are read (RSA: symmetric, its lower triangle; "
+            "RUA: unsymmetric, both triangles)");
+  if (static_cast<std::size_t>(rows) != map.size())
+    in.fail("the matrix has " + std::to_string(rows) + " rows, the equation map " +
+            map_file.string() + " lists " + std::to_string(map.size()) +
+            " equations: are they of the same export?");
   if (!in.next(line)) in.fail("missing the format line");
-  f = split_fields(line);
-  if (f.size() < 3) in.fail("expected 'PTRFMT INDFMT VALFMT [RHSFMT]', found '" + line + "'");
-  h.pointer_format = parse_format(in, f[0]);
-  h.index_format = parse_format(in, f[1]);
-  h.value_format = parse_format(in, f[2]);
+  const auto groups = format_groups(in, line);
+  if (groups.size() < 3 || groups.size() > 4)
+    in.fail("expected the Fortran formats '(PTRFMT) (INDFMT) (VALFMT) [(RHSFMT)]', found '" + line +
+            "'");
+  h.pointer_format = parse_format(in, groups[0], "pointer", true);
+  h.index_format = parse_format(in, groups[1], "row index", true);
+  h.value_format = parse_format(in, groups[2], "value", false);
+  const auto check_lines = [&](const char* card, long given, long count, const char* what,
+                               const FieldFormat& format) {
+    const long needed = lines_needed(count, format.per_line);
+    if (given != needed)
+      fe_import_detail::fail(in.file(), counts_line,
+                             std::string(card) + " = " + std::to_string(given) + ", but " +
+                                 std::to_string(count) + " " + what + " at " +
+                                 std::to_string(format.per_line) + " per line (" + format.text +
+                                 ") take " + std::to_string(needed) + " lines");
+  };
+  check_lines("PTRCRD", h.pointer_lines, h.columns + 1, "column pointers", h.pointer_format);
+  check_lines("INDCRD", h.index_lines, h.nonzeros, "row indices", h.index_format);
+  check_lines("VALCRD", h.value_lines, h.nonzeros, "values", h.value_format);
   if (h.rhs_lines > 0 && !in.next(line)) in.fail("missing the right-hand side line");
   return h;
 }
 
-// `count` fixed-width fields over `lines` lines; the line of each field in `field_lines`.
-std::vector<std::string> read_fields(LineReader& in, long lines, long count,
-                                     const FieldFormat& format, const char* what,
-                                     std::vector<long>& field_lines) {
-  std::vector<std::string> fields;
-  field_lines.clear();
+template <typename T>
+struct Field {
+  T value;
+  long line;
+};
+
+// `count` fields of `format` over `lines` lines, each read at its position and converted by
+// `convert` (false: not a number of that kind).
+template <typename T, typename Convert>
+std::vector<Field<T>> read_fields(LineReader& in, long lines, long count, const FieldFormat& format,
+                                  const char* what, Convert convert) {
+  std::vector<Field<T>> fields;
   std::string line;
+  const auto width = static_cast<std::size_t>(format.width);
   for (long k = 0; k < lines; ++k) {
     if (!in.next(line))
       in.fail(std::string("the file ends inside the ") + what + " (" + std::to_string(lines) +
               " lines announced)");
-    for (std::size_t at = 0; at < line.size() && fields.size() < std::size_t(count);
-         at += format.width) {
-      const std::string field = line.substr(at, format.width);
-      if (split_fields(field).empty()) continue;
-      fields.push_back(field);
-      field_lines.push_back(in.number());
+    const long on_line = std::min(format.per_line, count - k * format.per_line);
+    const std::size_t end = static_cast<std::size_t>(on_line) * width;
+    if (end < line.size() && !trim(std::string_view(line).substr(end)).empty())
+      in.fail("the line holds more than the " + std::to_string(on_line) + " " + what + " of " +
+              format.text + " (" + std::to_string(end) +
+              " columns): the format does not describe this file's lines");
+    for (long j = 0; j < on_line; ++j) {
+      const std::size_t at = static_cast<std::size_t>(j) * width;
+      const std::string field = at < line.size() ? line.substr(at, width) : std::string();
+      T value{};
+      if (trim(field).empty())
+        in.fail("field " + std::to_string(j + 1) + " of the " + what + " (columns " +
+                std::to_string(at + 1) + "-" + std::to_string(at + width) + ") is blank, but " +
+                format.text + " puts " + std::to_string(on_line) + " of them on this line");
+      if (!convert(field, value))
+        in.fail("'" + field + "' in columns " + std::to_string(at + 1) + "-" +
+                std::to_string(at + width) + " is not one of the " + what + " of format " +
+                format.text);
+      fields.push_back({value, in.number()});
     }
   }
-  if (static_cast<long>(fields.size()) != count)
-    in.fail(std::string("expected ") + std::to_string(count) + " " + what + ", found " +
-            std::to_string(fields.size()));
   return fields;
+}
+
+bool integer_field(const std::string& field, long& value) {
+  return parse_integer(field, value);
+}
+
+// A Fortran real field as written: a decimal point is required (see the file's head).
+bool real_field(const std::string& field, double& value) {
+  return field.find('.') != std::string::npos && parse_real(field, value);
 }
 
 NodeDof lookup(const fs::path& file, long line, const fs::path& map_file, const EquationMap& map,
@@ -115,48 +239,54 @@ NodeDof lookup(const fs::path& file, long line, const fs::path& map_file, const 
 
 }  // namespace
 
-std::vector<NodalEntry> read_harwell_boeing(const fs::path& file, const fs::path& map_file,
-                                            const EquationMap& map) {
+VendorMatrix read_harwell_boeing(const fs::path& file, const fs::path& map_file,
+                                 const EquationMap& map) {
   LineReader in(file);
-  const HbHeader h = read_header(in);
-  std::vector<long> pointer_lines;
-  std::vector<long> index_lines;
-  std::vector<long> value_lines;
-  const auto pointers = read_fields(in, h.pointer_lines, h.columns + 1, h.pointer_format,
-                                    "column pointers", pointer_lines);
-  const auto indices =
-      read_fields(in, h.index_lines, h.nonzeros, h.index_format, "row indices", index_lines);
+  const HbHeader h = read_header(in, map_file, map);
+  const auto pointers = read_fields<long>(in, h.pointer_lines, h.columns + 1, h.pointer_format,
+                                          "column pointers", integer_field);
+  const auto indices = read_fields<long>(in, h.index_lines, h.nonzeros, h.index_format,
+                                         "row indices", integer_field);
   const auto values =
-      read_fields(in, h.value_lines, h.nonzeros, h.value_format, "values", value_lines);
-  std::vector<NodalEntry> entries;
-  entries.reserve(static_cast<std::size_t>(h.nonzeros));
-  long begin = 0;
-  if (!parse_integer(pointers[0], begin) || begin != 1)
-    fe_import_detail::fail(file, pointer_lines[0], "the first column pointer must be 1");
+      read_fields<double>(in, h.value_lines, h.nonzeros, h.value_format, "values", real_field);
+  const bool lower = h.type == "RSA";
+  VendorMatrix matrix;
+  matrix.storage = lower ? MatrixStorage::kLowerTriangle : MatrixStorage::kBothTriangles;
+  matrix.declared_size = h.columns;
+  matrix.entries.reserve(static_cast<std::size_t>(h.nonzeros));
+  long begin = pointers[0].value;
+  if (begin != 1)
+    fe_import_detail::fail(file, pointers[0].line, "the first column pointer must be 1");
   for (long column = 1; column <= h.columns; ++column) {
-    long end = 0;
-    const auto p = static_cast<std::size_t>(column);
-    if (!parse_integer(pointers[p], end) || end < begin || end > h.nonzeros + 1)
-      fe_import_detail::fail(file, pointer_lines[p],
-                             "column pointer '" + pointers[p] + "' is not in " +
+    const auto& end = pointers[static_cast<std::size_t>(column)];
+    if (end.value < begin || end.value > h.nonzeros + 1)
+      fe_import_detail::fail(file, end.line,
+                             "column pointer " + std::to_string(end.value) + " is not in " +
                                  std::to_string(begin) + ".." + std::to_string(h.nonzeros + 1));
-    for (long k = begin - 1; k < end - 1; ++k) {
-      const auto q = static_cast<std::size_t>(k);
-      long row = 0;
-      double value = 0;
-      if (!parse_integer(indices[q], row) || row < 1 || row > h.columns)
-        fe_import_detail::fail(
-            file, index_lines[q],
-            "row index '" + indices[q] + "' is not in 1.." + std::to_string(h.columns));
-      if (!parse_real(values[q], value))
-        fe_import_detail::fail(file, value_lines[q], "value '" + values[q] + "' is not a number");
-      const NodeDof a = lookup(file, value_lines[q], map_file, map, row);
-      const NodeDof b = lookup(file, value_lines[q], map_file, map, column);
-      entries.push_back(NodalEntry{a.node, a.dof, b.node, b.dof, value, value_lines[q]});
+    for (long k = begin - 1; k < end.value - 1; ++k) {
+      const auto& row = indices[static_cast<std::size_t>(k)];
+      const auto& value = values[static_cast<std::size_t>(k)];
+      if (row.value < 1 || row.value > h.columns)
+        fe_import_detail::fail(file, row.line,
+                               "row index " + std::to_string(row.value) + " is not in 1.." +
+                                   std::to_string(h.columns));
+      if (lower && row.value < column)
+        fe_import_detail::fail(file, row.line,
+                               "row index " + std::to_string(row.value) + " of column " +
+                                   std::to_string(column) +
+                                   " lies above the diagonal: an RSA file stores the lower "
+                                   "triangle only");
+      const NodeDof a = lookup(file, value.line, map_file, map, row.value);
+      const NodeDof b = lookup(file, value.line, map_file, map, column);
+      matrix.entries.push_back(NodalEntry{a.node, a.dof, b.node, b.dof, value.value, value.line});
     }
-    begin = end;
+    begin = end.value;
   }
-  return entries;
+  if (begin != h.nonzeros + 1)
+    fe_import_detail::fail(file, pointers.back().line,
+                           "the last column pointer is " + std::to_string(begin) +
+                               ", not NNZERO + 1 = " + std::to_string(h.nonzeros + 1));
+  return matrix;
 }
 
 }  // namespace frichb::core

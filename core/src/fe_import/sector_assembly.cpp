@@ -79,9 +79,11 @@ void check_translational(const fs::path& file, const std::vector<NodalEntry>& en
 }
 
 // The entries as one upper triangle: a position given in both triangles must agree to 1e-10
-// of the largest entry; one given twice in the same triangle is refused.
-std::vector<UpperEntry> upper_triangle(const fs::path& file,
-                                       const std::vector<NodalEntry>& entries) {
+// of the largest entry; one given twice in the same triangle is refused. How the triangles
+// are stored must be what the file declares: both (every off-diagonal entry has its mirror),
+// one, or (undeclared) one of the two throughout; a file that mixes them is refused rather
+// than symmetrised.
+std::vector<UpperEntry> upper_triangle(const fs::path& file, const VendorMatrix& matrix) {
   struct Keyed {
     std::tuple<long, int, long, int> key;
     bool mirrored;
@@ -89,9 +91,9 @@ std::vector<UpperEntry> upper_triangle(const fs::path& file,
     long line;
   };
   std::vector<Keyed> keyed;
-  keyed.reserve(entries.size());
+  keyed.reserve(matrix.entries.size());
   double largest = 0.0;
-  for (const auto& e : entries) {
+  for (const auto& e : matrix.entries) {
     const bool mirrored = std::pair{e.node_a, e.dof_a} > std::pair{e.node_b, e.dof_b};
     keyed.push_back({mirrored ? std::tuple{e.node_b, e.dof_b, e.node_a, e.dof_a}
                               : std::tuple{e.node_a, e.dof_a, e.node_b, e.dof_b},
@@ -101,30 +103,51 @@ std::vector<UpperEntry> upper_triangle(const fs::path& file,
   std::sort(keyed.begin(), keyed.end(), [](const Keyed& a, const Keyed& b) {
     return std::tie(a.key, a.mirrored, a.line) < std::tie(b.key, b.mirrored, b.line);
   });
+  const auto where_of = [](const Keyed& k) {
+    const auto& [na, da, nb, db] = k.key;
+    return "entry " + node_dof(na, da) + " / " + node_dof(nb, db);
+  };
   std::vector<UpperEntry> upper;
   upper.reserve(keyed.size());
+  const Keyed* single = nullptr;  // an off-diagonal entry without its mirror
+  const Keyed* paired = nullptr;  // an off-diagonal entry with its mirror
   for (std::size_t k = 0; k < keyed.size(); ++k) {
     const auto& [na, da, nb, db] = keyed[k].key;
+    const bool diagonal = na == nb && da == db;
     if (k > 0 && keyed[k - 1].key == keyed[k].key) {
       const auto& before = keyed[k - 1];
-      const std::string where = node_dof(na, da) + " / " + node_dof(nb, db);
-      if (before.mirrored == keyed[k].mirrored)
+      if (before.mirrored == keyed[k].mirrored || diagonal)
         fail(file, keyed[k].line,
-             "entry " + where + " is listed twice (also line " + std::to_string(before.line) + ")");
+             where_of(keyed[k]) + " is listed twice (also line " + std::to_string(before.line) +
+                 ")");
       if (std::abs(before.value - keyed[k].value) > 1e-10 * largest)
         fail(file, std::max(before.line, keyed[k].line),
-             "entry " + where + " differs from its symmetric partner on line " +
+             where_of(keyed[k]) + " differs from its symmetric partner on line " +
                  std::to_string(std::min(before.line, keyed[k].line)) +
                  ": the matrix is not symmetric");
+      paired = &keyed[k];
       continue;
     }
+    const bool has_mirror = k + 1 < keyed.size() && keyed[k + 1].key == keyed[k].key;
+    if (!diagonal && !has_mirror && single == nullptr) single = &keyed[k];
     upper.push_back({na, da, nb, db, keyed[k].value});
   }
+  if (matrix.storage == MatrixStorage::kBothTriangles && single != nullptr)
+    fail(file, single->line,
+         where_of(*single) +
+             " has no mirror entry, but the file declares an unsymmetric matrix stored in full "
+             "(Harwell-Boeing RUA, Matrix Market general): a stiffness or mass matrix is "
+             "symmetric, so export it as symmetric (RSA, symmetric) or with both triangles");
+  if (matrix.storage == MatrixStorage::kUndeclared && single != nullptr && paired != nullptr)
+    fail(file, single->line,
+         where_of(*single) + " has no mirror entry, but " + where_of(*paired) + " (line " +
+             std::to_string(paired->line) +
+             ") has one: the file stores one triangle for some entries and both for others");
   return upper;
 }
 
-std::vector<NodalEntry> read_matrix(const ImportRequest& request, const fs::path& file,
-                                    const EquationMap& map) {
+VendorMatrix read_matrix(const ImportRequest& request, const fs::path& file,
+                         const EquationMap& map) {
   switch (request.format) {
     case VendorFormat::kAbaqusMatrixInput:
       return read_abaqus_matrix_input(file);
@@ -140,12 +163,44 @@ std::vector<NodalEntry> read_matrix(const ImportRequest& request, const fs::path
 
 std::vector<UpperEntry> read_upper(const ImportRequest& request, const fs::path& file,
                                    const EquationMap& map, double scale) {
-  const auto entries = read_matrix(request, file, map);
-  if (entries.empty()) fail(file, 0, "no matrix entry");
-  check_translational(file, entries);
-  auto upper = upper_triangle(file, entries);
+  const auto matrix = read_matrix(request, file, map);
+  if (matrix.entries.empty()) fail(file, 0, "no matrix entry");
+  check_translational(file, matrix.entries);
+  auto upper = upper_triangle(file, matrix);
   for (auto& e : upper) e.value *= scale;
   return upper;
+}
+
+// Every DOF of one matrix must be in the other: a DOF with stiffness and no mass (or the
+// reverse) is a mass matrix of another model or of part of it.
+void check_same_dofs(const ImportRequest& request, const std::vector<UpperEntry>& k,
+                     const std::vector<UpperEntry>& m) {
+  const auto dofs_of = [](const std::vector<UpperEntry>& upper) {
+    std::map<std::pair<long, int>, bool> dofs;
+    for (const auto& e : upper) {
+      dofs[{e.node_a, e.dof_a}] = true;
+      dofs[{e.node_b, e.dof_b}] = true;
+    }
+    return dofs;
+  };
+  const auto in_k = dofs_of(k);
+  const auto in_m = dofs_of(m);
+  const auto missing = [](const auto& from, const auto& in) -> const std::pair<long, int>* {
+    for (const auto& [dof, _] : from)
+      if (!in.count(dof)) return &dof;
+    return nullptr;
+  };
+  if (const auto* d = missing(in_k, in_m))
+    fail(request.mass_file, 0,
+         node_dof(d->first, d->second) + " is in the stiffness matrix (" +
+             std::to_string(in_k.size()) + " DOFs) but not in this mass matrix (" +
+             std::to_string(in_m.size()) +
+             " DOFs): both must be of the same model, and every DOF must carry mass");
+  if (const auto* d = missing(in_m, in_k))
+    fail(request.stiffness_file, 0,
+         node_dof(d->first, d->second) + " is in the mass matrix (" + std::to_string(in_m.size()) +
+             " DOFs) but not in this stiffness matrix (" + std::to_string(in_k.size()) +
+             " DOFs): both must be of the same model");
 }
 
 using Block = std::array<double, 9>;  // row-major 3 x 3
@@ -246,6 +301,7 @@ ImportedSector assemble_sector(const ImportRequest& request) {
     map = read_equation_map(request.equation_map_file);
   const auto k = read_upper(request, request.stiffness_file, map, mm ? 1e3 : 1.0);
   const auto m = read_upper(request, request.mass_file, map, mm ? 1e3 : 1.0);
+  check_same_dofs(request, k, m);
   ImportedSector sector;
   sector.nodes = number_nodes(k, m, request, mm ? 1e-3 : 1.0);
   std::map<long, Frame> frames;
@@ -261,7 +317,16 @@ ImportedSector assemble_sector(const ImportRequest& request) {
   sector.mass = lower_triangle(rotated_blocks(m, frames), by_number, size);
   const double tolerance = request.tolerance * (mm ? 1e-3 : 1.0);
   std::vector<long> not_cyclic;
-  if (!request.not_cyclic_file.empty()) not_cyclic = read_node_list(request.not_cyclic_file);
+  if (!request.not_cyclic_file.empty()) {
+    not_cyclic = read_node_list(request.not_cyclic_file);
+    for (const long node : not_cyclic)
+      if (!by_number.count(node))
+        fail(request.not_cyclic_file, 0,
+             "node " + std::to_string(node) +
+                 " is not a node of the matrices: the list of nodes never paired names nodes of "
+                 "this model (a list of another mesh or an off-by-one would leave the real "
+                 "contact nodes paired)");
+  }
   pair_cyclic_boundary(sector, request.sectors, tolerance, not_cyclic, request.coordinates_file);
   return sector;
 }

@@ -6,22 +6,39 @@
 #include <cstdlib>
 
 #include "frichb/core/fe_import/sector_import.hpp"
+#include "frichb/core/support/format.hpp"
 
 namespace frichb::core::fe_import_detail {
 
 namespace fs = std::filesystem;
 
 void fail(const fs::path& file, long line, const std::string& what) {
-  if (line > 0) throw ImportError(file.string() + ":" + std::to_string(line) + ": " + what);
-  throw ImportError(file.string() + ": " + what);
+  const std::string where =
+      line > 0 ? file.string() + ":" + std::to_string(line) + ": " : file.string() + ": ";
+  throw ImportError(printable_text(where + what));
 }
 
-LineReader::LineReader(const fs::path& file) : file_(file), in_(file) {
+LineReader::LineReader(const fs::path& file) : file_(file) {
+  if (const std::string problem = regular_file_problem(file); !problem.empty())
+    fe_import_detail::fail(file, 0, problem);
+  in_.open(file, std::ios::binary);
   if (!in_) fe_import_detail::fail(file, 0, "cannot be opened for reading");
 }
 
 bool LineReader::next(std::string& line) {
-  if (!std::getline(in_, line)) {
+  line.clear();
+  std::streambuf* buffer = in_.rdbuf();
+  bool any = false;
+  for (int c = buffer->sbumpc(); c != std::char_traits<char>::eof(); c = buffer->sbumpc()) {
+    any = true;
+    if (c == '\n') break;
+    if (line.size() == kMaxLineBytes)
+      fe_import_detail::fail(file_, number_ + 1,
+                             "line longer than " + std::to_string(kMaxLineBytes) +
+                                 " bytes: not a text file of this format");
+    line.push_back(static_cast<char>(c));
+  }
+  if (!any) {
     if (in_.bad()) fail("read error");
     return false;
   }

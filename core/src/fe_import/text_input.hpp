@@ -9,14 +9,21 @@
 
 namespace frichb::core::fe_import_detail {
 
-// Throws ImportError "FILE:LINE: what" (or "FILE: what" for line 0).
+// Throws ImportError "FILE:LINE: what" (or "FILE: what" for line 0), with the bytes of the
+// file name and of `what` that a terminal would interpret escaped (printable_text).
 [[noreturn]] void fail(const std::filesystem::path& file, long line, const std::string& what);
 
-// A text file read line by line, counting lines (the first is 1).
+// The longest line a vendor text file may have; longer lines are refused (the formats'
+// lines are at most a few hundred characters).
+inline constexpr std::size_t kMaxLineBytes = 64 * 1024;
+
+// A text file read line by line, counting lines (the first is 1). Only regular files are
+// opened: a folder, device, FIFO or socket is refused before reading.
 class LineReader {
  public:
   explicit LineReader(const std::filesystem::path& file);
-  bool next(std::string& line);  // false at the end (a read error throws)
+  // false at the end; a read error or a line longer than kMaxLineBytes throws.
+  bool next(std::string& line);
   long number() const { return number_; }
   const std::filesystem::path& file() const { return file_; }
   [[noreturn]] void fail(const std::string& what) const;

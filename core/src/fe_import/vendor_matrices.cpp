@@ -6,6 +6,8 @@
 
 #include "fe_import/text_input.hpp"
 #include "frichb/core/fe_import/vendor_files.hpp"
+#include "frichb/core/support/format.hpp"
+#include "frichb/plugin/matrix_market.hpp"
 
 namespace frichb::core {
 
@@ -50,9 +52,10 @@ NodalEntry entry_between(const NodeDof& a, const NodeDof& b, double value, long 
 
 }  // namespace
 
-std::vector<NodalEntry> read_abaqus_matrix_input(const fs::path& file) {
+VendorMatrix read_abaqus_matrix_input(const fs::path& file) {
   LineReader in(file);
-  std::vector<NodalEntry> entries;
+  VendorMatrix matrix;
+  auto& entries = matrix.entries;
   std::string line;
   while (in.next(line)) {
     if (is_comment_or_blank(line)) continue;
@@ -68,13 +71,14 @@ std::vector<NodalEntry> read_abaqus_matrix_input(const fs::path& file) {
     e.line = in.number();
     entries.push_back(e);
   }
-  return entries;
+  return matrix;
 }
 
-std::vector<NodalEntry> read_abaqus_coordinate(const fs::path& file, const fs::path& map_file,
-                                               const EquationMap& map) {
+VendorMatrix read_abaqus_coordinate(const fs::path& file, const fs::path& map_file,
+                                    const EquationMap& map) {
   LineReader in(file);
-  std::vector<NodalEntry> entries;
+  VendorMatrix matrix;
+  auto& entries = matrix.entries;
   std::string line;
   while (in.next(line)) {
     if (is_comment_or_blank(line)) continue;
@@ -88,50 +92,54 @@ std::vector<NodalEntry> read_abaqus_coordinate(const fs::path& file, const fs::p
     entries.push_back(entry_between(lookup(in, map_file, map, row),
                                     lookup(in, map_file, map, column), value, in.number()));
   }
-  return entries;
+  return matrix;
 }
 
-std::vector<NodalEntry> read_matrix_market(const fs::path& file, const fs::path& map_file,
-                                           const EquationMap& map) {
-  LineReader in(file);
-  std::string line;
-  if (!in.next(line)) in.fail("empty file, expected a %%MatrixMarket header");
-  const auto header = split_fields(upper(line));
-  if (header.size() != 5 || header[0] != "%%MATRIXMARKET" || header[1] != "MATRIX" ||
-      header[2] != "COORDINATE" || (header[3] != "REAL" && header[3] != "INTEGER") ||
-      (header[4] != "GENERAL" && header[4] != "SYMMETRIC"))
-    in.fail("expected '%%MatrixMarket matrix coordinate real general|symmetric', found '" + line +
-            "'");
-  long rows = -1;
-  long columns = -1;
-  long count = -1;
-  while (in.next(line)) {
-    if (is_comment_or_blank(line)) continue;
-    const auto f = split_fields(line);
-    if (f.size() != 3 || !parse_integer(f[0], rows) || !parse_integer(f[1], columns) ||
-        !parse_integer(f[2], count) || rows != columns || count < 0)
-      in.fail("expected the size line 'n n entries' of a square matrix, found '" + line + "'");
-    break;
+VendorMatrix read_matrix_market(const fs::path& file, const fs::path& map_file,
+                                const EquationMap& map) {
+  if (const std::string problem = regular_file_problem(file); !problem.empty())
+    fe_import_detail::fail(file, 0, problem);
+  std::ifstream in(file, std::ios::binary);
+  if (!in) fe_import_detail::fail(file, 0, "cannot be opened for reading");
+  VendorMatrix matrix;
+  const auto equation = [&](long long number, long line) {
+    const auto it = map.find(static_cast<long>(number));
+    if (it == map.end())
+      fe_import_detail::fail(file, line,
+                             "equation " + std::to_string(number) + " is not in the equation map " +
+                                 map_file.string());
+    return it->second;
+  };
+  try {
+    sdk::read_matrix_market(
+        in,
+        [&](const sdk::MatrixMarketHeader& h) {
+          if (!h.coordinate)
+            throw sdk::MatrixMarketError(h.size_line,
+                                         "an array (dense) file: export the coordinate format");
+          if (h.rows != h.columns)
+            throw sdk::MatrixMarketError(h.size_line, "the matrix is " + std::to_string(h.rows) +
+                                                          " x " + std::to_string(h.columns) +
+                                                          ", not square");
+          if (static_cast<std::size_t>(h.rows) != map.size())
+            throw sdk::MatrixMarketError(
+                h.size_line, "the matrix has " + std::to_string(h.rows) +
+                                 " rows, the equation map " + map_file.string() + " lists " +
+                                 std::to_string(map.size()) +
+                                 " equations: are they of the same export?");
+          matrix.storage =
+              h.symmetric ? MatrixStorage::kLowerTriangle : MatrixStorage::kBothTriangles;
+          matrix.declared_size = static_cast<long>(h.rows);
+          matrix.entries.reserve(static_cast<std::size_t>(h.entries));
+        },
+        [&](long long i, long long j, double value, long line) {
+          matrix.entries.push_back(
+              entry_between(equation(i, line), equation(j, line), value, line));
+        });
+  } catch (const sdk::MatrixMarketError& e) {
+    fe_import_detail::fail(file, e.line(), e.what());
   }
-  if (count < 0) in.fail("no size line");
-  std::vector<NodalEntry> entries;
-  while (in.next(line)) {
-    if (is_comment_or_blank(line)) continue;
-    const auto f = split_fields(line);
-    long i = 0;
-    long j = 0;
-    double value = 0;
-    if (f.size() != 3 || !parse_integer(f[0], i) || !parse_integer(f[1], j) ||
-        !parse_real(f[2], value) || i < 1 || j < 1 || i > rows || j > rows)
-      in.fail("expected 'row column value' within 1.." + std::to_string(rows) + ", found '" + line +
-              "'");
-    entries.push_back(entry_between(lookup(in, map_file, map, i), lookup(in, map_file, map, j),
-                                    value, in.number()));
-  }
-  if (static_cast<long>(entries.size()) != count)
-    in.fail("the size line announces " + std::to_string(count) + " entries, the file has " +
-            std::to_string(entries.size()));
-  return entries;
+  return matrix;
 }
 
 EquationMap read_equation_map(const fs::path& file) {

@@ -279,10 +279,27 @@ void check_shared_frame(const MeshNode& a, const MeshNode& b, double angle, cons
                "frames (across sectors) or both in the same frame");
 }
 
-// pairs_file: `node_a,node_b` rows; each node of face A once, each of face B at most once.
+// The largest distance from a node of `face` to its nearest other node of the face (0 for a
+// face of one node): how far apart two nodes that touch can lie on non-conforming meshes.
+double mesh_spacing(const std::vector<FaceNode>& face, const FeMesh& mesh) {
+  double spacing = 0.0;
+  for (const auto& a : face) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& b : face)
+      if (b.node != a.node)
+        nearest = std::min(nearest,
+                           norm(minus(mesh.find(b.node)->position, mesh.find(a.node)->position)));
+    if (std::isfinite(nearest)) spacing = std::max(spacing, nearest);
+  }
+  return spacing;
+}
+
+// pairs_file: `node_a,node_b` rows; each node of face A once, each of face B at most once; the
+// two nodes of a pair no farther apart in the face plane than the faces' mesh spacing (or the
+// tolerance, where that is larger).
 std::vector<Pairing> pair_from_file(const fs::path& file, const std::vector<FaceNode>& face_a,
                                     const std::vector<FaceNode>& face_b, const FeMesh& mesh,
-                                    double angle, const std::string& key_path) {
+                                    double angle, double tolerance, const std::string& key_path) {
   std::map<std::int64_t, std::int64_t> partner;  // node A -> node B
   std::set<std::int64_t> on_b;
   for (const auto& b : face_b) on_b.insert(b.node);
@@ -298,6 +315,8 @@ std::vector<Pairing> pair_from_file(const fs::path& file, const std::vector<Face
                        "node " + std::to_string(b) + " of face B is paired twice");
     partner[a] = b;
   }
+  const double reach =
+      std::max({mesh_spacing(face_a, mesh), mesh_spacing(face_b, mesh), tolerance});
   std::vector<Pairing> out;
   for (const auto& a : face_a) {
     const auto it = partner.find(a.node);
@@ -305,6 +324,12 @@ std::vector<Pairing> pair_from_file(const fs::path& file, const std::vector<Face
       throw SceneError(file.string(), 0, 0, key_path,
                        "node " + std::to_string(a.node) + " of face A has no pair");
     out.push_back(measure(a, *mesh.find(a.node), *mesh.find(it->second), angle));
+    if (out.back().in_plane > reach)
+      throw SceneError(file.string(), 0, 0, key_path,
+                       "node " + std::to_string(a.node) + " pairs with node " +
+                           std::to_string(it->second) + ", " + metres(out.back().in_plane) +
+                           " away in the face plane: farther than the faces' mesh spacing (" +
+                           metres(reach) + "), so the two nodes cannot touch");
     partner.erase(it);
   }
   if (!partner.empty())
@@ -412,7 +437,7 @@ ContactPatch read_contact_patch(const YAML::Node& entry, const std::string& path
                   ? pair_by_position(face_a, face_b, mesh, angle, patch, pn["faces"],
                                      patch_path + ".faces", ctx)
                   : pair_from_file(file_of("pairs_file"), face_a, face_b, mesh, angle,
-                                   patch_path + ".pairs_file");
+                                   patch.tolerance, patch_path + ".pairs_file");
   }
   const YAML::Node frame = entry["frame"];
   const std::optional<Vec3> hint = read_tangent_hint(frame, path, ctx);

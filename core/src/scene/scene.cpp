@@ -16,6 +16,7 @@
 
 #include "frichb/core/numerics/harmonics.hpp"
 #include "frichb/core/scene/scene_variables.hpp"
+#include "frichb/core/support/format.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace frichb::core {
@@ -404,12 +405,21 @@ void check_strict(const YAML::Node& node, const std::string& path, const std::st
 
 }  // namespace
 
+// The largest scene file read (a scene holds keys, not meshes or tables).
+constexpr std::uintmax_t kMaxSceneBytes = 16U << 20U;
+
 YAML::Node load_scene_yaml(const fs::path& file) {
   std::string text;
   {
+    if (const std::string problem = regular_file_problem(file); !problem.empty())
+      throw SceneError(file.string(), 0, 0, "",
+                       problem == "is a folder" ? "is a folder, not a scene file"
+                                                : "cannot open the scene file: it " + problem);
     std::error_code ec;
-    if (fs::is_directory(file, ec))
-      throw SceneError(file.string(), 0, 0, "", "is a folder, not a scene file");
+    if (fs::file_size(file, ec) > kMaxSceneBytes)
+      throw SceneError(file.string(), 0, 0, "",
+                       "is larger than " + std::to_string(kMaxSceneBytes >> 20U) +
+                           " MiB: not a scene (meshes and tables belong in files it names)");
     std::ifstream in(file, std::ios::binary);
     if (!in) throw SceneError(file.string(), 0, 0, "", "cannot open the scene file");
     std::ostringstream buffer;

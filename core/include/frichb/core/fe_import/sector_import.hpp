@@ -10,7 +10,10 @@
 //     ansys-hbmat          Harwell-Boeing ASCII (HBMAT) + the .mapping file;
 //     ansys-mmf            Matrix Market (APDL Math *EXPORT, MMF) + the .mapping file.
 //   Either triangle of a symmetric matrix may be given, or both (they must then agree to 1e-10
-//   of the largest entry). A position listed twice in the same triangle is refused.
+//   of the largest entry), as the file declares it (vendor_files.hpp, MatrixStorage): a file
+//   that declares both triangles and lacks a mirror entry, or (undeclared) mixes one and both,
+//   is refused. A position listed twice in the same triangle is refused. The stiffness and
+//   mass matrices must have the same DOFs.
 // - Node coordinates: a CSV `node,x,y,z`, an Abaqus input file (*NODE blocks, rectangular
 //   coordinates) or ANSYS NWRITE output, chosen by the file's extension (.csv, .inp, other).
 // - Units are converted once, on reading: with mm-t-s, stiffness x 1e3 (N/mm -> N/m), mass
@@ -27,7 +30,8 @@
 //   a node with only one of its x and y components in the global frame, a malformed line.
 // - Cyclic boundary: node L pairs with node R when R's position equals L's turned by
 //   +phi = 2 pi / sectors about z within `tolerance` (default 1e-6 of the largest coordinate
-//   magnitude); nodes listed in `not_cyclic_file` are left out. Every present component of
+//   magnitude); nodes listed in `not_cyclic_file` are left out (each must be a node of the
+//   matrices). Every present component of
 //   the pair is paired. Refused: two nodes within the
 //   tolerance of one rotated position, a node paired twice, a node on the axis, a node that is
 //   both a left and a right boundary node, a component present on one side only.

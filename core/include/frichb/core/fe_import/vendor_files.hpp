@@ -3,7 +3,9 @@
 // file's own units; DOF numbers are the vendors' (1, 2, 3: translations x, y, z or the nodal
 // frame's; 4, 5, 6: rotations; others: pressure, temperature, ...). Every reader throws
 // ImportError "FILE:LINE: what is wrong" on a malformed line and "FILE: ..." on a file that
-// cannot be opened.
+// cannot be opened or is not a regular file (folders, devices and FIFOs are refused before
+// reading); lines longer than 64 KiB are refused, and the bytes of a file quoted in a message
+// are shown escaped where a terminal would interpret them.
 #pragma once
 
 #include <array>
@@ -31,23 +33,38 @@ struct NodeDof {
 // Equation number (1-based) -> (node, DOF).
 using EquationMap = std::map<long, NodeDof>;
 
+// What a file says it stores of a symmetric matrix.
+enum class MatrixStorage {
+  kUndeclared,     // the format does not say (Abaqus): one triangle or both, not a mix
+  kLowerTriangle,  // one triangle, by the file's equation numbers (HB RSA, MM symmetric)
+  kBothTriangles,  // every off-diagonal entry and its mirror (HB RUA, MM general)
+};
+
+struct VendorMatrix {
+  std::vector<NodalEntry> entries;
+  MatrixStorage storage = MatrixStorage::kUndeclared;
+  long declared_size = 0;  // rows the file declares; 0 where the format declares none
+};
+
 // Abaqus FORMAT=MATRIX INPUT: `node, dof, node, dof, value` per line; `**` comments.
-std::vector<NodalEntry> read_abaqus_matrix_input(const std::filesystem::path& file);
+VendorMatrix read_abaqus_matrix_input(const std::filesystem::path& file);
 
 // Abaqus FORMAT=COORDINATE: `row, column, value` per line (1-based equations).
-std::vector<NodalEntry> read_abaqus_coordinate(const std::filesystem::path& file,
-                                               const std::filesystem::path& map_file,
-                                               const EquationMap& map);
+VendorMatrix read_abaqus_coordinate(const std::filesystem::path& file,
+                                    const std::filesystem::path& map_file, const EquationMap& map);
 
 // Harwell-Boeing ASCII (RSA, RUA: column pointers, row indices, values, fixed-width fields).
-std::vector<NodalEntry> read_harwell_boeing(const std::filesystem::path& file,
-                                            const std::filesystem::path& map_file,
-                                            const EquationMap& map);
+// Every field is read at the position its Fortran format gives and refused when the format
+// does not describe the file's lines (line counts, widths, fields beyond the format, real
+// fields without a decimal point); RSA entries above the diagonal are refused; the matrix
+// must have as many rows as the equation map lists equations.
+VendorMatrix read_harwell_boeing(const std::filesystem::path& file,
+                                 const std::filesystem::path& map_file, const EquationMap& map);
 
-// Matrix Market `coordinate real|integer general|symmetric`.
-std::vector<NodalEntry> read_matrix_market(const std::filesystem::path& file,
-                                           const std::filesystem::path& map_file,
-                                           const EquationMap& map);
+// Matrix Market `coordinate real|integer general|symmetric` (symmetric: entries on or below
+// the diagonal only); the matrix must have as many rows as the equation map lists equations.
+VendorMatrix read_matrix_market(const std::filesystem::path& file,
+                                const std::filesystem::path& map_file, const EquationMap& map);
 
 // An equation map: lines `equation node dof` (whitespace or commas), the DOF a number or an
 // ANSYS label (UX, UY, UZ, ROTX, ROTY, ROTZ, ...). Header and comment lines (not starting with
