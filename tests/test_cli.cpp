@@ -442,6 +442,17 @@ TEST_F(Cli, HugeHarmonicOrDofIndexIsRefused) {
   EXPECT_THAT(out, HasSubstr("structure.dofs.blade: expected a DOF index"));
 }
 
+// A contact name becomes part of the friction loops' file names: one that would make a file
+// name longer than the file system allows is refused where it is written, before any work.
+TEST_F(Cli, AContactNameTooLongForAFileNameIsRefusedAtItsKey) {
+  const std::string text =
+      replace_once(quickstart_, "name: root_friction", "name: " + std::string(5000, 'c'));
+  const std::string out = expect_refused("long_name.yaml", text);
+  EXPECT_THAT(out, HasSubstr((dir_ / "long_name.yaml").string() + ":" +
+                             location_after(text, "  - name: ") + ": contacts[0].name"));
+  EXPECT_THAT(out, HasSubstr("5000 characters"));
+}
+
 TEST_F(Cli, FrameVectorsOfExtremeMagnitudeAreNormalised) {
   // The norm was the square root of the sum of squares: 1e200 overflowed to inf and the unit
   // vector became 0 (accepted), 1e-200 underflowed to 0 ("is the zero vector").
