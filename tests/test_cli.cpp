@@ -442,6 +442,17 @@ TEST_F(Cli, HugeHarmonicOrDofIndexIsRefused) {
   EXPECT_THAT(out, HasSubstr("structure.dofs.blade: expected a DOF index"));
 }
 
+// A contact name becomes part of the friction loops' file names: one that would make a file
+// name longer than the file system allows is refused where it is written, before any work.
+TEST_F(Cli, AContactNameTooLongForAFileNameIsRefusedAtItsKey) {
+  const std::string text =
+      replace_once(quickstart_, "name: root_friction", "name: " + std::string(5000, 'c'));
+  const std::string out = expect_refused("long_name.yaml", text);
+  EXPECT_THAT(out, HasSubstr((dir_ / "long_name.yaml").string() + ":" +
+                             location_after(text, "  - name: ") + ": contacts[0].name"));
+  EXPECT_THAT(out, HasSubstr("5000 characters"));
+}
+
 TEST_F(Cli, FrameVectorsOfExtremeMagnitudeAreNormalised) {
   // The norm was the square root of the sum of squares: 1e200 overflowed to inf and the unit
   // vector became 0 (accepted), 1e-200 underflowed to 0 ("is the zero vector").
@@ -1304,6 +1315,108 @@ TEST_F(Cli, AnOutputPathThatIsAFileOrInsideOneIsInvalidInput) {
   EXPECT_EQ(read_text(file), "precious\n");
   for (const auto& entry : fs::directory_iterator(dir_))
     EXPECT_EQ(entry.path(), file) << "unexpected entry " << entry.path();
+}
+
+// The two-DOF scene of the documentation: a first run with contact states, a second with
+// another friction coefficient and neither loops nor states. The second run's folder holds
+// its own files and the user's, and no file of the first run.
+TEST_F(Cli, ARerunRemovesEveryFileOfTheEarlierRunThatItDoesNotWrite) {
+  const fs::path scene = fs::path(FRICHB_SOURCE_DIR) / "configs" / "two_dof_blade_damper.yaml";
+  const fs::path out = dir_ / "s";
+  const Result first =
+      run_frichb({"run", scene.string(), "-o", out.string(), "--set",
+                  "output.contact_states_at=[290]", "--set", "output.plots=false"});
+  ASSERT_EQ(first.code, 0) << first.output;
+  ASSERT_TRUE(fs::is_regular_file(out / "contact_states" / "290Hz_1.csv"));
+  std::ofstream(out / "notes.txt") << "mine";
+  fs::create_directories(out / "my_plots");
+  std::ofstream(out / "my_plots" / "a.txt") << "mine too";
+
+  const Result second = run_frichb(
+      {"run", scene.string(), "-o", out.string(), "--set", "output.friction_loops_at=[]", "--set",
+       "contacts.platform_friction.params.mu=0.1", "--set", "output.plots=false"});
+  ASSERT_EQ(second.code, 0) << second.output;
+  EXPECT_FALSE(fs::exists(out / "contact_states")) << "a file of the first run survived";
+  EXPECT_FALSE(fs::exists(out / "loops"));
+  EXPECT_TRUE(fs::is_regular_file(out / "response.csv"));
+  EXPECT_EQ(read_text(out / "notes.txt"), "mine");
+  EXPECT_EQ(read_text(out / "my_plots" / "a.txt"), "mine too");
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary.at("contact_states").size(), 0u);
+  EXPECT_EQ(joined(hidden_beside(out)), "");
+}
+
+// A folder without the owner's write permission is refused before any work, with the user's
+// file left where it was, whoever runs frichb (root may write there, but the user protected it).
+TEST_F(Cli, AWriteProtectedOutputFolderIsRefusedBeforeAnyWork) {
+  const fs::path out = dir_ / "final";
+  fs::create_directories(out);
+  std::ofstream(out / "v1.csv") << "keep\n";
+  fs::permissions(out, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                           fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+  const Result r = run_frichb({"run", kQuickstart.string(), "-o", out.string()});
+  fs::permissions(out, fs::perms::owner_write, fs::perm_options::add);
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(out.string() + "' is write-protected"));
+  EXPECT_THAT(r.output, Not(HasSubstr("scene 'friction_oscillator'")))
+      << "the run started before it was refused";
+  EXPECT_EQ(read_text(out / "v1.csv"), "keep\n");
+  EXPECT_EQ(joined(differences({{"v1.csv", "keep\n"}}, snapshot(out))), "");
+  EXPECT_EQ(joined(hidden_beside(out)), "");
+}
+
+// The same as a user who is not root, the case where the kernel itself forbids the writes.
+TEST_F(Cli, AWriteProtectedOutputFolderIsRefusedForAUserWhoIsNotRoot) {
+  if (::geteuid() != 0)
+    GTEST_SKIP() << "runs frichb as the user nobody, which only root can do (the test above "
+                    "covers this user)";
+  const std::string setpriv = find_program("setpriv");
+  if (setpriv.empty()) GTEST_SKIP() << "setpriv (util-linux) is not on PATH";
+  const fs::path home = dir_ / "user";
+  fs::create_directories(home);
+  fs::permissions(home, fs::perms::all);
+  auto run_as_nobody = [&](const std::string& script) {
+    const std::vector<std::string> argv = {
+        setpriv, "--reuid=nobody", "--regid=nogroup", "--clear-groups", "/bin/sh", "-c", script};
+    Launch launch;
+    launch.cwd = home;
+    Process p(argv, launch);
+    Result r;
+    r.output = p.output(120);
+    r.code = p.wait(10).value_or(-1000);
+    return r;
+  };
+  const Result can = run_as_nobody("test -x " + quoted(std::string(FRICHB_EXE)) + " && test -r " +
+                                   quoted(kQuickstart) + " && test -w .");
+  if (can.code != 0)
+    GTEST_SKIP() << "the user nobody (group nogroup) does not exist or cannot run " << FRICHB_EXE
+                 << " on " << kQuickstart << ": " << can.output;
+  const fs::path out = home / "final";
+  const std::string script = "mkdir final && echo keep > final/v1.csv && chmod 555 final && " +
+                             quoted(std::string(FRICHB_EXE)) + " run " + quoted(kQuickstart) +
+                             " -o " + quoted(out);
+  const Result r = run_as_nobody(script);
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(out.string() + "' is write-protected"));
+  EXPECT_EQ(read_text(out / "v1.csv"), "keep\n");
+  EXPECT_EQ(joined(differences({{"v1.csv", "keep\n"}}, snapshot(out))), "");
+  EXPECT_EQ(joined(hidden_beside(out)), "");
+}
+
+// A folder on a pseudo file system of the kernel cannot hold results (root may create files
+// beside it, but /proc cannot be swapped): refused before any work, nothing left in /.
+TEST_F(Cli, AnOutputFolderOnAPseudoFileSystemIsRefusedBeforeAnyWork) {
+  // Where /proc is not mounted the folder would be made.
+  if (!fs::is_directory("/proc/self")) GTEST_SKIP() << "/proc is not mounted";
+  for (const std::string out : {"/proc", "/proc/frichb_results"}) {
+    SCOPED_TRACE(out);
+    const Result r = run_frichb({"run", kQuickstart.string(), "-o", out});
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("'" + out + "'"));
+    EXPECT_THAT(r.output, Not(HasSubstr("scene 'friction_oscillator'")))
+        << "the run started before it was refused";
+    EXPECT_FALSE(fs::exists("/.proc.lock"));
+  }
 }
 
 TEST_F(Cli, OutputsThatCannotBeWrittenExitWithFiveAndKeepTheEarlierResults) {

@@ -6,12 +6,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <climits>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "frichb/core/report/output.hpp"
 
@@ -79,10 +83,19 @@ void write_set(const fs::path& folder, const std::string& tag) {
   out.commit();
 }
 
+// The record of the top-level names a set wrote, in the folder beside them.
+const std::string kManifest = ".frichb-written.json";
+std::string manifest_of(const std::vector<std::string>& names) {
+  return nlohmann::json{{"written", names}}.dump(2) + "\n";
+}
+
 std::map<std::string, std::string> expected_set(const std::string& tag) {
   std::map<std::string, std::string> files = {{"summary.json", "{\"set\": \"" + tag + "\"}\n"},
                                               {"response.csv", "point,set\n0," + tag + "\n"}};
   if (tag == "A") files["loops/c_1.csv"] = "loop of A\n";
+  files[kManifest] =
+      manifest_of(tag == "A" ? std::vector<std::string>{"loops", "response.csv", "summary.json"}
+                             : std::vector<std::string>{"response.csv", "summary.json"});
   return files;
 }
 
@@ -107,6 +120,33 @@ TEST(StagedOutput, CommitReplacesTheManagedSetAndKeepsTheUsersFiles) {
   write_set(folder, "B");
   expected = expected_set("B");
   expected["notes.txt"] = "mine\n";
+  EXPECT_EQ(snapshot(folder), expected);
+  EXPECT_TRUE(leftovers(dir.path(), "out").empty());
+}
+
+// A name the writer does not list as managed (a folder of results only some runs write) is
+// still the earlier run's: the next set removes it, and keeps the user's files and folders.
+TEST(StagedOutput, CommitRemovesEveryNameTheEarlierSetWrote) {
+  TempDir dir;
+  const fs::path folder = dir.path() / "out";
+  {
+    StagedOutput out(folder, kManaged);
+    write_file(out.path("summary.json"), "A\n");
+    write_file(out.path("contact_states/290Hz_1.csv"), "states of A\n");
+    out.commit();
+  }
+  write_file(folder / "notes.txt", "mine\n");
+  fs::create_directories(folder / "mine");
+  write_file(folder / "mine" / "plot.txt", "my plot\n");
+  {
+    StagedOutput out(folder, kManaged);
+    write_file(out.path("summary.json"), "B\n");
+    out.commit();
+  }
+  const std::map<std::string, std::string> expected = {{"summary.json", "B\n"},
+                                                       {"notes.txt", "mine\n"},
+                                                       {"mine/plot.txt", "my plot\n"},
+                                                       {kManifest, manifest_of({"summary.json"})}};
   EXPECT_EQ(snapshot(folder), expected);
   EXPECT_TRUE(leftovers(dir.path(), "out").empty());
 }
@@ -246,6 +286,65 @@ TEST(StagedOutput, PathsThatCannotHoldTheResultsAreUserErrors) {
   EXPECT_THROW(StagedOutput(".", kManaged), OutputError);
   EXPECT_THROW(StagedOutput(dir.path() / "here", kManaged), OutputError);
   fs::current_path(cwd);
+}
+
+// A folder without the owner's write bit is the user's word that it must not change, even
+// for root, whom the kernel lets write there: refused before anything is created.
+TEST(StagedOutput, AWriteProtectedFolderIsRefusedNamingIt) {
+  TempDir dir;
+  const fs::path folder = dir.path() / "final";
+  fs::create_directories(folder);
+  write_file(folder / "v1.csv", "keep\n");
+  fs::permissions(folder, fs::perms::owner_write | fs::perms::group_write | fs::perms::others_write,
+                  fs::perm_options::remove);
+  try {
+    StagedOutput out(folder, kManaged);
+    FAIL() << "accepted";
+  } catch (const OutputError& e) {
+    EXPECT_TRUE(e.user_error());
+    EXPECT_NE(std::string(e.what()).find("'" + folder.string() + "' is write-protected"),
+              std::string::npos)
+        << e.what();
+  }
+  fs::permissions(folder, fs::perms::owner_write, fs::perm_options::add);
+  EXPECT_EQ(snapshot(folder), (std::map<std::string, std::string>{{"v1.csv", "keep\n"}}));
+  EXPECT_TRUE(leftovers(dir.path(), "final").empty());
+}
+
+// The kernel's pseudo file systems hold no results: refused before anything is created.
+TEST(StagedOutput, AFolderOnAPseudoFileSystemIsRefused) {
+  // Where /proc or /sys is not mounted the folder would be made: only the mounted ones.
+  if (!fs::is_directory("/proc/self")) GTEST_SKIP() << "/proc is not mounted";
+  for (const fs::path& bad :
+       {fs::path("/proc"), fs::path("/proc/results"), fs::path("/sys/kernel/results")}) {
+    SCOPED_TRACE(bad.string());
+    if (!fs::is_directory(bad.parent_path())) continue;
+    try {
+      StagedOutput out(bad, kManaged);
+      FAIL() << "accepted";
+    } catch (const OutputError& e) {
+      EXPECT_TRUE(e.user_error()) << e.what();
+      EXPECT_NE(std::string(e.what()).find("'" + bad.string() + "'"), std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_FALSE(fs::exists("/.proc.lock"));
+}
+
+// A folder whose path leaves no room below it for a file name of the longest length the file
+// system takes would fail only when its files are written: refused at once.
+TEST(StagedOutput, AFolderPathThatLeavesNoRoomForItsFilesIsRefused) {
+  TempDir dir;
+  fs::path deep = dir.path();
+  while (deep.string().size() < PATH_MAX - 300) deep /= std::string(200, 'd');
+  try {
+    StagedOutput out(deep / "out", kManaged);
+    FAIL() << "accepted";
+  } catch (const OutputError& e) {
+    EXPECT_TRUE(e.user_error());
+    EXPECT_NE(std::string(e.what()).find("too long"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir.path() / std::string(200, 'd')));
 }
 
 TEST(Writers, AFullDeviceIsAnIoErrorNamingTheFile) {

@@ -1,16 +1,19 @@
 #include "frichb/core/report/output.hpp"
 
 #include <fcntl.h>
+#include <linux/magic.h>
 #include <spawn.h>
 #include <spdlog/spdlog.h>
 #include <sys/file.h>
 #include <sys/stat.h>
+#include <sys/statfs.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -88,6 +91,51 @@ std::string system_reason(int error) {
 bool is_user_errno(int error) {
   return error == EACCES || error == EPERM || error == EROFS || error == ENOTDIR ||
          error == EISDIR || error == ENAMETOOLONG || error == EEXIST;
+}
+// While the output folder is prepared, before any work, a failure says the place cannot hold
+// the results; only a full disk or a failing device is the system's.
+bool is_system_errno(int error) {
+  return error == ENOSPC || error == EDQUOT || error == EIO || error == ENOMEM;
+}
+
+// The kernel's pseudo file systems: their folders hold no results (and cannot be swapped).
+const char* pseudo_file_system(const fs::path& p) {
+  struct statfs s {};
+  if (::statfs(p.c_str(), &s) != 0) return nullptr;
+  static constexpr struct {
+    unsigned long magic;
+    const char* name;
+  } kPseudo[] = {{PROC_SUPER_MAGIC, "proc"},
+                 {SYSFS_MAGIC, "sysfs"},
+                 {CGROUP_SUPER_MAGIC, "cgroup"},
+                 {CGROUP2_SUPER_MAGIC, "cgroup2"},
+                 {DEBUGFS_MAGIC, "debugfs"},
+                 {TRACEFS_MAGIC, "tracefs"},
+                 {SECURITYFS_MAGIC, "securityfs"},
+                 {DEVPTS_SUPER_MAGIC, "devpts"},
+                 {BPF_FS_MAGIC, "bpf"},
+                 {PSTOREFS_MAGIC, "pstore"},
+                 {EFIVARFS_MAGIC, "efivarfs"},
+                 {SELINUX_MAGIC, "selinuxfs"},
+                 {BINFMTFS_MAGIC, "binfmt_misc"},
+                 {NSFS_MAGIC, "nsfs"}};
+  const auto type = static_cast<unsigned long>(s.f_type) & 0xffffffffUL;
+  for (const auto& fs_kind : kPseudo)
+    if (type == fs_kind.magic) return fs_kind.name;
+  return nullptr;
+}
+
+// The top-level names recorded in `folder`'s manifest by the run that wrote it (none when it
+// has no readable manifest: a folder of the user's, or one written before manifests).
+std::vector<std::string> written_by(const fs::path& folder) {
+  std::ifstream in(folder / std::string(StagedOutput::kManifest));
+  if (!in) return {};
+  const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
+  std::vector<std::string> names;
+  if (!doc.is_object() || !doc.contains("written") || !doc.at("written").is_array()) return names;
+  for (const auto& name : doc.at("written"))
+    if (name.is_string()) names.push_back(name.get<std::string>());
+  return names;
 }
 
 void fsync_path(const fs::path& p, bool directory) {
@@ -185,13 +233,20 @@ void write_lock_record(int fd, const fs::path& lock_file, const std::string& sta
   }
 }
 
-// Moves the entries of `old_folder` that `final_folder` lacks and that are not `managed` into
-// `final_folder` (a user's files beside the results), as far as it can. True when none is
-// left behind in `old_folder`.
+// Moves the entries of `old_folder` that `final_folder` lacks, that are not `managed` and that
+// the run which wrote `old_folder` did not record in its manifest into `final_folder` (a
+// user's files beside the results), as far as it can. True when none is left behind in
+// `old_folder`.
 bool move_unmanaged(const fs::path& old_folder, const fs::path& final_folder,
-                    const std::vector<std::string>& managed) noexcept {
+                    std::vector<std::string> managed) noexcept {
   bool all = true;
   std::error_code ec;
+  try {
+    for (std::string& name : written_by(old_folder)) managed.push_back(std::move(name));
+  } catch (const std::exception& e) {  // out of memory: nothing of the old set is moved back
+    spdlog::warn("cannot read the manifest of {}: {}", old_folder.string(), e.what());
+    return false;
+  }
   for (fs::directory_iterator it(old_folder, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
     if (std::find(managed.begin(), managed.end(), name) != managed.end()) continue;
@@ -250,6 +305,7 @@ StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::str
                           "' exists and is not a folder: choose another path with -o",
                       true);
   const fs::path parent = final_.parent_path();
+  check_location(final_directory.string());
   fs::create_directories(parent, ec);
   if (ec)
     throw OutputError(
@@ -326,6 +382,9 @@ StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::str
     staging_ = parent / (staging_prefix + std::to_string(getpid()));
     fs::remove_all(staging_);
     fs::create_directories(staging_);
+    // A file written and removed: the place takes files, before any work is done.
+    write_file(staging_ / std::string(kManifest), "");
+    fs::remove(staging_ / std::string(kManifest));
     write_lock_record(lock_fd_, lock_file_, staging_.filename().string(), file_id(staging_));
     register_staging(staging_, final_);
   } catch (const OutputError&) {
@@ -335,8 +394,69 @@ StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::str
     release_lock();
     throw OutputError(
         "cannot prepare the output folder " + final_.string() + ": " + e.code().message(),
-        is_user_errno(e.code().value()));
+        !is_system_errno(e.code().value()));
   }
+}
+
+void StagedOutput::check_location(const std::string& given) const {
+  // The nearest folder that exists on the way to the output folder: where it would be made.
+  fs::path existing = final_;
+  std::error_code ec;
+  while (!fs::exists(fs::symlink_status(existing, ec)) && existing != existing.root_path())
+    existing = existing.parent_path();
+  if (const char* kind = pseudo_file_system(existing))
+    throw OutputError("output folder '" + given + "' lies on the kernel's " + kind +
+                          " file system (" + existing.string() +
+                          "), which holds no results: choose another path with -o",
+                      true);
+  // Every name this output makes must fit the file system: its hidden names beside the folder
+  // (the longest is .NAME.unrestored-PID) and, below the staging folder, a subfolder and a file
+  // of the longest name the file system takes.
+  long name_max = ::pathconf(existing.c_str(), _PC_NAME_MAX);
+  if (name_max <= 0) name_max = NAME_MAX;
+  constexpr std::size_t kHiddenExtra = 23;  // "." + NAME + ".unrestored-" + a pid of 10 digits
+  const std::size_t longest_hidden = final_.filename().string().size() + kHiddenExtra;
+  if (longest_hidden > static_cast<std::size_t>(name_max))
+    throw OutputError("output folder '" + given + "': its name is too long (" +
+                          std::to_string(final_.filename().string().size()) +
+                          " characters; the hidden names beside it add up to " +
+                          std::to_string(kHiddenExtra) + " to it and the file system takes " +
+                          std::to_string(name_max) + "): choose a shorter name with -o",
+                      true);
+  const std::size_t longest_path =
+      final_.parent_path().string().size() + 1 + longest_hidden + 2 * (1 + name_max);
+  if (longest_path >= PATH_MAX)
+    throw OutputError("output folder '" + given + "': its path is too long (" +
+                          std::to_string(final_.string().size()) +
+                          " characters; the files below it may add " +
+                          std::to_string(longest_path - final_.string().size()) +
+                          " and the system takes paths of at most " + std::to_string(PATH_MAX - 1) +
+                          "): choose a shorter path with -o",
+                      true);
+  // An existing folder: its files are moved between the earlier and the new set, and the
+  // folder itself is renamed. The owner's write bit is checked as well as the access: root
+  // may write where its owner has forbidden it.
+  struct stat folder {};
+  if (::stat(final_.c_str(), &folder) != 0) return;
+  char mode[8];
+  std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(folder.st_mode & 07777));
+  if ((folder.st_mode & S_IWUSR) == 0)
+    throw OutputError("output folder '" + given + "' is write-protected (mode " + mode +
+                          "): make it writable (chmod u+w) or choose another folder with -o",
+                      true);
+  if (::faccessat(AT_FDCWD, final_.c_str(), W_OK | X_OK, AT_EACCESS) != 0) {
+    const int e = errno;
+    throw OutputError("output folder '" + given + "' is not writable (mode " + mode +
+                          "): " + system_reason(e) + "; choose another folder with -o",
+                      true);
+  }
+  struct stat above {};
+  if (::stat(final_.parent_path().c_str(), &above) == 0 && above.st_dev != folder.st_dev)
+    throw OutputError("output folder '" + given +
+                          "' is a mount point, which cannot be replaced by the new results: "
+                          "give a folder inside it, e.g. -o " +
+                          (fs::path(given) / "run1").string(),
+                      true);
 }
 
 void StagedOutput::keep_aside(const fs::path& folder) const noexcept {
@@ -375,12 +495,19 @@ fs::path StagedOutput::path(const fs::path& relative) const {
 
 void StagedOutput::commit() {
   const fs::path parent = final_.parent_path();
-  // Every top-level name of the new set is the writer's to replace.
+  // Every top-level name of the new set is the writer's to replace, and is recorded for the
+  // next run into the folder to remove.
+  std::vector<std::string> written;
   for (const auto& entry : fs::directory_iterator(staging_)) {
-    const std::string name = entry.path().filename().string();
+    std::string name = entry.path().filename().string();
+    if (name == kManifest) continue;
     if (std::find(managed_.begin(), managed_.end(), name) == managed_.end())
       managed_.push_back(name);
+    written.push_back(std::move(name));
   }
+  std::sort(written.begin(), written.end());
+  write_json(staging_ / std::string(kManifest), nlohmann::json{{"written", written}});
+  managed_.emplace_back(kManifest);
   sync_tree(staging_);
   step_done("synced");
   std::error_code ec;

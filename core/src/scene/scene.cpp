@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <climits>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -332,6 +333,22 @@ bool is_plain_name(const std::string& name) {
            return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' ||
                   ch == '.';
          });
+}
+
+// A contact's name is part of the names of its result files
+// (loops/<contact>_<frequency><unit>_<crossing>_harmonics.csv; a patch's
+// contact_states/<frequency><unit>_<crossing>_<patch>_face.png), and the file system takes
+// names of at most NAME_MAX bytes: 64 of them are left for what is added to the contact's name.
+constexpr std::size_t kMaxFileNamePart = NAME_MAX - 64;
+
+// Why `name` is too long to be part of a file name, or "" when it fits.
+std::string too_long_for_a_file_name(const std::string& name) {
+  if (name.size() <= kMaxFileNamePart) return {};
+  return "'" + name.substr(0, 32) + "...' (" + std::to_string(name.size()) +
+         " characters) is too long: it is part of the names of result files, which the file "
+         "system limits to " +
+         std::to_string(NAME_MAX) + " bytes; use at most " + std::to_string(kMaxFileNamePart) +
+         " characters";
 }
 
 std::string child_path(const std::string& path, const std::string& key) {
@@ -804,6 +821,8 @@ ContactSpec read_contact(Scene& scene, YAML::Node c, const std::string& path,
   if (!is_plain_name(contact.name))
     ctx.fail(c["name"], path + ".name",
              "'" + contact.name + "': use letters, digits, '_', '-' and '.' (it names files)");
+  if (const std::string why = too_long_for_a_file_name(contact.name); !why.empty())
+    ctx.fail(c["name"], path + ".name", why);
   if (!contact_names.insert(contact.name).second)
     ctx.fail(c["name"], path + ".name", "contact name '" + contact.name + "' is used twice");
   const nlohmann::json between_json = read_contact_sides(scene, c, path, ctx, contact);
@@ -872,6 +891,8 @@ void read_patch_contacts(Scene& scene, YAML::Node c, const std::string& path,
   if (!is_plain_name(name))
     ctx.fail(c["name"], path + ".name",
              "'" + name + "': use letters, digits, '_', '-' and '.' (it names files)");
+  if (const std::string why = too_long_for_a_file_name(name); !why.empty())
+    ctx.fail(c["name"], path + ".name", why);
   if (!contact_names.insert(name).second)
     ctx.fail(c["name"], path + ".name", "contact name '" + name + "' is used twice");
   auto patch = std::make_shared<const ContactPatch>(read_contact_patch(
@@ -879,6 +900,8 @@ void read_patch_contacts(Scene& scene, YAML::Node c, const std::string& path,
   for (const auto& pair : patch->pairs) {
     ContactSpec contact;
     contact.name = name + "." + std::to_string(pair.node_a);
+    if (const std::string why = too_long_for_a_file_name(contact.name); !why.empty())
+      ctx.fail(c["name"], path + ".name", "the name of its node pair " + why);
     if (!contact_names.insert(contact.name).second)
       ctx.fail(c["name"], path + ".name", "contact name '" + contact.name + "' is used twice");
     contact.law = v.text("law");

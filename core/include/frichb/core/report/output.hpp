@@ -2,16 +2,24 @@
 // holds either the whole earlier set of results or the whole new one, never a mix and never
 // a half-written file.
 //
-// A StagedOutput owns one output folder for the time of a run: it takes an advisory lock
-// (`.NAME.lock` beside the folder; a second run into the same folder is refused), removes the
-// staging that an earlier, killed run left there, and gives paths inside a hidden staging
-// folder `.NAME.partial-PID` beside the output folder. commit() syncs every staged file and
-// folder to the disk and swaps the staging folder with the output folder in one rename
-// (renameat2 RENAME_EXCHANGE; where the file system lacks it, the old folder is first moved
-// aside and restored by the next run if the commit is interrupted). Files of the output
-// folder that the writer does not manage (a user's notes) are moved into the new folder.
-// A StagedOutput destroyed before commit() removes its staging folder and leaves the output
-// folder as it was.
+// A StagedOutput owns one output folder for the time of a run. Before it creates anything it
+// refuses (OutputError, user_error) a place that cannot hold the results: a path on one of
+// the kernel's pseudo file systems (/proc, /sys, ...), a folder without its owner's write bit
+// (refused for root too, who could write there), a folder the process cannot write, a mount
+// point, and a path too long for the hidden names beside the folder or for a subfolder and a
+// file of the file system's longest name (NAME_MAX) below it within PATH_MAX. It then takes
+// an advisory lock (`.NAME.lock` beside the folder; a second run into the same folder is
+// refused), removes the staging that an earlier, killed run left there, creates a hidden
+// staging folder `.NAME.partial-PID` beside the output folder, writes a file into it as a
+// probe, and gives paths inside it. commit() records the top-level names of the new set in
+// the manifest `.frichb-written.json` inside it, syncs every staged file and folder to the
+// disk and swaps the staging folder with the output folder in one rename (renameat2
+// RENAME_EXCHANGE; where the file system lacks it, the old folder is first moved aside and
+// restored by the next run if the commit is interrupted). The entries of the earlier set that
+// the writer manages, that the new set holds, or that the earlier set's manifest lists (its
+// own results) are removed with it; every other entry (a user's notes) is moved into the new
+// folder. A StagedOutput destroyed before commit() removes its staging folder and leaves the
+// output folder as it was.
 //
 // Every write is checked after it is flushed and closed; a failure throws OutputError.
 // Threading: one StagedOutput per thread; distinct output folders may be staged concurrently.
@@ -42,9 +50,13 @@ class OutputError : public std::runtime_error {
 
 class StagedOutput {
  public:
+  // The manifest a committed set keeps in the output folder: {"written": [top-level names]}.
+  static constexpr std::string_view kManifest = ".frichb-written.json";
+
   // `managed`: top-level names (files or folders) this output owns in the final folder; the
-  // new set replaces them, and everything else in the final folder is kept. Throws
-  // OutputError (user_error) when the folder is in use by another run or cannot be created.
+  // new set replaces them and the names the earlier set's manifest lists, and everything else
+  // in the final folder is kept. Throws OutputError (user_error) when the place cannot hold
+  // the results (above), when the folder is in use by another run or cannot be created.
   StagedOutput(const std::filesystem::path& final_directory, std::vector<std::string> managed);
   ~StagedOutput();
   StagedOutput(const StagedOutput&) = delete;
@@ -67,6 +79,9 @@ class StagedOutput {
                               bool without_exchange = false);
 
  private:
+  // The checks of the place made before anything is created (above); `given`: the path as
+  // the user wrote it, for the messages.
+  void check_location(const std::string& given) const;
   void release_lock() noexcept;
   // Renames `folder` (an old set holding files of the user's that could not be moved back) to
   // `.NAME.unrestored-PID`, which no later run removes, and says where.
