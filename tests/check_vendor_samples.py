@@ -16,7 +16,11 @@ the page, the scene and the samples from drifting apart:
       coincide once the second is turned by the sectors between them (+2 pi / 8 each), 1e-9 m;
   (c) `frichb validate` accepts the shipped scene beside the imported model, and `frichb modes`
       on the ANSYS and the Abaqus import gives the same frequencies (1e-9 relative) and the
-      first-family frequencies the page quotes (to its 2 decimals).
+      first-family frequencies the page quotes (to its 2 decimals);
+  (d) the samples' faces.csv ("Faces of an imported model"): its faces shroud_left and
+      shroud_right hold exactly the shroud nodes of not_cyclic.txt, each in the imported
+      nodes.csv; the page's patch contact is the shipped patch scene's, and `frichb validate`
+      accepts that scene once faces.csv is in the imported model map.
 
 Usage: check_vendor_samples.py SOURCE_DIR FRICHB WORK_DIR   (exit 1 on the first failed check)
 Standard library only; about 2 s.
@@ -44,16 +48,32 @@ def run(cmd, cwd):
     return p.stdout
 
 
-def walkthrough(doc_path):
+def doc_section(doc_path, title):
+    """The text under heading `title` up to the next heading of its level or above, and its
+    code blocks [(language, body)]."""
     text = open(doc_path, encoding="utf-8").read()
-    title = "## Walk-through with the sample exports"
-    if text.count(title) != 1:
+    if text.count(title + "\n") != 1:
         fail(f"{doc_path}: no single section '{title}'")
-    section = text.split(title, 1)[1].split("\n## ", 1)[0]
+    level = title.split(" ", 1)[0]
+    section = text.split(title + "\n", 1)[1]
+    section = re.split(r"\n#{1,%d} " % len(level), section, maxsplit=1)[0]
     blocks = re.findall(r"```(\w*)\n(.*?)```", section, re.S)
     if not blocks:
-        fail(f"{doc_path}: the walk-through has no code blocks")
+        fail(f"{doc_path}: the section '{title}' has no code blocks")
     return section, blocks
+
+
+def contacts_block(yaml_text):
+    """The lines of the top-level 'contacts:' block, comments kept, blank lines dropped."""
+    lines, inside = [], False
+    for line in yaml_text.splitlines():
+        if line.startswith("contacts:"):
+            inside = True
+        elif inside and line and not line.startswith((" ", "#")):
+            break
+        if inside and line.strip():
+            lines.append(line.rstrip())
+    return lines
 
 
 def node_numbers(yaml_text):
@@ -135,7 +155,7 @@ def main():
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
 
-    section, blocks = walkthrough(doc)
+    section, blocks = doc_section(doc, "## Walk-through with the sample exports")
 
     # (a) the walk-through's imports, as written
     imports = []
@@ -227,9 +247,39 @@ def main():
     for nd, quoted in ((0, m.group(1)), (1, m.group(2))):
         if f"{a[nd][0]:.2f}" != quoted:
             fail(f"nodal diameter {nd}: first family {a[nd][0]:.6f} Hz, the page says {quoted}")
+    # (d) the samples' faces and the patch scene
+    with open(os.path.join(samples, "faces.csv")) as f:
+        header = f.readline().strip()
+        rows = [line.strip().split(",") for line in f if line.strip()]
+    if header != "face,node,area,nx,ny,nz":
+        fail(f"faces.csv: header '{header}'")
+    faces = {}
+    for r in rows:
+        faces.setdefault(r[0], set()).add(int(r[1]))
+    if sorted(faces) != ["shroud_left", "shroud_right"]:
+        fail(f"faces.csv: faces {sorted(faces)}, expected shroud_left and shroud_right")
+    if faces["shroud_left"] | faces["shroud_right"] != shroud:
+        fail(f"faces.csv: nodes {sorted(faces['shroud_left'] | faces['shroud_right'])}, "
+             f"not_cyclic.txt {sorted(shroud)}")
+    if any(n not in imported for n in shroud):
+        fail("faces.csv: a node not in the imported nodes.csv")
+    patch_scene = os.path.join(samples, "vendor_sample_blade_patch.yaml")
+    _, patch_blocks = doc_section(doc, "### Faces of an imported model")
+    doc_patch = [contacts_block(body) for lang, body in patch_blocks if lang == "yaml"]
+    if doc_patch != [contacts_block(open(patch_scene).read())]:
+        fail(f"the page's patch contact {doc_patch} is not the patch scene's")
+    shutil.copy(os.path.join(samples, "faces.csv"), os.path.join(work, "model"))
+    with open(os.path.join(work, "model", "mesh.yaml"), "a") as f:
+        f.write("faces: faces.csv\n")
+    shutil.copy(patch_scene, work)
+    out = run([frichb, "validate", "vendor_sample_blade_patch.yaml"], work)
+    if "patch of 8 node pairs" not in out:
+        fail(f"the patch scene: expected 'patch of 8 node pairs' in\n{out}")
+
     print(f"check_vendor_samples: {len(imports)} imports, nodes {sorted(doc_nodes)} in every "
           f"sample file, contact pairs {pairs} coincide, scene valid; first family "
-          f"{a[0][0]:.6f} / {a[1][0]:.6f} Hz (ND 0 / 1), imports agree to {worst:.2g}")
+          f"{a[0][0]:.6f} / {a[1][0]:.6f} Hz (ND 0 / 1), imports agree to {worst:.2g}; patch "
+          f"scene valid (8 node pairs)")
 
 
 if __name__ == "__main__":
