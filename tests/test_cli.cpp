@@ -30,6 +30,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <optional>
+#include <regex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -1593,6 +1594,40 @@ TEST_F(Cli, AHighestHarmonicThatCarriesTheForceIsWarned) {
   }
   // A Jenkins force at stick-slip has odd harmonics: the third carries more than the seventh.
   EXPECT_GT(s3["largest_energy_share"].get<double>(), s7["largest_energy_share"].get<double>());
+}
+
+// The 2-DOF damper swept from 50 Hz to 20 kHz: with its 3000 points the run ends early and says
+// how many points the window needs, in Hz; with that many it reaches 20 kHz. The contact-free
+// peak used to be scaled against the whole 20 kHz span, which made the curve climb the peak's
+// flanks a few mHz a point: 3000 points ended at 282 Hz, and no remedy but a hand-set
+// displacement_scale reached the end.
+TEST_F(Cli, AWideWindowIsTracedOrStopsWithTheRemedyThatWorks) {
+  const fs::path scene = fs::path(FRICHB_SOURCE_DIR) / "configs" / "two_dof_blade_damper.yaml";
+  const std::vector<std::string> window = {"--set", "continuation.frequency.from=50",
+                                           "--set", "continuation.frequency.to=20000",
+                                           "--set", "output.plots=false",
+                                           "--set", "output.friction_loops_at=[]"};
+  auto args = [&](const fs::path& out, std::vector<std::string> extra) {
+    std::vector<std::string> a = {"run", scene.string(), "-o", out.string()};
+    a.insert(a.end(), window.begin(), window.end());
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  const Result stopped = run_frichb(args(dir_ / "stopped", {}));
+  EXPECT_EQ(stopped.code, 3) << stopped.output;
+  EXPECT_THAT(stopped.output, HasSubstr("(last point at "));
+  EXPECT_THAT(stopped.output, HasSubstr(" Hz of 50..20000 Hz in 3000 points"));
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(stopped.output, m,
+                                std::regex("raise continuation\\.max_points to about ([0-9]+)")))
+      << stopped.output;
+  const std::string suggested = m[1].str();
+  EXPECT_LT(std::stol(suggested), 40000) << "a remedy no one would try";
+  const fs::path out = dir_ / "traced";
+  const Result traced = run_frichb(args(out, {"--set", "continuation.max_points=" + suggested}));
+  ASSERT_EQ(traced.code, 0) << traced.output;
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary.at("termination").at("reached_end"), true);
 }
 
 }  // namespace

@@ -43,7 +43,6 @@ ContinuationSetup derive_continuation(const Scene& scene, const HarmonicBalanceM
   if (peak == 0.0) peak = 1e-6;
   setup.peak = peak;
   setup.span = std::abs(C.to - C.from);
-  setup.u_unit = C.displacement_scale > 0 ? C.displacement_scale : peak / (kTallness * setup.span);
 
   ContinuationOptions& options = setup.options;
   options.lambda_start = w_from;
@@ -51,12 +50,19 @@ ContinuationSetup derive_continuation(const Scene& scene, const HarmonicBalanceM
   const double margin = kBoundsMargin * std::abs(w_to - w_from);
   options.lambda_min = std::max(0.0, std::min(w_from, w_to) - margin);
   options.lambda_max = std::max(w_from, w_to) + margin;
+  setup.resonances = linear_resonances(scene, model, options.lambda_min, options.lambda_max);
+  double width = setup.span;
+  for (const LinearResonance& r : setup.resonances)
+    if (r.harmonic == 1 && r.centre >= std::min(w_from, w_to) && r.centre <= std::max(w_from, w_to))
+      width = std::min(width, kWideWindowFactor * r.centre / unit);
+  setup.u_unit = C.displacement_scale > 0 ? C.displacement_scale : peak / (kTallness * width);
   options.initial_step = C.initial_step;
   options.min_step = C.min_step;
   options.max_step = C.max_step;
   options.target_newton_iterations = C.target_newton_iterations;
   options.max_points = C.max_points;
   options.max_wall_seconds = C.max_wall_seconds;
+  options.lambda_display = {unit, unit_name(C.unit)};
   options.reuse_factorisation_from = C.reuse_factorisation_from;
   options.linear_solver = C.linear_solver == "gmres"         ? LinearSolverKind::kGmres
                           : C.linear_solver == "matrix_free" ? LinearSolverKind::kMatrixFree
@@ -69,7 +75,6 @@ ContinuationSetup derive_continuation(const Scene& scene, const HarmonicBalanceM
   options.newton.max_iterations = C.max_newton_iterations;
   options.newton.residual_tolerance = C.tolerance;
   options.newton.step_tolerance = C.tolerance;
-  setup.resonances = linear_resonances(scene, model, options.lambda_min, options.lambda_max);
   options.step_bands = resonance_bands(setup.resonances);
   options.unknown_scale = Eigen::VectorXd::Constant(n + 1, setup.u_unit);
   options.unknown_scale(n) = unit;

@@ -282,12 +282,30 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
   switch (summary.termination) {
     case TerminationType::kReachedEnd:
       return "";
-    case TerminationType::kMaxPoints:
-      return "the curve needs more than continuation.max_points = " + std::to_string(C.max_points) +
-             " points (" + std::to_string(summary.turning_points) +
-             " turning points so far): raise max_points, or continuation.step.max to take "
-             "longer steps where the curve is smooth" +
-             many_folds;
+    case TerminationType::kMaxPoints: {
+      // A step covers at most step.max of frequency (lambda is scaled by the scene's unit):
+      // the rest of the window needs at least that many more points.
+      const std::string unit = " " + unit_name(C.unit);
+      const double last =
+          summary.points.empty()
+              ? C.from
+              : summary.points.back().y(summary.points.back().y.size() - 1) / C.to_rad_per_s();
+      const double remaining = std::abs(C.to - last);
+      const auto points = static_cast<double>(summary.points.size());
+      const double more = std::ceil(remaining / C.max_step);
+      // Rounded up to two significant digits, with a quarter more for the peaks' flanks.
+      const double total = points + 1.25 * more;
+      const double digits = std::pow(10.0, std::floor(std::log10(total)) - 1);
+      return "the curve reached " + format_number(last) + unit + " of " + format_number(C.from) +
+             ".." + format_number(C.to) + unit + " in " + std::to_string(summary.points.size()) +
+             " points (" + format_number(std::abs(last - C.from) / std::max(1.0, points), 3) +
+             unit + " a point on average, " + std::to_string(summary.turning_points) +
+             " turning points); a step covers at most continuation.step.max = " +
+             format_number(C.max_step) + unit + " of frequency, so the remaining " +
+             format_number(remaining, 4) + unit + " need at least " + format_number(more, 8) +
+             " more points: raise continuation.max_points to about " +
+             format_number(std::ceil(total / digits) * digits, 8) + ", or step.max" + many_folds;
+    }
     case TerminationType::kStepTooSmall:
       return std::string(
                  "the corrector failed down to continuation.step.min: look at the last point "

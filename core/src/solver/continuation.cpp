@@ -130,7 +130,8 @@ ContinuationSummary CurveTracer::finish(const Ending& ending) {
   summary_.termination = ending.type;
   summary_.message = ending.reason;
   if (!summary_.points.empty())
-    summary_.message += " (last point at " + format_lambda(summary_.points.back().y(n_)) + ")";
+    summary_.message += " (last point at " +
+                        format_lambda(summary_.points.back().y(n_), options_.lambda_display) + ")";
   summary_.turning_points = 0;
   summary_.residual_floor_points = 0;
   summary_.corners = 0;
@@ -182,7 +183,8 @@ std::optional<Ending> CurveTracer::start(const VectorXd& y_guess) {
   if (!first_tangent(start.js, direction_, problem_->linear(), &first.tangent, &first.condition,
                      &first.orientation))
     return Ending{TerminationType::kStartFailed,
-                  "start point: singular e_x, no tangent at " + format_lambda(first.y(n_))};
+                  "start point: singular e_x, no tangent at " +
+                      format_lambda(first.y(n_), options_.lambda_display)};
   first.newton_iterations = start.iterations;
   first.residual_norm = start.residual_norm;
   first.at_residual_floor = start.at_residual_floor;
@@ -369,7 +371,7 @@ std::optional<Ending> CurveTracer::attempt_step() {
     if (!past_end && (p.y(n_) < options_.lambda_min || p.y(n_) > options_.lambda_max)) {
       std::ostringstream msg;
       msg << "the curve left [" << options_.lambda_min << ", " << options_.lambda_max << "] at "
-          << format_lambda(p.y(n_));
+          << format_lambda(p.y(n_), options_.lambda_display);
       return Ending{TerminationType::kLeftBounds, msg.str()};
     }
     p.newton_iterations = corr.iterations;

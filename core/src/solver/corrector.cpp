@@ -73,12 +73,12 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
     else
       lu->prepare(out.js);
     if (!lu->invertible()) {
-      out.message = "singular Jacobian at " + format_lambda(problem.lambda_of(out.ys));
+      out.message = "singular Jacobian at " + problem.describe_lambda(out.ys);
       return out;
     }
     VectorXd dz = lu->solve_update(-r);
     if (!dz.allFinite()) {
-      out.message = "non-finite Newton update at " + format_lambda(problem.lambda_of(out.ys));
+      out.message = "non-finite Newton update at " + problem.describe_lambda(out.ys);
       if (!lu->failure().empty()) out.message += " (" + lu->failure() + ")";
       return out;
     }
@@ -140,7 +140,7 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
       if (keller && !floor_brackets_root) {
         std::ostringstream msg;
         msg << "Newton stalled on a residual floor of " << floor_residual << " at "
-            << format_lambda(problem.lambda_of(floor_ys));
+            << problem.describe_lambda(floor_ys);
         out.message = msg.str();
         return out;
       }
@@ -157,7 +157,7 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
   }
   std::ostringstream msg;
   msg << "Newton did not converge in " << opt.max_iterations << " iterations (residual "
-      << out.residual_norm << ") at " << format_lambda(problem.lambda_of(out.ys));
+      << out.residual_norm << ") at " << problem.describe_lambda(out.ys);
   out.message = msg.str();
   return out;
 }

@@ -22,10 +22,13 @@ bool make_scaling(const ContinuationOptions& options, Index n, Scaling* scaling,
   return wrong == nullptr;
 }
 
-std::string format_lambda(double lambda) {
+std::string format_lambda(double lambda, const LambdaDisplay& display) {
   std::ostringstream out;
   out.precision(12);
-  out << "lambda = " << lambda;
+  if (display.unit.empty())
+    out << "lambda = " << lambda;
+  else
+    out << lambda / display.per_unit << " " << display.unit;
   return out.str();
 }
 
@@ -52,7 +55,8 @@ bool ScaledProblem::evaluate(const VectorXd& ys, VectorXd* es, Jacobian* js,
     if (js == nullptr) ++profile_->residual_only_evaluations;
   }
   if (!evaluated) {
-    *message = "evaluation failed at " + format_lambda(y(n)) + (why.empty() ? "" : ": " + why);
+    *message =
+        "evaluation failed at " + format_lambda(y(n), display_) + (why.empty() ? "" : ": " + why);
     return false;
   }
   if (e.size() != n || (formed != nullptr && (formed->rows() != n || formed->cols() != n + 1)) ||
@@ -62,7 +66,7 @@ bool ScaledProblem::evaluate(const VectorXd& ys, VectorXd* es, Jacobian* js,
   }
   if (!e.allFinite() || (formed != nullptr && !formed->allFinite()) ||
       (as_operator && !op->parameter_column().allFinite())) {
-    *message = "non-finite residual or Jacobian at " + format_lambda(y(n));
+    *message = "non-finite residual or Jacobian at " + format_lambda(y(n), display_);
     return false;
   }
   *es = e.cwiseQuotient(scaling_.residual);

@@ -24,8 +24,9 @@ struct Scaling {
 bool make_scaling(const ContinuationOptions& options, Eigen::Index n, Scaling* scaling,
                   std::string* why);
 
-// "lambda = <value>" with 12 significant digits, for messages.
-std::string format_lambda(double lambda);
+// `lambda` for messages, in the display unit ("291.5 Hz"; "lambda = <value>" with
+// 12 significant digits without one).
+std::string format_lambda(double lambda, const LambdaDisplay& display);
 
 // Wall seconds since `start`.
 double seconds_since(std::chrono::steady_clock::time_point start);
@@ -41,7 +42,9 @@ class ScaledProblem {
       : problem_(problem),
         scaling_(std::move(scaling)),
         profile_(profile),
-        linear_(options, scaling_.residual.size(), profile, problem.has_jacobian_operator()) {}
+        linear_(options, scaling_.residual.size(), profile, problem.has_jacobian_operator()) {
+    display_ = options.lambda_display;
+  }
 
   Eigen::Index equations() const { return scaling_.residual.size(); }
   const Scaling& scaling() const { return scaling_; }
@@ -58,6 +61,10 @@ class ScaledProblem {
   double lambda_of(const Eigen::VectorXd& ys) const {
     return ys(equations()) * scaling_.unknown(equations());
   }
+  // The lambda of scaled unknowns as messages write it (format_lambda).
+  std::string describe_lambda(const Eigen::VectorXd& ys) const {
+    return format_lambda(lambda_of(ys), display_);
+  }
 
   // The scaled residual `es` (size n) and, when `js` is not null, the scaled n x (n + 1)
   // Jacobian at scaled unknowns `ys`: formed into js's own storage, or as the problem's
@@ -73,6 +80,7 @@ class ScaledProblem {
   Scaling scaling_;
   SolveProfile* profile_;
   mutable LinearSolverContext linear_;
+  LambdaDisplay display_;
 };
 
 }  // namespace frichb::core

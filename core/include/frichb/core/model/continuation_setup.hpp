@@ -30,6 +30,12 @@ inline constexpr double kLeavingGrowth = 2.0;
 // than the contact-free one, so a tall box keeps the arclength resolving them; a taller one
 // costs points on curves that do climb (gaps closing, light friction).
 inline constexpr double kTallness = 5.0;
+// A window much wider than its resonances (50 Hz to 20 kHz about a 300 Hz mode) would make the
+// peak kTallness x 20 kHz tall: the arclength would go to climbing its flanks, a few mHz a
+// point. The width the height is measured against is therefore at most kWideWindowFactor times
+// the lowest primary (harmonic 1) linear resonance inside the window, free or stuck; windows
+// narrower than that, or without such a resonance, keep their own width.
+inline constexpr double kWideWindowFactor = 4.0;
 // The curve stays within this share of the window's span around it (and at positive
 // frequency): one that comes back that far past its start has walked its branch backwards (or
 // the branch overhangs the window by that much) and ends with a reason.

@@ -140,6 +140,13 @@ struct NewtonOptions {
   int residual_floor_iterations = 3;
 };
 
+// How messages write lambda: lambda / per_unit followed by unit ("291.5 Hz" for lambda in
+// rad/s with 2 pi rad/s per Hz); an empty unit writes "lambda = <value>".
+struct LambdaDisplay {
+  double per_unit = 1.0;
+  std::string unit;
+};
+
 struct ContinuationOptions {
   double lambda_start = 0.0;
   double lambda_end = 1.0;  // the sweep direction is sign(lambda_end - lambda_start)
@@ -150,6 +157,8 @@ struct ContinuationOptions {
   int target_newton_iterations = 4;  // N* of eq. 4.13
   int max_points = 2000;
   double max_wall_seconds = 600.0;
+  // How messages write lambda (LambdaDisplay).
+  LambdaDisplay lambda_display;
 
   bool turning_point_control = true;
   int turning_point_backtrack = 2;
