@@ -20,7 +20,7 @@
 #  2. fuzz_scene_bounded: libFuzzer on scene parsing and validation for FRICHB_FUZZ_SECONDS
 #     (default 60) from the shipped scenes; then fuzz_import_*_bounded: libFuzzer on each
 #     `frichb import` reader (four matrix formats, node coordinates, equation maps) for
-#     FRICHB_FUZZ_IMPORT_SECONDS each (default 20) from tests/fuzz/import_seeds/.
+#     FRICHB_FUZZ_IMPORT_SECONDS each (default 18) from tests/fuzz/import_seeds/.
 # Warnings are errors in the main GCC build (scripts/test.sh), not here.
 # Jobs default to the core count (FRICHB_JOBS overrides it).
 set -euo pipefail
@@ -28,7 +28,7 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh
 jobs=${FRICHB_JOBS:-$(nproc 2>/dev/null || echo 2)}
 seconds=${FRICHB_FUZZ_SECONDS:-60}
-import_seconds=${FRICHB_FUZZ_IMPORT_SECONDS:-20}
+import_seconds=${FRICHB_FUZZ_IMPORT_SECONDS:-18}
 start=$(date +%s)
 stamp() { echo "sanitize: $1 ($(($(date +%s) - start)) s)"; }
 

@@ -197,6 +197,32 @@ std::vector<BadScene> corpus() {
        swap("name: root_friction", "name: root/friction"),
        {},
        "contacts[0].name"},
+      // A '.' splits a --set path (contacts.root.friction.params.kt cannot reach it); a name
+      // of digits is a list index there (contacts.1 is the second contact).
+      {"contact_name_with_a_dot",
+       false,
+       swap("name: root_friction", "name: root.friction"),
+       {},
+       "contacts[0].name: 'root.friction': use letters, digits, '_' and '-'"},
+      {"contact_name_of_digits",
+       false,
+       swap("name: root_friction", "name: \"1\""),
+       {},
+       "a name of digits alone is read as a list index by --set"},
+      {"dof_name_with_a_dot",
+       false,
+       swap("dofs: {blade: 0}", "dofs: {bla.de: 0}"),
+       {},
+       "structure.dofs.bla.de: 'bla.de': use letters, digits"},
+      // ${name} unquoted in a flow map: YAML reads its braces before any substitution.
+      {"variable_unquoted_in_a_flow_map",
+       false,
+       [](std::string t) {
+         return "variables: {k: 2.0e5}\n" +
+                replace_once(std::move(t), "params: {kt: 2.0e5,", "params: {kt: ${k},");
+       },
+       {},
+       "must be quoted: \"${name}\""},
       {"dof_name_with_a_comma",
        false,
        swap("dofs: {blade: 0}", "dofs: {\"bla,de\": 0}"),

@@ -325,14 +325,24 @@ double ContinuationSpec::to_rad_per_s() const {
 
 namespace {
 
-// Names that become file names and CSV columns: letters, digits, '_', '-' and '.', not
-// starting with '.' or '-'.
+// Names that become file names, CSV columns and --set paths (contacts.NAME.params.kt,
+// structure.dofs.NAME): letters, digits, '_' and '-', not starting with '-'. A '.' would split
+// the path (and names a patch's node pairs, NAME.NODE).
 bool is_plain_name(const std::string& name) {
-  return !name.empty() && name[0] != '.' && name[0] != '-' &&
-         std::all_of(name.begin(), name.end(), [](char ch) {
-           return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' ||
-                  ch == '.';
-         });
+  return !name.empty() && name[0] != '-' && std::all_of(name.begin(), name.end(), [](char ch) {
+    return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-';
+  });
+}
+
+// Why a plain contact name cannot be a contact's, or "": digits alone address a list entry by
+// its index in --set paths (contacts.0 is the first contact, whatever its name).
+std::string contact_name_problem(const std::string& name) {
+  if (!is_plain_name(name))
+    return "'" + name + "': use letters, digits, '_' and '-' (it names files and --set paths)";
+  if (name.find_first_not_of("0123456789") == std::string::npos)
+    return "'" + name + "': a name of digits alone is read as a list index by --set (contacts." +
+           name + " is contact number " + name + "): put a letter in it";
+  return "";
 }
 
 // A contact's name is part of the names of its result files
@@ -447,8 +457,16 @@ YAML::Node load_scene_yaml(const fs::path& file) {
   try {
     documents = YAML::LoadAll(text);
   } catch (const YAML::Exception& e) {
+    // A ${name} in a flow map or list: YAML reads its braces as its own, before any
+    // substitution (which works on the scalars YAML has read).
+    std::string hint;
+    std::istringstream lines(text);
+    std::string line;
+    for (int k = 0; k <= e.mark.line && std::getline(lines, line);) ++k;
+    if (e.mark.line >= 0 && line.find("${") != std::string::npos)
+      hint = " (a ${name} inside a flow map or list, {...} or [...], must be quoted: \"${name}\")";
     throw SceneError(file.string(), e.mark.line + 1, e.mark.column + 1, "",
-                     "malformed YAML: " + e.msg);
+                     "malformed YAML: " + e.msg + hint);
   }
   if (documents.size() > 1) {
     // Where the second document starts: its root's mark, or the second `---` line.
@@ -553,8 +571,8 @@ NodeSpec read_dof_node(const StructureSpec& structure, const YAML::Node& key,
   if (!is_plain_name(node.name))
     dofs_ctx.fail(key, path,
                   "'" + node.name +
-                      "': use letters, digits, '_', '-' and '.' (it names columns of "
-                      "response.csv)");
+                      "': use letters, digits, '_' and '-' (it names columns of "
+                      "response.csv and --set paths)");
   if (structure.find(node.name))
     dofs_ctx.fail(key, path, "DOF name '" + node.name + "' is used twice");
   if (structure.mesh && fe_node_number(node.name) > 0)
@@ -818,9 +836,8 @@ ContactSpec read_contact(Scene& scene, YAML::Node c, const std::string& path,
   ContactSpec contact;
   contact.name = v.text("name");
   contact.law = v.text("law");
-  if (!is_plain_name(contact.name))
-    ctx.fail(c["name"], path + ".name",
-             "'" + contact.name + "': use letters, digits, '_', '-' and '.' (it names files)");
+  if (const std::string why = contact_name_problem(contact.name); !why.empty())
+    ctx.fail(c["name"], path + ".name", why);
   if (const std::string why = too_long_for_a_file_name(contact.name); !why.empty())
     ctx.fail(c["name"], path + ".name", why);
   if (!contact_names.insert(contact.name).second)
@@ -888,9 +905,8 @@ void read_patch_contacts(Scene& scene, YAML::Node c, const std::string& path,
                                   std::vector<std::string>{"frame", "params", "patch"});
   const auto v = view(contact_schema(), cv);
   const std::string name = v.text("name");
-  if (!is_plain_name(name))
-    ctx.fail(c["name"], path + ".name",
-             "'" + name + "': use letters, digits, '_', '-' and '.' (it names files)");
+  if (const std::string why = contact_name_problem(name); !why.empty())
+    ctx.fail(c["name"], path + ".name", why);
   if (const std::string why = too_long_for_a_file_name(name); !why.empty())
     ctx.fail(c["name"], path + ".name", why);
   if (!contact_names.insert(name).second)
