@@ -7,6 +7,7 @@
 
 #include "frichb/core/fe_import/sector_import.hpp"
 #include "frichb/core/support/format.hpp"
+#include "frichb/plugin/matrix_market.hpp"
 
 namespace frichb::core::fe_import_detail {
 
@@ -26,24 +27,13 @@ LineReader::LineReader(const fs::path& file) : file_(file) {
 }
 
 bool LineReader::next(std::string& line) {
-  line.clear();
-  std::streambuf* buffer = in_.rdbuf();
-  bool any = false;
-  for (int c = buffer->sbumpc(); c != std::char_traits<char>::eof(); c = buffer->sbumpc()) {
-    any = true;
-    if (c == '\n') break;
-    if (line.size() == kMaxLineBytes)
-      fe_import_detail::fail(file_, number_ + 1,
-                             "line longer than " + std::to_string(kMaxLineBytes) +
-                                 " bytes: not a text file of this format");
-    line.push_back(static_cast<char>(c));
-  }
-  if (!any) {
-    if (in_.bad()) fail("read error");
-    return false;
-  }
+  const sdk::LineRead read = sdk::read_bounded_line(in_, line, kMaxLineBytes);
+  if (read == sdk::LineRead::kTooLong)
+    fe_import_detail::fail(file_, number_ + 1,
+                           "line longer than " + std::to_string(kMaxLineBytes) +
+                               " bytes: not a text file of this format");
+  if (read == sdk::LineRead::kEnd) return false;
   ++number_;
-  if (!line.empty() && line.back() == '\r') line.pop_back();
   return true;
 }
 

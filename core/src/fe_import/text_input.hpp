@@ -22,7 +22,8 @@ inline constexpr std::size_t kMaxLineBytes = 64 * 1024;
 class LineReader {
  public:
   explicit LineReader(const std::filesystem::path& file);
-  // false at the end; a read error or a line longer than kMaxLineBytes throws.
+  // false at the end (a read error, which the stream buffer reports as the end, ends it too); a
+  // line longer than kMaxLineBytes throws.
   bool next(std::string& line);
   long number() const { return number_; }
   const std::filesystem::path& file() const { return file_; }

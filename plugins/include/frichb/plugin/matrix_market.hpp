@@ -62,6 +62,26 @@ struct MatrixMarketHeader {
   long size_line = 0;     // the size line's number, for a caller's own refusal of the sizes
 };
 
+// One line of `in` into `line`, without its '\n' and a trailing '\r', reading at most `max`
+// bytes of it: kEnd at the end of the stream, kTooLong (the line's first `max` bytes in `line`)
+// when it is longer. For text readers that must not grow without bound on a file of no line
+// ends.
+enum class LineRead { kLine, kEnd, kTooLong };
+inline LineRead read_bounded_line(std::istream& in, std::string& line, std::size_t max) {
+  line.clear();
+  std::streambuf* buffer = in.rdbuf();
+  bool any = false;
+  for (int c = buffer->sbumpc(); c != std::char_traits<char>::eof(); c = buffer->sbumpc()) {
+    any = true;
+    if (c == '\n') break;
+    if (line.size() == max) return LineRead::kTooLong;
+    line.push_back(static_cast<char>(c));
+  }
+  if (!any) return LineRead::kEnd;
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return LineRead::kLine;
+}
+
 namespace detail {
 
 // `text` with control and non-ASCII bytes as \xNN, for quoting file contents in messages.
@@ -114,21 +134,13 @@ class MarketLines {
   explicit MarketLines(std::istream& in) : in_(in) {}
   // The next line, comments and blanks included; false at the end.
   bool raw(std::string& line) {
-    line.clear();
-    std::streambuf* buffer = in_.rdbuf();
-    bool any = false;
-    for (int c = buffer->sbumpc(); c != std::char_traits<char>::eof(); c = buffer->sbumpc()) {
-      any = true;
-      if (c == '\n') break;
-      if (line.size() == kMaxMatrixMarketLine)
-        throw MatrixMarketError(number_ + 1, "line longer than " +
-                                                 std::to_string(kMaxMatrixMarketLine) +
-                                                 " bytes: not a Matrix Market file");
-      line.push_back(static_cast<char>(c));
-    }
-    if (!any) return false;
+    const LineRead read = read_bounded_line(in_, line, kMaxMatrixMarketLine);
+    if (read == LineRead::kTooLong)
+      throw MatrixMarketError(number_ + 1, "line longer than " +
+                                               std::to_string(kMaxMatrixMarketLine) +
+                                               " bytes: not a Matrix Market file");
+    if (read == LineRead::kEnd) return false;
     ++number_;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
     return true;
   }
   // The next line that is neither a comment nor blank; false at the end.
