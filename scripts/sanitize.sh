@@ -16,7 +16,7 @@
 #     provider code runs under the sanitizers in the fe_sector tests; and the FE patch check
 #     (three response curves on the test-case blade, 18-36 s in Release, over 300 s here), whose
 #     patch code runs under the sanitizers in test_contact_patch; and the 50 Hz - 20 kHz sweep
-#     of the 2-DOF damper (17 000 points, 2 s in Release), whose code paths every run takes;
+#     of the 2-DOF damper (3000 + 14 020 points, 2 s in Release), whose code paths every run takes;
 #  2. fuzz_scene_bounded: libFuzzer on scene parsing and validation for FRICHB_FUZZ_SECONDS
 #     (default 60) from the shipped scenes; then fuzz_import_*_bounded: libFuzzer on each
 #     `frichb import` reader (four matrix formats, node coordinates, equation maps) for

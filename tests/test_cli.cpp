@@ -1597,10 +1597,9 @@ TEST_F(Cli, AHighestHarmonicThatCarriesTheForceIsWarned) {
 }
 
 // The 2-DOF damper swept from 50 Hz to 20 kHz: with its 3000 points the run ends early and says
-// how many points the window needs, in Hz; with that many it reaches 20 kHz. The contact-free
-// peak used to be scaled against the whole 20 kHz span, which made the curve climb the peak's
-// flanks a few mHz a point: 3000 points ended at 282 Hz, and no remedy but a hand-set
-// displacement_scale reached the end.
+// how many points the window needs, in Hz; with that many it reaches 20 kHz. Scaled against
+// the whole 20 kHz span, the contact-free peak would make the curve climb its flanks a few mHz
+// a point (docs/theory.md, Scaling).
 TEST_F(Cli, AWideWindowIsTracedOrStopsWithTheRemedyThatWorks) {
   const fs::path scene = fs::path(FRICHB_SOURCE_DIR) / "configs" / "two_dof_blade_damper.yaml";
   const std::vector<std::string> window = {"--set", "continuation.frequency.from=50",

@@ -508,6 +508,17 @@ TEST_F(HbRefusals, AFormatThatDoesNotDescribeTheDataLinesIsRefused) {
                 "them on this line");
 }
 
+// (1P,4E20.12): fields with their exponent read as written; one without reads x 10^-1 in
+// Fortran, so it is refused rather than read as 10.
+TEST_F(HbRefusals, AScaleFactorNeedsTheExponentOfEveryField) {
+  const std::string scaled = edited(kHbStiffness, "(4E20.12)   ", "(1P,4E20.12)");
+  EXPECT_EQ(with_stiffness(scaled), "");
+  EXPECT_EQ(with_stiffness(edited(scaled, "  0.100000000000E+02", "     10.000000000000")),
+            file() +
+                ":8: '     10.000000000000' in columns 1-20 is not one of the values of format "
+                "(1P,4E20.12)");
+}
+
 // An HB or MMF file whose declared storage is not what it stores was symmetrised silently.
 TEST_F(HbRefusals, StorageMustBeWhatTheFileDeclares) {
   // RUA (unsymmetric, both triangles) storing the lower triangle only.
@@ -632,6 +643,15 @@ TEST_F(FeImport, FileBytesInMessagesAreEscaped) {
   EXPECT_EQ(refusal(r), r.stiffness_file.string() +
                             ":1: expected 'node, dof, node, dof, value', found "
                             "'3,1,3,1,\\x1B]0;owned\\x07\\x1B[2J\\xFF 10.'");
+  // The Matrix Market reader quotes escaped too, once.
+  r = two_node_request(VendorFormat::kAnsysMmf,
+                       write("k.mmf",
+                             "%%MatrixMarket matrix coordinate real symmetric\n5 5 1\n"
+                             "1 1 \x1b[2J\n"),
+                       write("m.mtx", kAbaqusMass), write("job.inp", kAbaqusNodes));
+  r.equation_map_file = write("k.mapping", kAnsysMapping);
+  EXPECT_EQ(refusal(r),
+            r.stiffness_file.string() + ":3: expected a finite number, found '\\x1B[2J'");
 }
 
 // --- Round trip: the test's own writers of each vendor format, read back to the bit ------

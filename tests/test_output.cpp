@@ -53,11 +53,30 @@ std::string read_text(const fs::path& file) {
 }
 
 // Every file below `folder` (relative path -> content), hidden ones included.
+// The record of the top-level names a set wrote, in the folder beside them, with each entry's
+// identity (device and inode, which differ from run to run).
+const std::string kManifest = ".frichb-written.json";
+
+// A manifest as "written: NAME NAME ..." (its names in order; an entry without an identity
+// shows as "?NAME").
+std::string manifest_names(const std::string& text) {
+  const auto doc = nlohmann::json::parse(text);
+  std::string out = "written:";
+  for (const auto& entry : doc.at("written"))
+    out += " " + std::string(entry.value("identity", std::string()).empty() ? "?" : "") +
+           entry.at("name").get<std::string>();
+  return out;
+}
+
+// Every regular file below `folder` with its text (the manifest by its names).
 std::map<std::string, std::string> snapshot(const fs::path& folder) {
   std::map<std::string, std::string> files;
   if (!fs::exists(folder)) return files;
   for (const auto& e : fs::recursive_directory_iterator(folder))
-    if (e.is_regular_file()) files[fs::relative(e.path(), folder).string()] = read_text(e.path());
+    if (e.is_regular_file()) {
+      const std::string name = fs::relative(e.path(), folder).string();
+      files[name] = name == kManifest ? manifest_names(read_text(e.path())) : read_text(e.path());
+    }
   return files;
 }
 
@@ -83,10 +102,10 @@ void write_set(const fs::path& folder, const std::string& tag) {
   out.commit();
 }
 
-// The record of the top-level names a set wrote, in the folder beside them.
-const std::string kManifest = ".frichb-written.json";
 std::string manifest_of(const std::vector<std::string>& names) {
-  return nlohmann::json{{"written", names}}.dump(2) + "\n";
+  std::string out = "written:";
+  for (const auto& name : names) out += " " + name;
+  return out;
 }
 
 std::map<std::string, std::string> expected_set(const std::string& tag) {
@@ -149,6 +168,42 @@ TEST(StagedOutput, CommitRemovesEveryNameTheEarlierSetWrote) {
                                                        {kManifest, manifest_of({"summary.json"})}};
   EXPECT_EQ(snapshot(folder), expected);
   EXPECT_TRUE(leftovers(dir.path(), "out").empty());
+}
+
+// A manifest that is not the one the run wrote beside its entries - copied with a folder, taken
+// from an archive, written by hand: the entries it names are the user's, and the next run
+// keeps them; names with a '/' or "..", which the run never writes, are never followed.
+TEST(StagedOutput, OnlyTheEntriesTheEarlierRunWroteAreRemoved) {
+  TempDir dir;
+  const auto write_with_states = [](const fs::path& folder, const std::string& tag) {
+    StagedOutput out(folder, kManaged);
+    write_file(out.path("summary.json"), tag + "\n");
+    if (tag == "A") write_file(out.path("contact_states/290Hz_1.csv"), "states of A\n");
+    out.commit();
+  };
+  const fs::path results = dir.path() / "results";
+  write_with_states(results, "A");
+  const fs::path copied = dir.path() / "copied";
+  fs::copy(results, copied, fs::copy_options::recursive);  // new inodes, the same manifest
+  write_file(copied / "data.csv", "mine\n");
+  const fs::path hand = dir.path() / "hand";
+  fs::create_directories(hand);
+  write_file(hand / kManifest,
+             R"({"written": [{"name": "data.csv", "identity": "1:1"}, {"name": "..", )"
+             R"("identity": "1:2"}, {"name": "../results", "identity": "1:3"}]})");
+  write_file(hand / "data.csv", "mine too\n");
+  write_with_states(copied, "B");
+  write_with_states(hand, "B");
+  EXPECT_EQ(read_text(copied / "data.csv"), "mine\n");
+  EXPECT_EQ(read_text(copied / "contact_states" / "290Hz_1.csv"), "states of A\n")
+      << "a copy's contact_states/ is not the run's own";
+  EXPECT_EQ(read_text(hand / "data.csv"), "mine too\n");
+  EXPECT_EQ(read_text(results / "contact_states" / "290Hz_1.csv"), "states of A\n")
+      << "a name outside the folder was followed";
+  // The run's own folder: its contact_states/ goes.
+  write_with_states(results, "B");
+  EXPECT_FALSE(fs::exists(results / "contact_states"));
+  EXPECT_EQ(read_text(results / "summary.json"), "B\n");
 }
 
 TEST(StagedOutput, DestroyedBeforeCommitLeavesTheFolderAsItWas) {

@@ -204,6 +204,12 @@ std::vector<BadScene> corpus() {
        swap("name: root_friction", "name: root.friction"),
        {},
        "contacts[0].name: 'root.friction': use letters, digits, '_' and '-'"},
+      // A name holding a terminal escape sequence: quoted escaped, never sent to the terminal.
+      {"contact_name_with_a_terminal_escape",
+       false,
+       swap("name: root_friction", "name: \"root\\e[2Jfriction\""),
+       {},
+       "'root\\x1B[2Jfriction': use letters"},
       {"contact_name_of_digits",
        false,
        swap("name: root_friction", "name: \"1\""),

@@ -138,8 +138,11 @@ bool blank(const std::string& line) {
 SpMat<double> read_market(const std::string& file, const std::string& what) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  std::ifstream in(file, std::ios::binary);
-  if (!fs::is_regular_file(fs::path(file), ec) || !in) {
+  // Checked before opening: opening a FIFO blocks until a writer comes.
+  const bool regular = fs::is_regular_file(fs::path(file), ec);
+  std::ifstream in;
+  if (regular) in.open(file, std::ios::binary);
+  if (!regular || !in) {
     std::string where;
     if (fs::path(file).is_relative()) {
       const fs::path cwd = fs::current_path(ec);
@@ -160,8 +163,9 @@ SpMat<double> read_market(const std::string& file, const std::string& what) {
           columns = static_cast<Index>(h.columns);
           symmetric = h.symmetric;
           array = !h.coordinate;
-          // The reader has checked that the file can hold the entries.
-          triplets.reserve(static_cast<std::size_t>(symmetric ? 2 * h.entries : h.entries));
+          // The reader has checked that the file can hold the entries (arrays skip zeros).
+          if (h.coordinate)
+            triplets.reserve(static_cast<std::size_t>(symmetric ? 2 * h.entries : h.entries));
         },
         [&](long long i, long long j, double v, long /*line*/) {
           if (array && v == 0.0) return;

@@ -1,6 +1,7 @@
 # Runs a libFuzzer executable for a bounded time: fresh seeds (every file matching PATTERN,
 # default *.yaml, under SEEDS), a corpus folder that keeps what it finds, crash artifacts in
-# WORK/artifacts. DICT (a libFuzzer dictionary) is optional.
+# WORK/artifacts. DICT (a libFuzzer dictionary) and MAX_LEN (the longest input, default
+# libFuzzer's) are optional.
 # cmake -DFUZZER=exe -DSEEDS=dir [-DPATTERN=glob] [-DDICT=file] -DWORK=dir -DSECONDS=n
 #       -P run_fuzzer.cmake
 if(NOT PATTERN)
@@ -17,6 +18,10 @@ set(dict_option "")
 if(DICT)
   set(dict_option "-dict=${DICT}")
 endif()
+set(max_len_option "")
+if(MAX_LEN)
+  set(max_len_option "-max_len=${MAX_LEN}")
+endif()
 foreach(seed ${seeds})
   file(RELATIVE_PATH name ${SEEDS} ${seed})
   string(REPLACE "/" "_" name ${name})
@@ -25,7 +30,7 @@ endforeach()
 message(STATUS "fuzzing ${FUZZER} for ${SECONDS} s from ${count} seeds")
 execute_process(
   COMMAND ${FUZZER} -max_total_time=${SECONDS} -timeout=10 -rss_limit_mb=2048
-          ${dict_option} -print_final_stats=1 -artifact_prefix=${WORK}/artifacts/
+          ${dict_option} ${max_len_option} -print_final_stats=1 -artifact_prefix=${WORK}/artifacts/
           ${WORK}/corpus ${WORK}/seeds
   WORKING_DIRECTORY ${WORK}
   RESULT_VARIABLE status

@@ -91,7 +91,8 @@ void warn_of_few_samples(const Scene& scene, const HarmonicBalanceModel& model) 
         scene.file.string(), hb.samples_per_period,
         hb.trace_oversampling > 1 ? " x trace_oversampling " + std::to_string(hb.trace_oversampling)
                                   : std::string(),
-        highest, contact.name, contact.law->plugin().name(), kSampleOnlySamplesPerHarmonic, wanted);
+        highest, contact.name, contact.law->plugin().name(), kSampleOnlySamplesPerHarmonic,
+        (wanted + hb.trace_oversampling - 1) / hb.trace_oversampling);
     return;
   }
 }

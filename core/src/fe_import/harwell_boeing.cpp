@@ -7,7 +7,8 @@
 // Read exactly or refused: every field is read at the position its format gives, the line
 // counts of the header must be those the counts and formats need, a line holds nothing beyond
 // its fields, and a real field must carry its decimal point (without one, Fortran would place
-// it by the format's digit count, which a mismatched format silently gets wrong).
+// it by the format's digit count, which a mismatched format silently gets wrong) and, under a
+// kP scale factor, its exponent (without one, Fortran scales the value by 10^-k).
 #include <regex>
 #include <string>
 
@@ -28,12 +29,18 @@ namespace {
 
 // The longest record a format may describe (fields per line x width), in characters.
 constexpr long kMaxRecord = 1000;
+// The longest format a reader takes ("(1P,4E20.12)" has 12 characters).
+constexpr std::size_t kMaxFormatText = 40;
+// The largest line count of a section (2^40 lines): larger counts describe no file this reader
+// can take, and their sum would overflow.
+constexpr long kMaxLines = 1L << 40;
 
 struct FieldFormat {
   std::string text;  // as written, for messages
   long per_line = 0;
   long width = 0;
   char kind = 'I';  // I, E, D, F or G
+  long scale = 0;   // the kP scale factor: a real field without an exponent is read x 10^-k
 };
 
 struct HbHeader {
@@ -65,7 +72,7 @@ bool format_count(const std::string& digits, long absent, long& value) {
 FieldFormat parse_format(const LineReader& in, const std::string& text, const char* what,
                          bool integers) {
   static const std::regex kFormat(
-      R"(\(\s*(?:[+-]?\d+\s*P\s*,?\s*)?(\d*)\s*([IEDFG])\s*(\d+)\s*(?:\.\s*(\d+))?\s*(?:E\s*\d+)?\s*\))",
+      R"(\(\s*(?:([+-]?\d+)\s*P\s*,?\s*)?(\d*)\s*([IEDFG])\s*(\d+)\s*(?:\.\s*(\d+))?\s*(?:E\s*\d+)?\s*\))",
       std::regex::icase);
   std::smatch m;
   const std::string shown = "the " + std::string(what) + " format '" + text + "'";
@@ -73,11 +80,15 @@ FieldFormat parse_format(const LineReader& in, const std::string& text, const ch
     in.fail(shown + " is not a Fortran format of the form (nIw), (nEw.d) or (kP,nEw.d)");
   FieldFormat f;
   f.text = text;
-  f.kind = upper(m[2].str())[0];
+  f.kind = upper(m[3].str())[0];
   long digits = -1;
-  if (!format_count(m[1].str(), 1, f.per_line) || !format_count(m[3].str(), 0, f.width) ||
-      !format_count(m[4].str(), -1, digits))
+  std::string scale = m[1].str();
+  const bool negative = !scale.empty() && scale[0] == '-';
+  if (!scale.empty() && (scale[0] == '-' || scale[0] == '+')) scale.erase(0, 1);
+  if (!format_count(m[2].str(), 1, f.per_line) || !format_count(m[4].str(), 0, f.width) ||
+      !format_count(m[5].str(), -1, digits) || !format_count(scale, 0, f.scale))
     in.fail(shown + " has a count or width of more than six digits");
+  if (negative) f.scale = -f.scale;
   if (integers != (f.kind == 'I'))
     in.fail(shown + (integers ? " must be an integer format (nIw)"
                               : " must be a real format (nEw.d, nDw.d, nFw.d or nGw.d)"));
@@ -106,6 +117,9 @@ std::vector<std::string> format_groups(const LineReader& in, const std::string& 
     if (line[at] != '(' || close == std::string::npos)
       in.fail("expected the Fortran formats '(PTRFMT) (INDFMT) (VALFMT) [(RHSFMT)]', found '" +
               line + "'");
+    if (close + 1 - at > kMaxFormatText)
+      in.fail("the Fortran format '" + line.substr(at, kMaxFormatText) + "...' is longer than " +
+              std::to_string(kMaxFormatText) + " characters");
     groups.push_back(line.substr(at, close + 1 - at));
     at = close + 1;
   }
@@ -128,10 +142,11 @@ HbHeader read_header(LineReader& in, const fs::path& map_file, const EquationMap
       !parse_integer(f[1], h.pointer_lines) || !parse_integer(f[2], h.index_lines) ||
       !parse_integer(f[3], h.value_lines) || (f.size() > 4 && !parse_integer(f[4], h.rhs_lines)))
     in.fail("expected 'TOTCRD PTRCRD INDCRD VALCRD [RHSCRD]', found '" + line + "'");
-  if (h.pointer_lines < 0 || h.index_lines < 0 || h.value_lines < 0 || h.rhs_lines < 0 ||
-      total != h.pointer_lines + h.index_lines + h.value_lines + h.rhs_lines)
-    in.fail("the card counts in '" + line +
-            "' are not TOTCRD = PTRCRD + INDCRD + VALCRD + RHSCRD with none negative");
+  for (const long count : {h.pointer_lines, h.index_lines, h.value_lines, h.rhs_lines})
+    if (count < 0 || count > kMaxLines)
+      in.fail("the card counts in '" + line + "' are not all in 0.." + std::to_string(kMaxLines));
+  if (total != h.pointer_lines + h.index_lines + h.value_lines + h.rhs_lines)
+    in.fail("the card counts in '" + line + "' are not TOTCRD = PTRCRD + INDCRD + VALCRD + RHSCRD");
   if (!in.next(line)) in.fail("missing the matrix-type line");
   f = split_fields(line);
   long rows = 0;
@@ -139,7 +154,7 @@ HbHeader read_header(LineReader& in, const fs::path& map_file, const EquationMap
   if (f.size() < 4 || f.size() > 5 || !parse_integer(f[1], rows) ||
       !parse_integer(f[2], h.columns) || !parse_integer(f[3], h.nonzeros) ||
       (f.size() == 5 && !parse_integer(f[4], elements)) || rows != h.columns || rows < 1 ||
-      h.nonzeros < 0 || elements != 0)
+      h.nonzeros < 0 || h.nonzeros > kMaxLines || elements != 0)
     in.fail("expected 'MXTYPE NROW NCOL NNZERO [0]' of an assembled square matrix, found '" + line +
             "'");
   h.type = upper(f[0]);
@@ -222,9 +237,13 @@ bool integer_field(const std::string& field, long& value) {
   return parse_integer(field, value);
 }
 
-// A Fortran real field as written: a decimal point is required (see the file's head).
-bool real_field(const std::string& field, double& value) {
-  return field.find('.') != std::string::npos && parse_real(field, value);
+// A Fortran real field as written: a decimal point is required (see the file's head), and
+// under a kP scale factor (k != 0) an exponent too: Fortran reads a field without one as its
+// value x 10^-k, a factor a reader that ignores the scale gets wrong.
+bool real_field(const std::string& field, long scale, double& value) {
+  if (field.find('.') == std::string::npos) return false;
+  if (scale != 0 && field.find_first_of("EeDd") == std::string::npos) return false;
+  return parse_real(field, value);
 }
 
 NodeDof lookup(const fs::path& file, long line, const fs::path& map_file, const EquationMap& map,
@@ -247,12 +266,13 @@ VendorMatrix read_harwell_boeing(const fs::path& file, const fs::path& map_file,
                                           "column pointers", integer_field);
   const auto indices = read_fields<long>(in, h.index_lines, h.nonzeros, h.index_format,
                                          "row indices", integer_field);
-  const auto values =
-      read_fields<double>(in, h.value_lines, h.nonzeros, h.value_format, "values", real_field);
+  const auto values = read_fields<double>(in, h.value_lines, h.nonzeros, h.value_format, "values",
+                                          [&](const std::string& field, double& value) {
+                                            return real_field(field, h.value_format.scale, value);
+                                          });
   const bool lower = h.type == "RSA";
   VendorMatrix matrix;
   matrix.storage = lower ? MatrixStorage::kLowerTriangle : MatrixStorage::kBothTriangles;
-  matrix.declared_size = h.columns;
   matrix.entries.reserve(static_cast<std::size_t>(h.nonzeros));
   long begin = pointers[0].value;
   if (begin != 1)

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "fe_import/text_input.hpp"
+#include "frichb/core/fe_import/sector_import.hpp"
 #include "frichb/core/fe_import/vendor_files.hpp"
 #include "frichb/core/support/format.hpp"
 #include "frichb/plugin/matrix_market.hpp"
@@ -129,7 +130,6 @@ VendorMatrix read_matrix_market(const fs::path& file, const fs::path& map_file,
                                  " equations: are they of the same export?");
           matrix.storage =
               h.symmetric ? MatrixStorage::kLowerTriangle : MatrixStorage::kBothTriangles;
-          matrix.declared_size = static_cast<long>(h.rows);
           matrix.entries.reserve(static_cast<std::size_t>(h.entries));
         },
         [&](long long i, long long j, double value, long line) {
@@ -137,7 +137,10 @@ VendorMatrix read_matrix_market(const fs::path& file, const fs::path& map_file,
               entry_between(equation(i, line), equation(j, line), value, line));
         });
   } catch (const sdk::MatrixMarketError& e) {
-    fe_import_detail::fail(file, e.line(), e.what());
+    // The reader's message quotes the file's bytes escaped already.
+    const std::string where =
+        e.line() > 0 ? file.string() + ":" + std::to_string(e.line()) : file.string();
+    throw ImportError(printable_text(where + ": ") + e.what());
   }
   return matrix;
 }

@@ -7,6 +7,8 @@
 #include <limits>
 #include <sstream>
 
+#include "frichb/core/support/format.hpp"
+
 namespace frichb::core {
 
 namespace {
@@ -40,8 +42,8 @@ bool decode_real(const YAML::Node& node, double& out) {
 
 SceneError::SceneError(std::string file, int line, int column, std::string key_path,
                        std::string message)
-    : std::runtime_error(format_location(file, line, column) + ": " +
-                         (key_path.empty() ? "" : key_path + ": ") + message),
+    : std::runtime_error(printable_text(format_location(file, line, column) + ": " +
+                                        (key_path.empty() ? "" : key_path + ": ") + message)),
       file_(std::move(file)),
       key_path_(std::move(key_path)),
       message_(std::move(message)),

@@ -125,16 +125,36 @@ const char* pseudo_file_system(const fs::path& p) {
   return nullptr;
 }
 
-// The top-level names recorded in `folder`'s manifest by the run that wrote it (none when it
-// has no readable manifest: a folder of the user's, or one written before manifests).
+// The identity of a file or folder (not followed when it is a link): device and inode. A
+// rename keeps it; a copy, an archive's extraction or a new file of the same name does not.
+std::string identity_of(const fs::path& p) {
+  struct stat s {};
+  if (::lstat(p.c_str(), &s) != 0) return {};
+  return std::to_string(static_cast<unsigned long long>(s.st_dev)) + ":" +
+         std::to_string(static_cast<unsigned long long>(s.st_ino));
+}
+
+// The top-level names recorded in `folder`'s manifest by the run that wrote it that are still
+// the very entries it wrote (same identity): none when the folder has no readable manifest (a
+// folder of the user's, or one written before manifests), and never an entry that a manifest
+// copied or written by hand names, nor one the user made anew under a written name.
 std::vector<std::string> written_by(const fs::path& folder) {
   std::ifstream in(folder / std::string(StagedOutput::kManifest));
   if (!in) return {};
   const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
   std::vector<std::string> names;
   if (!doc.is_object() || !doc.contains("written") || !doc.at("written").is_array()) return names;
-  for (const auto& name : doc.at("written"))
-    if (name.is_string()) names.push_back(name.get<std::string>());
+  for (const auto& entry : doc.at("written")) {
+    if (!entry.is_object() || !entry.contains("name") || !entry.contains("identity") ||
+        !entry.at("name").is_string() || !entry.at("identity").is_string())
+      continue;
+    const std::string name = entry.at("name").get<std::string>();
+    if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "..")
+      continue;
+    const std::string identity = identity_of(folder / name);
+    if (!identity.empty() && identity == entry.at("identity").get<std::string>())
+      names.push_back(name);
+  }
   return names;
 }
 
@@ -497,16 +517,21 @@ void StagedOutput::commit() {
   const fs::path parent = final_.parent_path();
   // Every top-level name of the new set is the writer's to replace, and is recorded for the
   // next run into the folder to remove.
-  std::vector<std::string> written;
+  // Each with its identity, which the swap's renames keep: the next run removes an entry only
+  // while it is the one written here.
+  std::vector<std::pair<std::string, std::string>> written;
   for (const auto& entry : fs::directory_iterator(staging_)) {
     std::string name = entry.path().filename().string();
     if (name == kManifest) continue;
     if (std::find(managed_.begin(), managed_.end(), name) == managed_.end())
       managed_.push_back(name);
-    written.push_back(std::move(name));
+    written.emplace_back(name, identity_of(entry.path()));
   }
   std::sort(written.begin(), written.end());
-  write_json(staging_ / std::string(kManifest), nlohmann::json{{"written", written}});
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& [name, identity] : written)
+    list.push_back({{"name", name}, {"identity", identity}});
+  write_json(staging_ / std::string(kManifest), nlohmann::json{{"written", list}});
   managed_.emplace_back(kManifest);
   sync_tree(staging_);
   step_done("synced");

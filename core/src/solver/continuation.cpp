@@ -370,7 +370,9 @@ std::optional<Ending> CurveTracer::attempt_step() {
     const bool past_end = (p.y(n_) - options_.lambda_end) * direction_ >= 0.0;
     if (!past_end && (p.y(n_) < options_.lambda_min || p.y(n_) > options_.lambda_max)) {
       std::ostringstream msg;
-      msg << "the curve left [" << options_.lambda_min << ", " << options_.lambda_max << "] at "
+      msg << "the curve left the window from "
+          << format_lambda(options_.lambda_min, options_.lambda_display) << " to "
+          << format_lambda(options_.lambda_max, options_.lambda_display) << " at "
           << format_lambda(p.y(n_), options_.lambda_display);
       return Ending{TerminationType::kLeftBounds, msg.str()};
     }
@@ -444,6 +446,8 @@ bool ContinuationOptions::IsValid(std::string* why) const {
     return Fail(why, "initial_step must lie in [min_step, max_step]");
   if (target_newton_iterations < 1) return Fail(why, "target_newton_iterations must be >= 1");
   if (max_points < 1) return Fail(why, "max_points must be >= 1");
+  if (!(lambda_display.per_unit > 0.0) || !std::isfinite(lambda_display.per_unit))
+    return Fail(why, "lambda_display.per_unit must be finite and positive");
   if (!(max_wall_seconds > 0.0)) return Fail(why, "max_wall_seconds must be positive");
   if (turning_point_control) {
     if (turning_point_backtrack < 1) return Fail(why, "turning_point_backtrack must be >= 1");

@@ -18,12 +18,12 @@
 //    format, field or symmetry; a size line that is not exactly those integers; sizes below 1
 //    or above 2^31 - 1; a symmetric matrix that is not square; more entries than the matrix
 //    has positions, or than the rest of a seekable stream could hold (each entry needs at
-//    least 6 bytes, each array value 2: a size line of 10^12 entries is refused without
-//    allocating); an entry line with other than its fields, an index outside the sizes, a
-//    non-finite or malformed value; in a symmetric coordinate file an entry above the
-//    diagonal (row < column: the format stores the lower triangle); fewer or more entries
-//    than announced; a line longer than kMaxMatrixMarketLine bytes. Quoted file text has its
-//    control and non-ASCII bytes written as \xNN.
+//    least 6 bytes with its line end, each array value 2: a size line of 10^12 entries is
+//    refused without allocating); an entry line with other than its fields, an index outside
+//    the sizes, a non-finite or malformed value (an `integer` file's values must be integers); in a
+//    symmetric coordinate file an entry above the diagonal (row < column: the format stores the
+//    lower triangle); fewer or more entries than announced; a line longer than kMaxMatrixMarketLine
+//    bytes. Quoted file text has its control and non-ASCII bytes written as \xNN.
 //  - Callbacks: on_header once, after the size line; on_entry per stored entry with 1-based
 //    indices and the entry's line. An exception thrown by a callback propagates unchanged.
 //  - Threading: none; the reader holds no state between calls.
@@ -228,7 +228,8 @@ void read_matrix_market(std::istream& in, OnHeader&& on_header, OnEntry&& on_ent
          " positions");
   const long long remaining = lines.remaining();
   const long long least_bytes = h.coordinate ? 6 : 2;
-  if (remaining >= 0 && h.entries > remaining / least_bytes)
+  // The last entry may end without its line end.
+  if (remaining >= 0 && h.entries > (remaining + 1) / least_bytes)
     fail("the size line announces " + std::to_string(h.entries) + " entries, which the " +
          std::to_string(remaining) + " bytes after it cannot hold");
   on_header(static_cast<const MatrixMarketHeader&>(h));
@@ -264,8 +265,15 @@ void read_matrix_market(std::istream& in, OnHeader&& on_header, OnEntry&& on_ent
       fail("expected one value per line (array format), found '" + detail::market_shown(line) +
            "'");
     }
-    if (!detail::market_real(words.back(), value))
+    if (field == "integer") {
+      long long whole = 0;
+      if (!detail::market_integer(words.back(), whole))
+        fail("expected an integer (the field is 'integer'), found '" +
+             detail::market_shown(words.back()) + "'");
+      value = static_cast<double>(whole);
+    } else if (!detail::market_real(words.back(), value)) {
       fail("expected a finite number, found '" + detail::market_shown(words.back()) + "'");
+    }
     on_entry(row, column, value, lines.number());
     if (!h.coordinate && ++row > h.rows) {
       ++column;

@@ -43,7 +43,6 @@ enum class MatrixStorage {
 struct VendorMatrix {
   std::vector<NodalEntry> entries;
   MatrixStorage storage = MatrixStorage::kUndeclared;
-  long declared_size = 0;  // rows the file declares; 0 where the format declares none
 };
 
 // Abaqus FORMAT=MATRIX INPUT: `node, dof, node, dof, value` per line; `**` comments.
@@ -61,8 +60,10 @@ VendorMatrix read_abaqus_coordinate(const std::filesystem::path& file,
 VendorMatrix read_harwell_boeing(const std::filesystem::path& file,
                                  const std::filesystem::path& map_file, const EquationMap& map);
 
-// Matrix Market `coordinate real|integer general|symmetric` (symmetric: entries on or below
-// the diagonal only); the matrix must have as many rows as the equation map lists equations.
+// Matrix Market `coordinate real|integer general|symmetric` through the SDK's reader
+// (frichb/plugin/matrix_market.hpp): an entry above the diagonal of a `symmetric` file is
+// refused there; array (dense) files and matrices of another number of rows than the equation
+// map lists equations are refused here.
 VendorMatrix read_matrix_market(const std::filesystem::path& file,
                                 const std::filesystem::path& map_file, const EquationMap& map);
 

@@ -20,7 +20,8 @@
 namespace frichb::core {
 
 // An input error located in a YAML file. what() reads "file:line:column: key.path: message"
-// (line and column 1-based; omitted when unknown).
+// (line and column 1-based; omitted when unknown), with the bytes a terminal would interpret
+// (control characters, invalid UTF-8) written as \xNN (printable_text); message() is as given.
 class SceneError : public std::runtime_error {
  public:
   SceneError(std::string file, int line, int column, std::string key_path, std::string message);

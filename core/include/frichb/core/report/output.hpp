@@ -50,7 +50,9 @@ class OutputError : public std::runtime_error {
 
 class StagedOutput {
  public:
-  // The manifest a committed set keeps in the output folder: {"written": [top-level names]}.
+  // The manifest a committed set keeps in the output folder:
+  // {"written": [{"name": top-level name, "identity": "device:inode"}, ...]}; the next set
+  // removes a listed entry only while its identity is the recorded one.
   static constexpr std::string_view kManifest = ".frichb-written.json";
 
   // `managed`: top-level names (files or folders) this output owns in the final folder; the

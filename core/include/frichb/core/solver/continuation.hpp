@@ -141,7 +141,8 @@ struct NewtonOptions {
 };
 
 // How messages write lambda: lambda / per_unit followed by unit ("291.5 Hz" for lambda in
-// rad/s with 2 pi rad/s per Hz); an empty unit writes "lambda = <value>".
+// rad/s with per_unit = 2 pi rad/s per Hz); an empty unit writes "lambda = <value>". per_unit
+// is lambda's units per display unit, finite and > 0 (validate_options refuses others).
 struct LambdaDisplay {
   double per_unit = 1.0;
   std::string unit;

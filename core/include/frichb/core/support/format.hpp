@@ -19,7 +19,8 @@ std::string printable_text(std::string_view text);
 
 // Why `file` cannot be read as a text file: "" for a regular file (symbolic links followed),
 // otherwise "does not exist", "is a folder", "is a device, a FIFO or a socket, not a regular
-// file" (reading /dev/zero or a pipe would never end).
+// file" (reading /dev/zero or a pipe would never end) or "cannot be examined: <reason>". The
+// answer holds when it is given: check it just before opening, and bound the reading anyway.
 std::string regular_file_problem(const std::filesystem::path& file);
 
 }  // namespace frichb::core
