@@ -341,7 +341,7 @@ std::string contact_name_problem(const std::string& name) {
     return "'" + name + "': use letters, digits, '_' and '-' (it names files and --set paths)";
   if (name.find_first_not_of("0123456789") == std::string::npos)
     return "'" + name + "': a name of digits alone is read as a list index by --set (contacts." +
-           name + " is contact number " + name + "): put a letter in it";
+           name + " is the contact at index " + name + ", counted from 0): put a letter in it";
   return "";
 }
 
