@@ -11,7 +11,7 @@ import pathlib
 import re
 import sys
 
-LAYERS = ["support", "numerics", "fe_import", "plugin_host", "scene", "solver", "model", "report", "commands"]
+LAYERS = ["support", "numerics", "fe_import", "plugin_host", "scene", "solver", "model", "commands", "report"]
 RANK = {name: i for i, name in enumerate(LAYERS)}
 INCLUDE = re.compile(r'#\s*include\s*"(?:frichb/core/)?([a-z_]+)/[a-z_0-9]+\.hpp"')
 

@@ -17,7 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "frichb/core/report/output.hpp"
+#include "frichb/core/support/output.hpp"
 
 namespace {
 

@@ -16,6 +16,7 @@
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
 #include "frichb/core/plugin_host/schema.hpp"
+#include "frichb/core/report/run_report.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "test_support.hpp"
 

@@ -18,6 +18,7 @@
 #include "frichb/core/commands/timesim.hpp"
 #include "frichb/core/model/continuation_setup.hpp"
 #include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/report/run_report.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "test_support.hpp"
 

@@ -17,7 +17,9 @@
 
 #include "frichb/core/commands/convergence.hpp"
 #include "frichb/core/commands/study.hpp"
-#include "frichb/core/report/output.hpp"
+#include "frichb/core/report/convergence_report.hpp"
+#include "frichb/core/report/run_report.hpp"
+#include "frichb/core/support/output.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -26,6 +28,16 @@ namespace fs = std::filesystem;
 using frichb::test::TempDir;
 using namespace frichb::core;
 using ::testing::HasSubstr;
+
+// A study request as the command line makes it: each run written into runs/NNNN/.
+StudyRequest study_request(const fs::path& scene, const fs::path& folder, int threads) {
+  StudyRequest request;
+  request.scene.file = scene;
+  request.output_directory = folder;
+  request.threads = threads;
+  request.write_run = write_run_folder;
+  return request;
+}
 
 const fs::path kQuickstart =
     fs::path(FRICHB_SOURCE_DIR) / "configs" / "quickstart_friction_oscillator.yaml";
@@ -254,7 +266,7 @@ TEST(StudyRun, RunsMatchHandEditedScenesAndLinearLimits) {
       "    - {path: contacts.root_friction.params.normal_load, values: [1.0e6, 5.0, 5.0]}\n"
       "    - {path: contacts.root_friction.params.mu, values: [0.5, 0.5, 0.0]}\n");
   StudyCommunicator serial;
-  ASSERT_EQ(run_study({file, dir.path() / "study", -1}, serial), kExitOk);
+  ASSERT_EQ(run_study(study_request(file, dir.path() / "study", -1), serial), kExitOk);
   const auto index = nlohmann::json::parse(read_text(dir.path() / "study" / "study.json"));
   ASSERT_EQ(index["runs"].size(), 3u);
   const double peak_stuck = index["runs"][0]["peak"]["blade"]["amplitude_m"].get<double>();
@@ -271,7 +283,9 @@ TEST(StudyRun, RunsMatchHandEditedScenesAndLinearLimits) {
 
   // Run 0001 is the quick-start scene as shipped (normal load 5 N, mu 0.5): `frichb run`.
   const auto plain = quickstart_with_study(dir, "", "plain.yaml");
-  ASSERT_EQ(run_scene({plain, dir.path() / "plain", false}), kExitOk);
+  const RunResult plain_run = run_scene(SceneInput{plain, {}, false});
+  ASSERT_EQ(plain_run.outcome.status, kExitOk);
+  write_run_folder(plain_run, dir.path() / "plain");
   const auto single = nlohmann::json::parse(read_text(dir.path() / "plain" / "summary.json"));
   EXPECT_EQ(single["peak"]["blade"]["amplitude_m"].get<double>(), peak_friction);
   EXPECT_EQ(read_text(dir.path() / "plain" / "response.csv"),
@@ -306,8 +320,8 @@ TEST(StudyRun, SweptVariablesAreTheKeysTheyStandFor) {
       "    - {path: contacts.root_friction.params.normal_load, values: [1.0e6, 5]}\n",
       "keys.yaml");
   StudyCommunicator serial;
-  ASSERT_EQ(run_study({by_variable, dir.path() / "variable", 1}, serial), kExitOk);
-  ASSERT_EQ(run_study({by_key, dir.path() / "key", 1}, serial), kExitOk);
+  ASSERT_EQ(run_study(study_request(by_variable, dir.path() / "variable", 1), serial), kExitOk);
+  ASSERT_EQ(run_study(study_request(by_key, dir.path() / "key", 1), serial), kExitOk);
   for (const char* run : {"0000", "0001"})
     EXPECT_EQ(read_text(dir.path() / "variable" / "runs" / run / "response.csv"),
               read_text(dir.path() / "key" / "runs" / run / "response.csv"))
@@ -371,8 +385,8 @@ TEST(StudyRun, OneThreadAndTwoThreadsWriteTheSameIndex) {
       "    - {path: contacts.root_friction.params.normal_load, values: [2, 5]}\n"
       "    - {path: excitation.0.amplitude, values: [1, 3]}\n");
   StudyCommunicator serial;
-  ASSERT_EQ(run_study({file, dir.path() / "one", 1}, serial), kExitOk);
-  ASSERT_EQ(run_study({file, dir.path() / "two", 2}, serial), kExitOk);
+  ASSERT_EQ(run_study(study_request(file, dir.path() / "one", 1), serial), kExitOk);
+  ASSERT_EQ(run_study(study_request(file, dir.path() / "two", 2), serial), kExitOk);
   EXPECT_EQ(without_wall_time(dir.path() / "one" / "study.csv"),
             without_wall_time(dir.path() / "two" / "study.csv"));
   for (const char* run : {"0000", "0001", "0002", "0003"})
@@ -390,7 +404,7 @@ TEST(StudyRun, InvalidStudyWritesNothing) {
   const auto file = quickstart_with_study(
       dir, "study:\n  sweep:\n    - {path: contacts.root_friction.params.kt, values: [1, -5]}\n");
   StudyCommunicator serial;
-  EXPECT_EQ(run_study({file, dir.path() / "out", -1}, serial), kExitInvalidInput);
+  EXPECT_EQ(run_study(study_request(file, dir.path() / "out", -1), serial), kExitInvalidInput);
   EXPECT_FALSE(fs::exists(dir.path() / "out"));
 }
 
@@ -438,7 +452,7 @@ TEST(StudyRun, ARankStopsWhenAnotherCouldNotValidate) {
   const auto file = quickstart_with_study(
       dir, "study:\n  sweep:\n    - {path: contacts.root_friction.params.kt, values: [1e5]}\n");
   RankOneOfTwo rank_one(std::to_string(kExitInvalidInput));
-  EXPECT_EQ(run_study({file, dir.path() / "out", 1}, rank_one), kExitInvalidInput);
+  EXPECT_EQ(run_study(study_request(file, dir.path() / "out", 1), rank_one), kExitInvalidInput);
   EXPECT_FALSE(fs::exists(dir.path() / "out"));
   // One collective pair, the verdict; no staging folder broadcast, no outcomes gathered.
   EXPECT_EQ(rank_one.gathers, 1);
@@ -457,22 +471,44 @@ TEST(Output, JsonWithTextThatIsNotUtf8IsWritten) {
             "cannot read caf\xef\xbf\xbd.yaml");
 }
 
+// The convergence verb as the command line runs it: the folder staged, each setting's run
+// written into runs/, the report written and committed. Returns the result.
+ConvergenceResult convergence_into(ConvergenceRequest request, const fs::path& folder) {
+  StagedOutput out(folder, convergence_outputs());
+  request.runs_folder = out.path("runs");
+  request.write_run = write_run_folder;
+  ConvergenceResult result = study_convergence(request);
+  write_convergence(result, out);
+  out.commit();
+  return result;
+}
+
 // The convergence report: errors against the finest setting shrink with more harmonics, and
 // the finest setting agrees with the independent time integration.
 TEST(Convergence, ErrorsShrinkAndTheFinestAgreesWithTimeIntegration) {
   TempDir dir;
   const auto scene = quickstart_with_study(dir, "");
   ConvergenceRequest request;
-  request.scene_file = scene;
-  request.output_directory = dir.path() / "conv";
+  request.scene.file = scene;
   request.harmonics = {1, 3, 7};
   request.samples = {64, 256};
   request.oversampling = {1, 4};
-  ASSERT_EQ(run_convergence(request), kExitOk);
+  const ConvergenceResult result = convergence_into(request, dir.path() / "conv");
+  ASSERT_EQ(result.outcome.status, kExitOk);
+  // The result in memory.
+  ASSERT_EQ(result.rows.size(), 12u);  // 3 x 2 x 2, every N >= 2H + 1
+  EXPECT_EQ(result.rows.back().setting.id, "H7_N256_o4");
+  EXPECT_EQ(result.rows.back().amplitude_error, 0.0);
+  std::map<std::string, const ConvergenceRow*> rows_by_id;
+  for (const auto& r : result.rows) rows_by_id[r.setting.id] = &r;
+  EXPECT_GT(rows_by_id.at("H1_N256_o4")->amplitude_error,
+            3 * rows_by_id.at("H3_N256_o4")->amplitude_error);
+  EXPECT_TRUE(result.timesim.run && result.timesim.periodic);
+  // The report written from it.
   const auto report = nlohmann::json::parse(read_text(dir.path() / "conv" / "convergence.json"));
   EXPECT_EQ(report["reference"], "H7_N256_o4");
   const auto& settings = report["settings"];
-  ASSERT_EQ(settings.size(), 12u);  // 3 x 2 x 2, every N >= 2H + 1
+  ASSERT_EQ(settings.size(), 12u);
   std::map<std::string, nlohmann::json> by_id;
   for (const auto& s : settings) by_id[s["setting"].get<std::string>()] = s;
   EXPECT_EQ(by_id["H7_N256_o4"]["amplitude_error"], 0.0);
@@ -495,12 +531,10 @@ TEST(Convergence, ErrorsShrinkAndTheFinestAgreesWithTimeIntegration) {
 TEST(Convergence, ImpossibleFinestSettingIsRefused) {
   TempDir dir;
   ConvergenceRequest request;
-  request.scene_file = quickstart_with_study(dir, "");
-  request.output_directory = dir.path() / "conv";
+  request.scene.file = quickstart_with_study(dir, "");
   request.harmonics = {40};
   request.samples = {64};  // < 2 * 40 + 1
-  EXPECT_EQ(run_convergence(request), kExitInvalidInput);
-  EXPECT_FALSE(fs::exists(dir.path() / "conv"));
+  EXPECT_THROW(study_convergence(request), SceneError);
 }
 
 }  // namespace

@@ -8,12 +8,12 @@
 #include <optional>
 #include <sstream>
 
+#include "frichb/core/commands/failure.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
-#include "frichb/core/report/failure.hpp"
-#include "frichb/core/report/output.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/exit_codes.hpp"
 #include "frichb/core/support/interrupt.hpp"
+#include "frichb/core/support/output.hpp"
 #include "frichb/core/support/version.hpp"
 
 namespace frichb::app {
@@ -294,10 +294,10 @@ int run_command_line(int argc, char** argv) {
             help_hint);
       }
     }
-    core::set_scene_overrides(std::move(overrides));
+    call.overrides = std::move(overrides);
   }
-  core::allow_input_plugin_folders(call.options.count("allow-scene-plugins") > 0 ||
-                                   global.count("allow-scene-plugins") > 0);
+  call.allow_scene_plugins =
+      call.options.count("allow-scene-plugins") > 0 || global.count("allow-scene-plugins") > 0;
   auto logger = spdlog::stderr_color_mt("frichb");
   logger->set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
   spdlog::set_default_logger(logger);
@@ -309,6 +309,16 @@ int run_command_line(int argc, char** argv) {
   } catch (...) {
     return core::report_failure("");
   }
+}
+
+core::SceneInput Invocation::scene_input() const {
+  return {arguments.at(0), overrides, allow_scene_plugins};
+}
+
+std::filesystem::path Invocation::output_folder(const std::string& suffix) const {
+  if (!output.empty()) return output;
+  return std::filesystem::path("out") /
+         (std::filesystem::path(arguments.at(0)).stem().string() + suffix);
 }
 
 int usage_error(const std::string& who, const std::string& message, const std::string& help) {

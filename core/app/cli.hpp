@@ -5,9 +5,12 @@
 #pragma once
 
 #include <boost/program_options.hpp>
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
+
+#include "frichb/core/scene/scene.hpp"
 
 namespace frichb::app {
 
@@ -16,9 +19,17 @@ namespace po = boost::program_options;
 // One verb's command line once parsed.
 struct Invocation {
   std::string verb;
-  std::vector<std::string> arguments;  // the positional arguments after the verb
-  po::variables_map options;           // the verb's own options (and the common ones)
-  std::string output;                  // -o DIR, empty when not given
+  std::vector<std::string> arguments;          // the positional arguments after the verb
+  po::variables_map options;                   // the verb's own options (and the common ones)
+  std::string output;                          // -o DIR, empty when not given
+  std::vector<core::SceneOverride> overrides;  // --set PATH=VALUE, in order
+  bool allow_scene_plugins = false;            // --allow-scene-plugins (before or after the verb)
+
+  // The scene input of a verb that reads one: the first argument, the overrides and the
+  // plugin permission.
+  core::SceneInput scene_input() const;
+  // The output folder: -o DIR, or out/<first argument's stem><suffix>.
+  std::filesystem::path output_folder(const std::string& suffix) const;
 };
 
 struct Verb {

@@ -36,6 +36,7 @@
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/model/harmonic_balance.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/report/run_report.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/solver/continuation.hpp"
 

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <iomanip>
 #include <numbers>
 #include <optional>
@@ -13,11 +12,8 @@
 
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/commands/timesim.hpp"
-#include "frichb/core/report/failure.hpp"
-#include "frichb/core/report/output.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/interrupt.hpp"
-#include "frichb/core/support/version.hpp"
 
 namespace frichb::core {
 
@@ -25,18 +21,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Setting {
-  int max_harmonic = 0, samples = 0, oversampling = 1;
-  std::vector<int> harmonics;
-  std::string id;
-};
-
-struct Row {
-  Setting setting;
-  RunOutcome outcome;
-  long unknowns = 0;
-  double amplitude = NAN, frequency = NAN;  // peak of the study node, m and Hz
-};
+using Setting = ConvergenceSetting;
+using Row = ConvergenceRow;
 
 // The kept harmonics for a largest harmonic H, following the scene's pattern: odd only when
 // the scene keeps only odd ones; from 0 when the scene keeps 0; otherwise from 1.
@@ -53,10 +39,6 @@ std::string number(double x, int precision = 6) {
   std::ostringstream os;
   os << std::setprecision(precision) << x;
   return os.str();
-}
-
-std::string cell(double x) {
-  return std::isfinite(x) ? number(x, 12) : std::string();
 }
 
 double relative_error(double value, double reference) {
@@ -101,25 +83,30 @@ Ladder build_ladder(const ConvergenceRequest& request, const Scene& base) {
   return ladder;
 }
 
-// The scene re-read with the setting's harmonic-balance keys, run into runs/<id>. A setting
-// the scene refuses (e.g. a key out of range) gives a row with invalid_input.
+// The scene re-read with the setting's harmonic-balance keys, run and handed to the request's
+// writer. A setting the scene refuses (e.g. a key out of range) gives a row with invalid_input.
 Row run_setting(const Scene& base, const Registry& registry, const Setting& s,
-                const std::string& node, const StagedOutput& out) {
-  Row row{s, {}, 0, NAN, NAN};
+                const std::string& node, const ConvergenceRequest& request) {
+  Row row{s, {}};
   try {
-    YAML::Node document = load_scene_document(base.file);
+    YAML::Node document = load_scene_document(base.file, base.overrides);
     YAML::Node hb = document["harmonic_balance"];
     hb.remove("max_harmonic");
     hb["harmonics"] = s.harmonics;
     hb["samples_per_period"] = s.samples;
     hb["trace_oversampling"] = s.oversampling;
     Scene scene = load_scene(document, base.file);
+    scene.overrides = base.overrides;
+    scene.allow_scene_plugins = base.allow_scene_plugins;
     bind_plugins(scene, registry);
     RunOptions options;
     options.quiet = true;
     options.plots = 0;
     options.study_context = {{"convergence_setting", s.id}};
-    row.outcome = run_bound_scene(scene, out.path("runs") / s.id, options);
+    const RunWriter nowhere = [](const RunResult&, const fs::path&) {};
+    row.outcome = run_member(scene, request.runs_folder / s.id, options,
+                             request.write_run ? request.write_run : nowhere);
+    if (!request.write_run) row.outcome.wrote_output = false;
   } catch (const std::exception& e) {  // this setting only (e.g. a key out of range)
     row.outcome.exit_code = kExitInvalidInput;
     row.outcome.termination = "invalid_input";
@@ -128,31 +115,28 @@ Row run_setting(const Scene& base, const Registry& registry, const Setting& s,
   }
   for (const auto& p : row.outcome.peaks)
     if (p.node == node) {
-      row.amplitude = p.amplitude_m;
-      row.frequency = p.omega_rad_s / (2 * std::numbers::pi);
+      row.amplitude_m = p.amplitude_m;
+      row.frequency_hz = p.omega_rad_s / (2 * std::numbers::pi);
     }
-  if (row.outcome.wrote_output) {
-    std::ifstream in(out.path("runs") / s.id / "summary.json");
-    row.unknowns = nlohmann::json::parse(in).value("unknowns", 0L);
-  }
   return row;
 }
 
 // Runs every setting serially, in order; no rows when a signal stopped the study.
 std::optional<std::vector<Row>> run_settings(const Scene& base, const Registry& registry,
                                              const std::vector<Setting>& settings,
-                                             const std::string& node, const StagedOutput& out) {
+                                             const std::string& node,
+                                             const ConvergenceRequest& request) {
   std::vector<Row> rows;
   for (std::size_t i = 0; i < settings.size(); ++i) {
     if (interrupted()) {
-      spdlog::error("{}: interrupted by signal {} after {} of {} settings; no output written",
-                    base.file.string(), interrupt_signal(), i, settings.size());
+      spdlog::error("{}: interrupted by signal {} after {} of {} settings", base.file.string(),
+                    interrupt_signal(), i, settings.size());
       return std::nullopt;
     }
-    Row row = run_setting(base, registry, settings[i], node, out);
+    Row row = run_setting(base, registry, settings[i], node, request);
     spdlog::info("[{}/{}] {}: {} unknowns, peak {} m at {} Hz, {:.3f} s ({})", i + 1,
-                 settings.size(), row.setting.id, row.unknowns, number(row.amplitude),
-                 number(row.frequency, 8), row.outcome.wall_seconds, row.outcome.termination);
+                 settings.size(), row.setting.id, row.outcome.unknowns, number(row.amplitude_m),
+                 number(row.frequency_hz, 8), row.outcome.wall_seconds, row.outcome.termination);
     rows.push_back(std::move(row));
   }
   const Row& reference = rows.back();
@@ -164,34 +148,27 @@ std::optional<std::vector<Row>> run_settings(const Scene& base, const Registry& 
   return rows;
 }
 
-// The time-integration reference at the reference setting's peak frequency: its record for
-// convergence.json (null when not run) and its amplitude (NaN unless periodic).
-struct TimesimReference {
-  nlohmann::json record = nullptr;
-  double amplitude = NAN;
-};
-
-TimesimReference timesim_reference(const ConvergenceRequest& request, const Scene& base,
-                                   const std::string& node, const Row& reference) {
-  TimesimReference timesim;
-  if (!request.time_integration || base.cyclic.enabled() || !std::isfinite(reference.frequency))
+// The time-integration reference at the reference setting's peak frequency.
+ConvergenceTimesim timesim_reference(const ConvergenceRequest& request, const Scene& base,
+                                     const std::string& node, const Row& reference) {
+  ConvergenceTimesim timesim;
+  if (!request.time_integration || base.cyclic.enabled() || !std::isfinite(reference.frequency_hz))
     return timesim;
   try {
     TimesimOptions options;
-    options.frequency_hz = reference.frequency;
+    options.frequency_hz = reference.frequency_hz;
     options.steps_per_period = request.timesim_steps_per_period;
     const TimesimResult result = simulate_in_time(base, options);
+    timesim.run = true;
+    timesim.frequency_hz = reference.frequency_hz;
     for (const auto& n : result.nodes)
-      if (n.node == node) timesim.amplitude = n.amplitude_m;
-    timesim.record = {{"frequency_hz", reference.frequency},
-                      {"amplitude_m", timesim.amplitude},
-                      {"periodic", result.periodic},
-                      {"periods", result.periods},
-                      {"steps_per_period", options.steps_per_period},
-                      {"wall_s", result.wall_seconds}};
-    if (!result.periodic) timesim.amplitude = NAN;
+      if (n.node == node) timesim.amplitude_m = n.amplitude_m;
+    timesim.periodic = result.periodic;
+    timesim.periods = result.periods;
+    timesim.steps_per_period = options.steps_per_period;
+    timesim.wall_seconds = result.wall_seconds;
     spdlog::info("time integration at {} Hz: amplitude {} m ({} periods, {:.1f} s)",
-                 number(reference.frequency, 8), number(timesim.amplitude), result.periods,
+                 number(reference.frequency_hz, 8), number(timesim.amplitude_m), result.periods,
                  result.wall_seconds);
   } catch (const std::exception& e) {
     spdlog::warn("time-integration reference skipped: {}", e.what());
@@ -199,184 +176,63 @@ TimesimReference timesim_reference(const ConvergenceRequest& request, const Scen
   return timesim;
 }
 
-// A row's relative errors: against the reference setting (0 for the reference itself) and
-// against the time-integration amplitude; NaN where there is nothing to compare.
-struct Errors {
-  double amplitude = NAN, frequency = NAN, timesim = NAN;
-};
-
-Errors errors_of(const Row& r, const Row& reference, double timesim_amplitude) {
-  const bool ref = &r == &reference;
-  return {ref ? 0.0 : relative_error(r.amplitude, reference.amplitude),
-          ref ? 0.0 : relative_error(r.frequency, reference.frequency),
-          relative_error(r.amplitude, timesim_amplitude)};
-}
-
-std::string csv_line(const Row& r, const Errors& e) {
-  std::ostringstream csv;
-  csv << r.setting.id << "," << r.setting.max_harmonic << "," << r.setting.samples << ","
-      << r.setting.oversampling << "," << r.unknowns << "," << r.outcome.termination << ","
-      << cell(r.amplitude) << "," << cell(r.frequency) << "," << cell(e.amplitude) << ","
-      << cell(e.frequency) << "," << cell(e.timesim) << "," << cell(r.outcome.wall_seconds) << "\n";
-  return csv.str();
-}
-
-std::string markdown_line(const Row& r, const Errors& e, bool ref) {
-  auto sci = [](double x) { return std::isfinite(x) ? number(x, 3) : std::string("-"); };
-  std::ostringstream md;
-  md << "| " << r.setting.max_harmonic << " | " << r.setting.samples << " | "
-     << r.setting.oversampling << " | " << r.unknowns << " | " << number(r.amplitude, 6) << " | "
-     << number(r.frequency, 7) << " | " << (ref ? "reference" : sci(e.amplitude)) << " | "
-     << (ref ? "reference" : sci(e.frequency)) << " | " << sci(e.timesim) << " | "
-     << number(r.outcome.wall_seconds, 3) << " | " << r.outcome.termination << " |\n";
-  return md.str();
-}
-
-nlohmann::json json_row(const Row& r, const Errors& e) {
-  nlohmann::json j = {{"setting", r.setting.id},
-                      {"harmonics", r.setting.harmonics},
-                      {"samples_per_period", r.setting.samples},
-                      {"trace_oversampling", r.setting.oversampling},
-                      {"unknowns", r.unknowns},
-                      {"termination", r.outcome.termination},
-                      {"message", r.outcome.message},
-                      {"wall_s", r.outcome.wall_seconds}};
-  if (std::isfinite(r.amplitude)) {
-    j["peak_amplitude_m"] = r.amplitude;
-    j["peak_frequency_hz"] = r.frequency;
-  }
-  if (std::isfinite(e.amplitude)) j["amplitude_error"] = e.amplitude;
-  if (std::isfinite(e.frequency)) j["frequency_error"] = e.frequency;
-  if (std::isfinite(e.timesim)) j["amplitude_error_vs_timesim"] = e.timesim;
-  return j;
-}
-
-// convergence.csv, convergence.md and convergence.json: one row per setting, errors against
-// the last row (the reference).
-void write_tables(const StagedOutput& out, const Scene& base, const std::string& node,
-                  const std::vector<Row>& rows, const TimesimReference& timesim, int incomplete) {
-  const Row& reference = rows.back();
-  std::ostringstream csv, md;
-  csv << "setting,max_harmonic,samples_per_period,trace_oversampling,unknowns,termination,"
-         "peak_amplitude_m,peak_frequency_hz,amplitude_error,frequency_error,"
-         "amplitude_error_vs_timesim,wall_s\n";
-  md << "| H | N | oversampling | unknowns | peak amplitude [m] | peak frequency [Hz] | "
-        "amplitude error | frequency error | error vs time integration | wall time [s] | "
-        "termination |\n"
-     << "|---|---|---|---|---|---|---|---|---|---|---|\n";
-  nlohmann::json table = nlohmann::json::array();
-  for (const Row& r : rows) {
-    const Errors e = errors_of(r, reference, timesim.amplitude);
-    csv << csv_line(r, e);
-    md << markdown_line(r, e, &r == &reference);
-    table.push_back(json_row(r, e));
-  }
-  write_text(out.path("convergence.csv"), csv.str());
-  write_text(out.path("convergence.md"), md.str());
-  write_json(out.path("convergence.json"),
-             {{"frichb_version", version()},
-              {"scene", {{"file", base.file.string()}, {"name", base.name}}},
-              {"node", node},
-              {"reference", reference.setting.id},
-              {"time_integration", timesim.record},
-              {"settings", table},
-              {"incomplete_settings", incomplete},
-              {"note",
-               "errors are relative to the reference setting (the finest), and to the "
-               "time-integration amplitude at the reference's peak frequency; wall times "
-               "are of serial runs on this machine"}});
-}
-
-// convergence.gp and, through gnuplot, convergence.png: error against wall time, log-log;
-// one series per oversampling factor.
-void write_plot(const StagedOutput& out, const ConvergenceRequest& request, const Scene& base,
-                const std::string& reference_id, double timesim_amplitude) {
-  std::ostringstream gp;
-  gp << "# gnuplot script written by frichb convergence; `gnuplot convergence.gp`\n"
-     << "set terminal pngcairo size 1200,520 noenhanced\nset output 'convergence.png'\n"
-     << "set datafile separator ','\nset logscale xy\nset grid\nset key bottom left\n"
-     << "set xlabel 'wall time of the run [s]'\nset multiplot layout 1,2 title "
-     << gnuplot_string((base.name.empty() ? base.file.stem().string() : base.name) +
-                       ": error against run time (reference " + reference_id + ")")
-     << "\n";
-  const char* columns[] = {"amplitude_error", "frequency_error"};
-  const char* titles[] = {"peak amplitude error (relative)", "peak frequency error (relative)"};
-  for (int k = 0; k < 2; ++k) {
-    gp << "set ylabel '" << titles[k] << "'\nplot ";
-    bool first = true;
-    for (int o : std::set<int>(request.oversampling.begin(), request.oversampling.end())) {
-      gp << (first ? "" : ", \\\n     ") << "'convergence.csv' using (column(4) == " << o
-         << " && column('" << columns[k] << "') > 0 ? column('wall_s') : 1/0):(column('"
-         << columns[k] << "')) with points pt 7 ps 1.2 title 'oversampling " << o << "'";
-      first = false;
-    }
-    if (k == 0 && std::isfinite(timesim_amplitude))
-      gp << ", \\\n     'convergence.csv' using (column('wall_s')):(column("
-            "'amplitude_error_vs_timesim') > 0 ? column('amplitude_error_vs_timesim') : "
-            "1/0) with points pt 6 ps 1.2 title 'vs time integration'";
-    gp << "\n";
-  }
-  gp << "unset multiplot\n";
-  write_text(out.path("convergence.gp"), gp.str());
-  run_gnuplot(out.path("convergence.gp"));
-}
-
-// Runs the ladder and writes its outputs into `out_dir` (staged, committed at the end).
-int run_ladder(const ConvergenceRequest& request, const Scene& base, const Registry& registry,
-               const Ladder& ladder, const fs::path& out_dir) {
-  const std::string node = base.output.response.front();
-  StagedOutput out(out_dir, {"convergence.csv", "convergence.json", "convergence.md",
-                             "convergence.gp", "convergence.png", "runs"});
-  spdlog::info("convergence of {}: {} settings, reference H = {}, N = {}, oversampling {} -> {}",
-               base.file.string(), ladder.settings.size(), ladder.h_max, ladder.n_max, ladder.o_max,
-               out_dir.string());
-  const auto rows = run_settings(base, registry, ladder.settings, node, out);
-  if (!rows) return interrupted_exit_code();
-  const int incomplete = static_cast<int>(std::count_if(
-      rows->begin(), rows->end(), [](const Row& r) { return r.outcome.exit_code != kExitOk; }));
-  const TimesimReference timesim = timesim_reference(request, base, node, rows->back());
-  write_tables(out, base, node, *rows, timesim, incomplete);
-  if (base.output.plots) write_plot(out, request, base, rows->back().setting.id, timesim.amplitude);
-  if (interrupted()) {  // a signal while gnuplot ran: nothing is committed
-    spdlog::error("interrupted by signal {}; no output written", interrupt_signal());
-    return interrupted_exit_code();
-  }
-  out.commit();
-  spdlog::info("wrote {} ({} settings, {} ended early)", out_dir.string(), rows->size(),
-               incomplete);
-  return incomplete ? kExitIncomplete : kExitOk;
-}
-
 }  // namespace
 
-int run_convergence(const ConvergenceRequest& request) {
-  Scene base;
-  std::unique_ptr<Registry> registry;
-  if (!load_bound_scene(request.scene_file, base, registry)) return kExitInvalidInput;
-  if (request.harmonics.empty() || request.samples.empty() || request.oversampling.empty()) {
-    spdlog::error("convergence: give at least one harmonic count, sample count and oversampling");
-    return kExitInvalidInput;
-  }
-  if (base.output.response.empty()) {
-    spdlog::error("{}: convergence needs a response node (output.response)",
-                  request.scene_file.string());
-    return kExitInvalidInput;
-  }
+ConvergenceResult study_convergence(const ConvergenceRequest& request) {
+  const BoundScene bound = load_bound_scene(request.scene);
+  const Scene& base = bound.scene;
+  const std::string file = base.file.string();
+  if (request.harmonics.empty() || request.samples.empty() || request.oversampling.empty())
+    throw SceneError(file, 0, 0, "",
+                     "convergence: give at least one harmonic count, sample count and "
+                     "oversampling");
+  if (base.output.response.empty())
+    throw SceneError(file, 0, 0, "output.response",
+                     "convergence needs a response node (output.response)");
   const Ladder ladder = build_ladder(request, base);
-  if (!ladder.valid()) {
-    spdlog::error(
-        "convergence: the finest setting (H = {}, N = {}, oversampling {}) is not valid: N must "
-        "be >= 2H + 1 and every excited harmonic kept",
-        ladder.h_max, ladder.n_max, ladder.o_max);
-    return kExitInvalidInput;
+  if (!ladder.valid())
+    throw SceneError(file, 0, 0, "",
+                     "convergence: the finest setting (H = " + std::to_string(ladder.h_max) +
+                         ", N = " + std::to_string(ladder.n_max) + ", oversampling " +
+                         std::to_string(ladder.o_max) +
+                         ") is not valid: N must be >= 2H + 1 and every excited harmonic kept");
+  ConvergenceResult result;
+  result.scene_file = base.file;
+  result.scene_name = base.name;
+  result.node = base.output.response.front();
+  result.plots = base.output.plots;
+  const std::set<int> factors(request.oversampling.begin(), request.oversampling.end());
+  result.oversampling.assign(factors.begin(), factors.end());
+  spdlog::info("convergence of {}: {} settings, reference H = {}, N = {}, oversampling {}", file,
+               ladder.settings.size(), ladder.h_max, ladder.n_max, ladder.o_max);
+  auto rows = run_settings(base, *bound.registry, ladder.settings, result.node, request);
+  if (!rows) {
+    result.outcome = {interrupted_exit_code(),
+                      "interrupted",
+                      "interrupted by signal " + std::to_string(interrupt_signal()),
+                      {}};
+    return result;
   }
-  fs::path out_dir = request.output_directory;
-  if (out_dir.empty()) out_dir = fs::path("out") / (base.file.stem().string() + "-convergence");
-  try {
-    return run_ladder(request, base, *registry, ladder, out_dir);
-  } catch (...) {
-    return report_failure(request.scene_file.string());
+  result.rows = std::move(*rows);
+  result.timesim = timesim_reference(request, base, result.node, result.rows.back());
+  const ConvergenceRow& reference = result.rows.back();
+  for (auto& r : result.rows) {
+    const bool is_reference = &r == &reference;
+    r.amplitude_error = is_reference ? 0.0 : relative_error(r.amplitude_m, reference.amplitude_m);
+    r.frequency_error = is_reference ? 0.0 : relative_error(r.frequency_hz, reference.frequency_hz);
+    r.amplitude_error_vs_timesim = relative_error(r.amplitude_m, result.timesim.compared());
   }
+  result.incomplete_settings = static_cast<int>(
+      std::count_if(result.rows.begin(), result.rows.end(),
+                    [](const ConvergenceRow& r) { return r.outcome.exit_code != kExitOk; }));
+  if (result.incomplete_settings > 0)
+    result.outcome = {kExitIncomplete,
+                      "settings_incomplete",
+                      std::to_string(result.incomplete_settings) + " of " +
+                          std::to_string(result.rows.size()) + " settings ended early",
+                      {}};
+  spdlog::info("{} settings, {} ended early", result.rows.size(), result.incomplete_settings);
+  return result;
 }
 
 }  // namespace frichb::core

@@ -4,17 +4,11 @@
 
 #include <cmath>
 #include <numbers>
-#include <sstream>
 
 #include "frichb/core/numerics/harmonics.hpp"
 #include "frichb/core/plugin_host/periodic_trace.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
-#include "frichb/core/report/failure.hpp"
-#include "frichb/core/report/output.hpp"
 #include "frichb/core/scene/scene.hpp"
-#include "frichb/core/support/exit_codes.hpp"
-#include "frichb/core/support/interrupt.hpp"
-#include "frichb/core/support/version.hpp"
 #include "frichb/plugin/sdk.hpp"
 
 namespace frichb::core {
@@ -129,7 +123,7 @@ LoopInput read_loop_input(const LoopRequest& request) {
       resolve_plugin_paths(tv.texts("plugin_paths"), root, request.input_file, "input", ctx);
   const Registry registry(Registry::default_search_path(extra));
   try {
-    check_plugin_allowed(registry.file_of(tv.text("law")), extra);
+    check_plugin_allowed(registry.file_of(tv.text("law")), extra, request.allow_input_plugins);
     in.plugin = registry.load(tv.text("law"), FRICHB_KIND_CONTACT_LAW);
   } catch (const PluginError& e) {
     ctx.fail(root["law"], "law", e.what());
@@ -199,7 +193,7 @@ struct LoopAnalysis {
   std::vector<int> status;
   double energy = 0.0;
   ForceHarmonics harmonics;
-  nlohmann::json significant = nlohmann::json::object();
+  std::map<std::string, std::vector<int>> significant;
   double threshold = 0.0;
   int slipping = 0, open = 0;
 };
@@ -239,119 +233,54 @@ LoopAnalysis analyse_loop(const LoopInput& in, const PeriodicTracer& tracer,
   return r;
 }
 
-// loop.png: the first tangential force against its displacement and, beside it, the friction
-// loop in the (T1, T2) plane (a 2D law) or the forces over the period (a law with a normal).
-std::string loop_plot_script(const LoopInput& in, const PeriodicTracer& tracer) {
-  const auto& comps = tracer.components();
-  const int d = tracer.dimension();
-  std::ostringstream gp;
-  gp << "# gnuplot script written by frichb loop\n"
-     << "set terminal pngcairo size " << (d > 1 ? 1400 : 800) << ",600 noenhanced\n"
-     << "set output 'loop.png'\nset datafile separator ','\nset grid\nset key below\n";
-  const bool two_d = comps.size() >= 2 && comps[1] == 1;
-  const std::string title = gnuplot_string(in.name + " (" + in.plugin->name() + ")");
-  gp << (d > 1 ? "set multiplot layout 1,2 title " : "set title ") << title << "\n";
-  gp << "set xlabel 'u_t1 [m]'\nset ylabel 'T1 [N]'\n"
-     << "plot 'loop.csv' using 2:" << 2 + d << " with lines lw 2 title 'T1 vs u_t1'\n";
-  if (two_d) {
-    gp << "set xlabel 'T1 [N]'\nset ylabel 'T2 [N]'\nset size ratio -1\n"
-       << "plot 'loop.csv' using " << 2 + d << ":" << 3 + d
-       << " with lines lw 2 title 'friction loop (T1, T2)'\n";
-  } else if (d > 1) {
-    gp << "set xlabel 'phase [period]'\nset ylabel 'force [N]'\n"
-       << "plot 'loop.csv' using 1:" << 2 + d << " with lines lw 2 title 'T1', "
-       << "'loop.csv' using 1:" << 1 + 2 * d << " with lines lw 2 title 'N'\n";
-  }
-  if (d > 1) gp << "unset multiplot\n";
-  return gp.str();
-}
-
-// loop.csv, harmonics.csv, summary.json and, when asked, the plot, staged into `out`.
-void write_loop_outputs(StagedOutput& out, const LoopInput& in, const PeriodicTracer& tracer,
-                        const ContactTrace& trace, const LoopAnalysis& r) {
-  const auto& comps = tracer.components();
-  const int d = tracer.dimension();
-  const int samples = in.samples;
-  std::vector<std::string> header = {"phase"};
-  for (int k : comps) header.push_back(std::string("u_") + kContactAxisNames[k] + "_m");
-  for (int k : comps) header.push_back(std::string("f_") + kContactAxisNames[k] + "_N");
-  header.push_back("status");
-  std::vector<std::vector<double>> rows;
-  for (int j = 0; j <= samples; ++j) {  // closed loop: the first sample repeated
-    const int jj = j % samples;
-    std::vector<double> row = {static_cast<double>(j) / samples};
-    for (int a = 0; a < d; ++a) row.push_back(trace.displacement(jj, a));
-    for (int a = 0; a < d; ++a) row.push_back(trace.force(jj, a));
-    row.push_back(r.status[static_cast<std::size_t>(jj)]);
-    rows.push_back(std::move(row));
-  }
-  write_csv(out.path("loop.csv"), header, rows);
-  write_csv(out.path("harmonics.csv"), r.harmonics.header, r.harmonics.rows);
-  const nlohmann::json doc = {{"frichb_version", version()},
-                              {"input", in.file},
-                              {"law",
-                               {{"name", in.plugin->name()},
-                                {"version", in.plugin->descriptor().version},
-                                {"file", in.plugin->file().string()},
-                                {"params", in.law_values.to_json(in.plugin->schema())}}},
-                              {"dissipated_energy_per_cycle_J", r.energy},
-                              {"passes", trace.passes},
-                              {"periodic", trace.periodic},
-                              {"fraction_slipping", static_cast<double>(r.slipping) / samples},
-                              {"fraction_open", static_cast<double>(r.open) / samples},
-                              {"significant_force_harmonics", r.significant},
-                              {"significance_threshold", r.threshold}};
-  write_json(out.path("summary.json"), doc);
-  if (view(output_schema(), in.output).boolean("plots")) {
-    write_text(out.path("loop.gp"), loop_plot_script(in, tracer));
-    run_gnuplot(out.path("loop.gp"));
-  }
-}
-
 }  // namespace
 
-int run_loop(const LoopRequest& request) {
+LoopResult trace_loop(const LoopRequest& request) {
   const std::string file = request.input_file.string();
-  try {
-    const LoopInput in = read_loop_input(request);
-    ContactLawInstance law(in.plugin, in.law_values);
-    std::vector<int> harmonics;
-    for (int h = 0; h <= in.max_harmonic; ++h) harmonics.push_back(h);
-    const HarmonicLayout layout(harmonics, in.samples);
-    TraceOptions options;
-    options.max_passes =
-        static_cast<int>(view(sampling_schema(), in.sampling).integer("max_passes"));
-    PeriodicTracer tracer(law, layout, options);
-    const Eigen::VectorXd u = motion_coefficients(in, tracer, layout);
+  const LoopInput in = read_loop_input(request);
+  ContactLawInstance law(in.plugin, in.law_values);
+  std::vector<int> harmonics;
+  for (int h = 0; h <= in.max_harmonic; ++h) harmonics.push_back(h);
+  const HarmonicLayout layout(harmonics, in.samples);
+  TraceOptions options;
+  options.max_passes = static_cast<int>(view(sampling_schema(), in.sampling).integer("max_passes"));
+  PeriodicTracer tracer(law, layout, options);
+  const Eigen::VectorXd u = motion_coefficients(in, tracer, layout);
 
-    ContactTrace trace;
-    std::string error;
-    if (!tracer.trace(u, JacobianMode::kNone, trace, &error)) {
-      spdlog::error("{}: {}", file, error);
-      return kExitInvalidInput;
-    }
-    if (!trace.periodic) spdlog::warn("{}: {}", file, trace.diagnostic);
-    const LoopAnalysis analysis = analyse_loop(in, tracer, trace);
-
-    fs::path out_dir = request.output_directory;
-    if (out_dir.empty()) out_dir = fs::path("out") / request.input_file.stem();
-    StagedOutput out(out_dir, {"loop.csv", "harmonics.csv", "summary.json", "loop.gp", "loop.png"});
-    write_loop_outputs(out, in, tracer, trace, analysis);
-    if (interrupted()) {  // a signal while gnuplot ran: nothing is committed
-      spdlog::error("interrupted by signal {}; no output written", interrupt_signal());
-      return interrupted_exit_code();
-    }
-    out.commit();
-    spdlog::info(
-        "{}: {} traced in {} passes; energy per cycle {:.6g} J; slipping {:.0f}% and open "
-        "{:.0f}% of the period; wrote {}",
-        file, in.plugin->name(), trace.passes, analysis.energy,
-        100.0 * analysis.slipping / in.samples, 100.0 * analysis.open / in.samples,
-        out_dir.string());
-    return kExitOk;
-  } catch (...) {
-    return report_failure(file);
+  ContactTrace trace;
+  std::string error;
+  if (!tracer.trace(u, JacobianMode::kNone, trace, &error)) throw PluginError(error);
+  LoopResult result;
+  if (!trace.periodic) {
+    spdlog::warn("{}: {}", file, trace.diagnostic);
+    result.outcome.warnings.push_back(trace.diagnostic);
   }
+  LoopAnalysis analysis = analyse_loop(in, tracer, trace);
+  result.input_file = request.input_file;
+  result.name = in.name;
+  result.law = in.plugin;
+  result.law_params = in.law_values.to_json(in.plugin->schema());
+  result.components = tracer.components();
+  result.samples = in.samples;
+  result.max_harmonic = in.max_harmonic;
+  result.displacement_m = trace.displacement;
+  result.force_N = trace.force;
+  result.status = std::move(analysis.status);
+  result.energy_per_cycle_J = analysis.energy;
+  result.passes = trace.passes;
+  result.periodic = trace.periodic;
+  result.fraction_slipping = static_cast<double>(analysis.slipping) / in.samples;
+  result.fraction_open = static_cast<double>(analysis.open) / in.samples;
+  result.harmonics = std::move(analysis.harmonics);
+  result.significant_harmonics = std::move(analysis.significant);
+  result.significance_threshold = analysis.threshold;
+  result.plots = view(output_schema(), in.output).boolean("plots");
+  spdlog::info(
+      "{}: {} traced in {} passes; energy per cycle {:.6g} J; slipping {:.0f}% and open "
+      "{:.0f}% of the period",
+      file, in.plugin->name(), trace.passes, result.energy_per_cycle_J,
+      100.0 * result.fraction_slipping, 100.0 * result.fraction_open);
+  return result;
 }
 
 }  // namespace frichb::core

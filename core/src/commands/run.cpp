@@ -11,11 +11,10 @@
 #include <sstream>
 
 #include "frichb/core/model/harmonic_balance.hpp"
-#include "frichb/core/report/output.hpp"
-#include "frichb/core/report/run_report.hpp"
 #include "frichb/core/scene/plugin_checks.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/interrupt.hpp"
+#include "frichb/core/support/output.hpp"
 
 #include "frichb/core/support/format.hpp"
 
@@ -99,6 +98,117 @@ void warn_of_few_samples(const Scene& scene, const HarmonicBalanceModel& model) 
 
 }  // namespace
 
+namespace {
+
+// The warnings a run's results call for: micro-folds, an ill-conditioned Newton matrix,
+// contact traces that did not become periodic, contact traces by finite differences.
+std::vector<std::string> result_warnings(const Scene& scene, const RunResult& run) {
+  std::vector<std::string> warnings;
+  const auto& summary = run.summary;
+  const std::string unit = unit_name(scene.continuation.unit);
+  const TurningPoints& folds = run.table.turning_points;
+  if (folds.micro_folds > 0)
+    warnings.push_back(fmt::format(
+        "{}: {} of the {} turning points come in clusters narrower than {} {} (near {} {}): "
+        "micro-folds of the time grid of a non-smooth contact force, not physics; they "
+        "shrink as harmonic_balance.samples_per_period grows (the outermost folds of a "
+        "cluster are the physical ones)",
+        scene.file.string(), folds.micro_folds, summary.turning_points,
+        format_number(folds.cluster_width), unit, format_number(folds.first_cluster), unit));
+  const double worst = summary.max_condition;
+  if (!summary.points.empty() && worst > 0.0 && !(worst <= kIllConditioned)) {
+    const Eigen::Index n = run.prepared.model->equation_count();
+    const double at =
+        summary.points[summary.max_condition_point].y(n) / scene.continuation.to_rad_per_s();
+    warnings.push_back(fmt::format(
+        "{}: the Newton matrix is ill-conditioned at {} {} (condition estimate {:.3g}: "
+        "about {:.0f} of 16 digits lost in a Newton update); check for a rigid-body mode "
+        "or a contact far stiffer than the structure, or set "
+        "continuation.displacement_scale",
+        scene.file.string(), format_number(at), unit, worst, std::min(16.0, std::log10(worst))));
+  }
+  const auto& stats = run.prepared.model->stats();
+  if (stats.non_periodic_traces > 0)
+    warnings.push_back(fmt::format(
+        "{}: {} contact traces did not become periodic within "
+        "harmonic_balance.max_trace_passes = {} passes (each costs that many passes; last: "
+        "{}); a contact that sticks and slips in a limit cycle of its own, or a tolerance "
+        "too tight for it: raise max_trace_passes if the curve changes, or raise "
+        "trace_oversampling",
+        scene.file.string(), stats.non_periodic_traces, scene.harmonic_balance.max_trace_passes,
+        stats.last_trace_diagnostic));
+  if (stats.contacts_with_fd_jacobian &&
+      run.prepared.model->jacobian_mode() == JacobianMode::kAnalytic)
+    warnings.push_back(
+        fmt::format("{} contact traces used finite differences (a law without tangents)",
+                    stats.contacts_with_fd_jacobian));
+  return warnings;
+}
+
+}  // namespace
+
+std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
+  const auto& C = scene.continuation;
+  const std::string many_folds =
+      summary.turning_points >= 4
+          ? "; " + std::to_string(summary.turning_points) +
+                " turning points: where they cluster (summary.json micro_folds), raise "
+                "harmonic_balance.samples_per_period"
+          : "";
+  switch (summary.termination) {
+    case TerminationType::kReachedEnd:
+      return "";
+    case TerminationType::kMaxPoints: {
+      // A step covers at most step.max of frequency (lambda is scaled by the scene's unit):
+      // the rest of the window needs at least that many more points.
+      const std::string unit = " " + unit_name(C.unit);
+      const double last =
+          summary.points.empty()
+              ? C.from
+              : summary.points.back().y(summary.points.back().y.size() - 1) / C.to_rad_per_s();
+      const double remaining = std::abs(C.to - last);
+      const auto points = static_cast<double>(summary.points.size());
+      const double more = std::ceil(remaining / C.max_step);
+      // Rounded up to two significant digits, with a quarter more for the peaks' flanks.
+      const double total = points + 1.25 * more;
+      const double digits = std::pow(10.0, std::floor(std::log10(total)) - 1);
+      return "the curve reached " + format_number(last) + unit + " of " + format_number(C.from) +
+             ".." + format_number(C.to) + unit + " in " + std::to_string(summary.points.size()) +
+             " points (" + format_number(std::abs(last - C.from) / std::max(1.0, points), 3) +
+             unit + " a point on average, " + std::to_string(summary.turning_points) +
+             " turning points); a step covers at most continuation.step.max = " +
+             format_number(C.max_step) + unit + " of frequency, so the remaining " +
+             format_number(remaining, 4) + unit + " need at least " + format_number(more, 8) +
+             " more points: raise continuation.max_points to about " +
+             format_number(std::ceil(total / digits) * digits, 8) + ", or step.max" + many_folds;
+    }
+    case TerminationType::kStepTooSmall:
+      return std::string(
+                 "the corrector failed down to continuation.step.min: look at the last point "
+                 "(a contact changing regime, a fold); try more samples_per_period or "
+                 "trace_oversampling (a smoother residual), or a smaller step.min") +
+             (C.turning_point_control ? "" : ", or turning_point_control: true") + many_folds;
+    case TerminationType::kTimeLimit:
+      return "raise continuation.max_wall_seconds, or reduce harmonics or samples_per_period";
+    case TerminationType::kLeftBounds:
+      return "the curve came back a quarter of the window past the start of the sweep: it "
+             "walked its branch backwards after a kink or fold it could not pass forwards (the "
+             "points after that fold retrace the branch), or the branch overhangs the window "
+             "(widen continuation.frequency); try more samples_per_period" +
+             many_folds;
+    case TerminationType::kStartFailed:
+      return "no solution was found at the start frequency: start the sweep further from "
+             "resonance, or lower the excitation";
+    case TerminationType::kEvaluationFailed:
+      return "a contact law or the structure failed at the start point: see the message";
+    case TerminationType::kCancelled:
+      return "cancelled";
+    case TerminationType::kInvalidOptions:
+      return "check the continuation section (steps, tolerance)";
+  }
+  return "";
+}
+
 PreparedRun prepare_run(const Scene& scene, int contact_threads) {
   PreparedRun start;
   const YamlContext ctx{scene.file.string()};
@@ -173,58 +283,90 @@ void check_run_start(const Scene& scene) {
   prepare_run(scene, 1);
 }
 
-int run_scene(const RunRequest& request) {
-  Scene scene;
-  std::unique_ptr<Registry> registry;
-  if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
-  if (request.validate_only) {
-    // Everything `run` checks before its first Newton iteration.
-    try {
-      check_run_start(scene);
-    } catch (const SceneError& e) {
-      spdlog::error("{}", e.what());
-      return kExitInvalidInput;
-    } catch (const std::exception& e) {
-      spdlog::error("{}: {}", scene.file.string(), e.what());
-      return kExitInternal;
-    }
-    // A patch is listed once, as its entry's name and its pair count.
-    std::string contacts;
-    const ContactPatch* listed_patch = nullptr;
-    for (const auto& c : scene.contacts) {
-      if (c.patch && c.patch.get() == listed_patch) continue;
-      listed_patch = c.patch.get();
-      const std::string name = c.patch ? c.name.substr(0, c.name.rfind('.')) + " (patch of " +
-                                             std::to_string(c.patch->pairs.size()) + " node pairs, "
-                                       : c.name + " (";
-      contacts += (contacts.empty() ? "" : ", ") + name + c.plugin->name() + " " +
-                  c.plugin->descriptor().version + ")";
-    }
-    spdlog::info("{}: valid; structure '{}' {}; contacts: {}", request.scene_file.string(),
-                 scene.structure.plugin->name(), scene.structure.plugin->descriptor().version,
-                 contacts.empty() ? "none" : contacts);
-    // Loading a plugin runs its code: the files the run loads, each once.
-    std::vector<std::string> files = {scene.structure.plugin->file().string()};
-    for (const auto& c : scene.contacts)
-      if (std::find(files.begin(), files.end(), c.plugin->file().string()) == files.end())
-        files.push_back(c.plugin->file().string());
-    for (const auto& f : files) spdlog::info("  loads {}", f);
-    return kExitOk;
-  }
+RunResult run_scene(const SceneInput& input, const RunOptions& options) {
+  auto bound = std::make_shared<const BoundScene>(load_bound_scene(input));
+  const Scene& scene = bound->scene;
   if (scene.root["study"])
     spdlog::info(
         "{} has a study: section; `frichb run` traces the scene as written, "
         "`frichb study` runs the sweep",
-        request.scene_file.string());
-  fs::path out_dir = request.output_directory;
-  if (out_dir.empty()) out_dir = fs::path("out") / scene.file.stem();
-  return run_bound_scene(scene, out_dir).exit_code;
+        scene.file.string());
+  RunResult result = trace_scene(scene, options);
+  result.bound = std::move(bound);
+  return result;
 }
 
-RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
-                           const RunOptions& run_options) {
+RunResult trace_scene(const Scene& scene, const RunOptions& run_options) {
   const auto t_start = Clock::now();
   const auto routine = run_options.quiet ? spdlog::level::debug : spdlog::level::info;
+  RunResult result;
+  result.scene = &scene;
+  result.options = run_options;
+  auto interrupted_while = [&](const std::string& when) {
+    result.outcome = {interrupted_exit_code(),
+                      "interrupted",
+                      "interrupted by signal " + std::to_string(interrupt_signal()) + " " + when,
+                      {}};
+    result.wall_seconds = seconds_since(t_start);
+    return std::move(result);
+  };
+  result.prepared = prepare_run(scene, run_options.contact_threads);
+  result.setup_seconds = seconds_since(t_start);
+  const HarmonicBalanceModel& model = *result.prepared.model;
+  const ContinuationOptions& options = result.prepared.setup.options;
+  const auto& C = scene.continuation;
+  const Eigen::Index n = model.equation_count();
+  spdlog::log(routine,
+              "scene '{}': {} contact(s), {} unknowns ({} harmonics, {} samples), {} {} -> {} {}",
+              scene.name.empty() ? scene.file.stem().string() : scene.name, model.contacts().size(),
+              n, model.layout().harmonics().size(), model.layout().samples(), C.from,
+              unit_name(C.unit), C.to, unit_name(C.unit));
+
+  const Eigen::VectorXd y0 = find_start_point(model, options, routine);
+  const auto t_cont = Clock::now();
+  result.summary = trace_response(scene, model, options, y0, TraceProgress(scene, n, routine));
+  const ContinuationSummary& summary = result.summary;
+  result.continuation_seconds = seconds_since(t_cont);
+  if (interrupted()) return interrupted_while("at point " + std::to_string(summary.points.size()));
+  if (summary.reached_end()) {
+    spdlog::log(routine,
+                "reached {} {} with {} points ({} rejected steps, {} turning points) in {:.3f} s",
+                C.to, unit_name(C.unit), summary.points.size(), summary.rejected_steps,
+                summary.turning_points, summary.wall_seconds);
+  } else {
+    result.outcome = {kExitIncomplete,
+                      to_string(summary.termination),
+                      summary.message + "; " + suggestion(summary, scene),
+                      {}};
+    spdlog::error("{}: the response curve ended early: {} ({}); {}", scene.file.string(),
+                  to_string(summary.termination), summary.message, suggestion(summary, scene));
+  }
+
+  const auto t_post = Clock::now();
+  spdlog::log(routine, "refining the peaks{}",
+              scene.output.friction_loops_at.empty() && scene.output.contact_states_at.empty()
+                  ? std::string()
+                  : ", then solving at the frequencies of the friction loops and contact states");
+  result.table = tabulate_response(scene, model, options, summary);
+  if (interrupted()) return interrupted_while("while refining the peaks");
+  for (const auto& peak : result.table.peaks)
+    if (peak) result.peaks.push_back(*peak);
+  result.loops = solve_friction_loops(scene, model, options, summary);
+  result.states =
+      solve_contact_traces(scene, model, options, summary, scene.output.contact_states_at);
+  if (interrupted()) return interrupted_while("while solving the friction loops");
+  result.post_seconds = seconds_since(t_post);
+  for (auto& warning : result_warnings(scene, result)) {
+    spdlog::warn("{}", warning);
+    result.outcome.warnings.push_back(std::move(warning));
+  }
+  result.wall_seconds = seconds_since(t_start);
+  return result;
+}
+
+RunOutcome run_member(const Scene& scene, const fs::path& folder, const RunOptions& options,
+                      const RunWriter& write) {
+  const auto t_start = Clock::now();
   RunOutcome outcome;
   auto fail = [&](int code, const char* termination, const std::string& message) {
     outcome.exit_code = code;
@@ -234,92 +376,28 @@ RunOutcome run_bound_scene(const Scene& scene, const fs::path& out_dir,
     spdlog::error("{}", message);
     return outcome;
   };
-  auto interrupted_while = [&](const std::string& when) {
-    return fail(interrupted_exit_code(), "interrupted",
-                scene.file.string() + ": interrupted by signal " +
-                    std::to_string(interrupt_signal()) + " " + when + "; no output written");
-  };
-  nlohmann::json timing;
   try {
-    // The output folder is taken first: a path that cannot hold the results, or a folder
-    // another run is writing, stops the run before any work.
-    std::optional<StagedOutput> out;
-    try {
-      out.emplace(out_dir, std::vector<std::string>{"response.csv", "response.gp", "response.png",
-                                                    "summary.json", "loops"});
-    } catch (const OutputError& e) {
-      return fail(e.user_error() ? kExitInvalidInput : kExitOutput, "output_error", e.what());
-    }
-    PreparedRun prepared;
-    try {
-      prepared = prepare_run(scene, run_options.contact_threads);
-    } catch (const SceneError& e) {
-      return fail(kExitInvalidInput, "invalid_input", e.what());
-    }
-    timing["setup_s"] = seconds_since(t_start);
-    const HarmonicBalanceModel& model = *prepared.model;
-    const ContinuationOptions& options = prepared.setup.options;
-    const auto& C = scene.continuation;
-    const Eigen::Index n = model.equation_count();
-    spdlog::log(routine,
-                "scene '{}': {} contact(s), {} unknowns ({} harmonics, {} samples), {} {} -> {} {}",
-                scene.name.empty() ? scene.file.stem().string() : scene.name,
-                model.contacts().size(), n, model.layout().harmonics().size(),
-                model.layout().samples(), C.from, unit_name(C.unit), C.to, unit_name(C.unit));
-
-    const Eigen::VectorXd y0 = find_start_point(model, options, routine);
-    const auto t_cont = Clock::now();
-    const ContinuationSummary summary =
-        trace_response(scene, model, options, y0, TraceProgress(scene, n, routine));
-    timing["continuation_s"] = seconds_since(t_cont);
-    if (interrupted())
-      return interrupted_while("at point " + std::to_string(summary.points.size()));
-    if (summary.reached_end())
-      spdlog::log(routine,
-                  "reached {} {} with {} points ({} rejected steps, {} turning points) in {:.3f} s",
-                  C.to, unit_name(C.unit), summary.points.size(), summary.rejected_steps,
-                  summary.turning_points, summary.wall_seconds);
-    else
-      spdlog::error("{}: the response curve ended early: {} ({}); {}", scene.file.string(),
-                    to_string(summary.termination), summary.message, suggestion(summary, scene));
-
-    const auto t_post = Clock::now();
-    spdlog::log(routine, "refining the peaks{}",
-                scene.output.friction_loops_at.empty() && scene.output.contact_states_at.empty()
-                    ? std::string()
-                    : ", then solving at the frequencies of the friction loops and contact states");
-    const ResponseTable table = tabulate_response(scene, model, options, summary);
-    if (interrupted()) return interrupted_while("while refining the peaks");
-    for (const auto& peak : table.peaks)
-      if (peak) outcome.peaks.push_back(*peak);
-    const std::vector<FrictionLoop> loops = solve_friction_loops(scene, model, options, summary);
-    const RunRecord record{scene, model, prepared.setup, summary, table, loops};
-    const bool plots = run_options.plots < 0 ? scene.output.plots : run_options.plots != 0;
-    const nlohmann::json loop_entries = write_curve_files(*out, record, plots);
-    const std::vector<FrictionLoop> states =
-        solve_contact_traces(scene, model, options, summary, scene.output.contact_states_at);
-    if (interrupted()) return interrupted_while("while solving the friction loops");
-    const nlohmann::json state_entries = write_contact_states(*out, record, states, plots);
-    timing["post_and_output_s"] = seconds_since(t_post);
-    timing["total_s"] = seconds_since(t_start);
-    warn_about_results(record);
-    nlohmann::json doc = run_summary(record, loop_entries, timing, run_options.study_context);
-    doc["contact_states"] = state_entries;
-    if (interrupted()) return interrupted_while("while writing");
-    write_json(out->path("summary.json"), doc);
-    out->commit();
+    const RunResult result = trace_scene(scene, options);
+    if (result.outcome.status >= 128)
+      return fail(result.outcome.status, "interrupted",
+                  scene.file.string() + ": " + result.outcome.message + "; no output written");
+    outcome.termination = to_string(result.summary.termination);
+    outcome.message = result.summary.message;
+    outcome.points = result.summary.points.size();
+    outcome.unknowns = static_cast<long>(result.prepared.model->equation_count());
+    outcome.peaks = result.peaks;
+    write(result, folder);
     outcome.wrote_output = true;
-    outcome.exit_code = summary.reached_end() ? kExitOk : kExitIncomplete;
-    outcome.termination = to_string(summary.termination);
-    outcome.message = summary.message;
-    outcome.points = summary.points.size();
+    outcome.exit_code = result.outcome.status;
     outcome.wall_seconds = seconds_since(t_start);
-    spdlog::log(routine, "wrote {} ({} points; total {:.3f} s)", out_dir.string(),
-                table.rows.size(), outcome.wall_seconds);
     return outcome;
+  } catch (const SceneError& e) {
+    return fail(kExitInvalidInput, "invalid_input", e.what());
   } catch (const OutputError& e) {
     return fail(e.user_error() ? kExitInvalidInput : kExitOutput, "output_error",
                 scene.file.string() + ": writing the outputs: " + e.what());
+  } catch (const Interrupted& e) {
+    return fail(128 + e.signal(), "interrupted", scene.file.string() + ": " + e.what());
   } catch (const std::exception& e) {
     return fail(kExitInternal, "internal_error", scene.file.string() + ": " + e.what());
   }

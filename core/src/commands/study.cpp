@@ -20,8 +20,9 @@
 #include <system_error>
 #include <thread>
 
-#include "frichb/core/report/output.hpp"
+#include "frichb/core/commands/failure.hpp"
 #include "frichb/core/support/interrupt.hpp"
+#include "frichb/core/support/output.hpp"
 #include "frichb/core/support/version.hpp"
 #include "frichb/plugin/sdk.hpp"
 
@@ -303,10 +304,12 @@ std::vector<StudyRun> prepare_study_runs(const Scene& scene, const StudySpec& st
       label += (k ? ", " : "") + study.sweeps[k].path + " = " + short_value(combos[i][k]);
     std::size_t current = 0;  // the sweep whose value is being applied (for errors)
     try {
-      YAML::Node document = load_scene_document(scene.file);
+      YAML::Node document = load_scene_document(scene.file, scene.overrides);
       for (current = 0; current < combos[i].size(); ++current)
         set_scene_value(document, study.sweeps[current].path, combos[i][current]);
       run.scene = load_scene(document, scene.file);
+      run.scene.overrides = scene.overrides;
+      run.scene.allow_scene_plugins = scene.allow_scene_plugins;
       bind_plugins(run.scene, registry);
       for (const auto& c : run.scene.contacts) ContactLawInstance probe(c.plugin, c.values);
     } catch (const SceneError& e) {
@@ -355,9 +358,16 @@ std::vector<CoreSection> study_schemas() {
 namespace {
 
 // The scene, its study and every run, validated and bound on this rank: an ExitCode.
-int prepare_study(const fs::path& scene_file, Scene& scene, std::unique_ptr<Registry>& registry,
+int prepare_study(const SceneInput& input, Scene& scene, std::unique_ptr<Registry>& registry,
                   StudySpec& study, std::vector<StudyRun>& runs) {
-  if (!load_bound_scene(scene_file, scene, registry)) return kExitInvalidInput;
+  const fs::path& scene_file = input.file;
+  try {
+    BoundScene bound = load_bound_scene(input);
+    scene = std::move(bound.scene);
+    registry = std::move(bound.registry);
+  } catch (...) {
+    return report_failure(scene_file.string());
+  }
   try {
     study = load_study(scene);
     runs = prepare_study_runs(scene, study, *registry);
@@ -443,8 +453,8 @@ int share_cores(int threads) {
 }
 
 // One run of the study, quiet and without plots, into its folder under `staging`.
-RunOutcome run_member(const StudyRun& run, const StudySpec& study, const std::string& staging,
-                      int cores_per_run) {
+RunOutcome run_study_member(const StudyRun& run, const StudySpec& study, const std::string& staging,
+                            int cores_per_run, const RunWriter& write_run) {
   RunOptions options;
   options.quiet = true;
   options.plots = 0;
@@ -453,7 +463,7 @@ RunOutcome run_member(const StudyRun& run, const StudySpec& study, const std::st
   for (std::size_t s = 0; s < study.sweeps.size(); ++s)
     params[study.sweeps[s].path] = run.values[s];
   options.study_context = {{"run", run.id}, {"parameters", params}};
-  return run_bound_scene(run.scene, fs::path(staging) / run.id, options);
+  return run_member(run.scene, fs::path(staging) / run.id, options, write_run);
 }
 
 // The progress line of a finished run: its values, termination, peak of study.node and time.
@@ -476,14 +486,14 @@ std::string progress_line(const StudyRun& run, const RunOutcome& o, const StudyS
 std::vector<RunOutcome> run_share(const std::vector<StudyRun>& runs,
                                   const std::vector<std::size_t>& mine, const StudySpec& study,
                                   const std::string& staging, int threads, int cores_per_run,
-                                  bool leader) {
+                                  bool leader, const RunWriter& write_run) {
   std::vector<RunOutcome> outcomes(runs.size());
   Progress progress(mine.size(), leader);  // under MPI: rank 0's share of the runs
   std::atomic<std::size_t> next{0};
   auto worker = [&] {
     for (std::size_t k = next++; k < mine.size() && !interrupted(); k = next++) {
       const StudyRun& run = runs[mine[k]];
-      outcomes[mine[k]] = run_member(run, study, staging, cores_per_run);
+      outcomes[mine[k]] = run_study_member(run, study, staging, cores_per_run, write_run);
       progress.finished(progress_line(run, outcomes[mine[k]], study));
     }
   };
@@ -760,10 +770,10 @@ int write_study(StudyReport report, const std::vector<std::string>& gathered,
                  wall);
     code = index.failed ? kExitIncomplete : kExitOk;
   } catch (const OutputError& e) {
-    spdlog::error("{}: writing the study: {}", request.scene_file.string(), e.what());
+    spdlog::error("{}: writing the study: {}", request.scene.file.string(), e.what());
     code = e.user_error() ? kExitInvalidInput : kExitOutput;
   } catch (const std::exception& e) {
-    spdlog::error("{}: writing the study index: {}", request.scene_file.string(), e.what());
+    spdlog::error("{}: writing the study index: {}", request.scene.file.string(), e.what());
     code = interrupted() ? interrupted_exit_code() : kExitInternal;
   }
   if (code != kExitOk && code != kExitIncomplete) out.reset();  // staging removed
@@ -773,14 +783,18 @@ int write_study(StudyReport report, const std::vector<std::string>& gathered,
 }  // namespace
 
 int run_study(const StudyRequest& request, StudyCommunicator& comm) {
+  if (!request.write_run) {
+    spdlog::error("run_study: the request has no RunWriter (write_run) for its runs");
+    return kExitInternal;
+  }
   const auto t_start = Clock::now();
   const bool leader = comm.rank() == 0;
   Scene scene;
   std::unique_ptr<Registry> registry;
   StudySpec study;
   std::vector<StudyRun> runs;
-  const int validation = prepare_study(request.scene_file, scene, registry, study, runs);
-  if (const int verdict = common_verdict(comm, validation, request.scene_file); verdict != kExitOk)
+  const int validation = prepare_study(request.scene, scene, registry, study, runs);
+  if (const int verdict = common_verdict(comm, validation, request.scene.file); verdict != kExitOk)
     return verdict;
   int threads = requested_threads(request, study);
   fs::path out_dir = request.output_directory;
@@ -789,7 +803,7 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
   // Rank 0 stages the output; every rank writes its runs into the staging folder.
   std::unique_ptr<StagedOutput> out;
   std::string staging;
-  if (const int staged = stage_output(comm, out_dir, request.scene_file, out, staging);
+  if (const int staged = stage_output(comm, out_dir, request.scene.file, out, staging);
       staged != kExitOk)
     return staged;
 
@@ -804,11 +818,12 @@ int run_study(const StudyRequest& request, StudyCommunicator& comm) {
   else
     spdlog::debug("rank {}: {} runs on {} thread(s)", comm.rank(), mine.size(), threads);
 
-  const auto outcomes = run_share(runs, mine, study, staging, threads, cores_per_run, leader);
+  const auto outcomes =
+      run_share(runs, mine, study, staging, threads, cores_per_run, leader, request.write_run);
   const auto gathered = gather_outcomes(comm, runs, mine, outcomes);
   int code = kExitOk;
   if (leader && interrupted()) {
-    spdlog::error("{}: interrupted by signal {}; no output written", request.scene_file.string(),
+    spdlog::error("{}: interrupted by signal {}; no output written", request.scene.file.string(),
                   interrupt_signal());
     code = interrupted_exit_code();
   } else if (leader) {

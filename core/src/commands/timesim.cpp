@@ -8,11 +8,8 @@
 #include <stdexcept>
 
 #include "frichb/core/model/harmonic_balance.hpp"
-#include "frichb/core/report/failure.hpp"
-#include "frichb/core/report/output.hpp"
 #include "frichb/core/scene/plugin_checks.hpp"
 #include "frichb/core/support/exit_codes.hpp"
-#include "frichb/core/support/version.hpp"
 
 namespace frichb::core {
 
@@ -155,61 +152,23 @@ TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options
   }
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  result.scene_file = scene.file;
+  result.options = options;
+  if (!result.periodic)
+    result.outcome = {kExitIncomplete,
+                      "not_periodic",
+                      "the response did not repeat within " + std::to_string(options.max_periods) +
+                          " periods (max_periods)",
+                      {}};
   return result;
 }
 
-int run_timesim(const TimesimRequest& request) {
-  const std::string file = request.scene_file.string();
-  Scene scene;
-  std::unique_ptr<Registry> registry;
-  if (!load_bound_scene(request.scene_file, scene, registry)) return kExitInvalidInput;
-  try {
-    TimesimOptions options;
-    options.frequency_hz = request.frequency_hz;
-    options.steps_per_period = request.steps_per_period;
-    options.max_periods = request.max_periods;
-    const TimesimResult result = simulate_in_time(scene, options);
-
-    fs::path out_dir = request.output_directory;
-    if (out_dir.empty())
-      out_dir = fs::path("out") / (request.scene_file.stem().string() + "-timesim");
-    StagedOutput out(out_dir, {"timesim.csv", "summary.json"});
-    std::vector<std::string> header = {"time_s"};
-    nlohmann::json nodes = nlohmann::json::object();
-    for (const auto& r : result.nodes) {
-      const std::size_t n_dofs = r.samples_m.size();
-      for (std::size_t d = 0; d < n_dofs; ++d)
-        header.push_back(r.node + (n_dofs > 1 ? "_" + std::to_string(d) : "") + "_m");
-      nlohmann::json h = nlohmann::json::object();
-      for (std::size_t k = 0; k < result.harmonics.size(); ++k)
-        h[std::to_string(result.harmonics[k])] = r.harmonic_amplitudes_m[k];
-      nodes[r.node] = {{"amplitude_m", r.amplitude_m},
-                       {"half_peak_to_peak_m", r.half_peak_to_peak_m},
-                       {"harmonic_amplitudes_m", h}};
-    }
-    std::vector<std::vector<double>> rows;
-    for (std::size_t s = 0; s < result.time_s.size(); ++s) {
-      std::vector<double> row = {result.time_s[s]};
-      for (const auto& r : result.nodes)
-        for (const auto& x : r.samples_m) row.push_back(x[s]);
-      rows.push_back(std::move(row));
-    }
-    write_csv(out.path("timesim.csv"), header, rows);
-    write_json(out.path("summary.json"), {{"frichb_version", version()},
-                                          {"scene", file},
-                                          {"frequency_hz", request.frequency_hz},
-                                          {"steps_per_period", request.steps_per_period},
-                                          {"periods", result.periods},
-                                          {"periodic", result.periodic},
-                                          {"response", nodes}});
-    out.commit();
-    spdlog::info("{}: {} periods at {} Hz ({}), wrote {}", file, result.periods,
-                 request.frequency_hz, result.periodic ? "periodic" : "NOT periodic yet",
-                 out_dir.string());
-    return result.periodic ? kExitOk : kExitIncomplete;
-  } catch (...) {
-    return report_failure(file);
-  }
+TimesimResult integrate_scene(const TimesimRequest& request) {
+  const BoundScene bound = load_bound_scene(request.scene);
+  TimesimResult result = simulate_in_time(bound.scene, request.integration);
+  spdlog::info("{}: {} periods at {} Hz ({})", result.scene_file.string(), result.periods,
+               request.integration.frequency_hz, result.periodic ? "periodic" : "NOT periodic yet");
+  return result;
 }
 
 }  // namespace frichb::core

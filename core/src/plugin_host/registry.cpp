@@ -258,22 +258,9 @@ frichb_modal_basis StructureInstance::modal_basis(int harmonic_index,
   return basis;
 }
 
-namespace {
-bool& input_folders_allowed_flag() {
-  static bool allowed = false;
-  return allowed;
-}
-}  // namespace
-
-void allow_input_plugin_folders(bool allowed) {
-  input_folders_allowed_flag() = allowed;
-}
-bool input_plugin_folders_allowed() {
-  return input_folders_allowed_flag();
-}
-
-void check_plugin_allowed(const fs::path& plugin_file, const std::vector<fs::path>& input_folders) {
-  if (input_plugin_folders_allowed() || plugin_file.empty() || input_folders.empty()) return;
+void check_plugin_allowed(const fs::path& plugin_file, const std::vector<fs::path>& input_folders,
+                          bool allowed) {
+  if (allowed || plugin_file.empty() || input_folders.empty()) return;
   std::error_code ec;
   const fs::path folder = fs::weakly_canonical(plugin_file, ec).parent_path();
   // Folders of the default search path (the program's own, the install prefix and

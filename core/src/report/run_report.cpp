@@ -5,6 +5,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -271,68 +272,6 @@ std::string face_plot_script(const std::string& csv, const std::string& png,
 
 }  // namespace
 
-std::string suggestion(const ContinuationSummary& summary, const Scene& scene) {
-  const auto& C = scene.continuation;
-  const std::string many_folds =
-      summary.turning_points >= 4
-          ? "; " + std::to_string(summary.turning_points) +
-                " turning points: where they cluster (summary.json micro_folds), raise "
-                "harmonic_balance.samples_per_period"
-          : "";
-  switch (summary.termination) {
-    case TerminationType::kReachedEnd:
-      return "";
-    case TerminationType::kMaxPoints: {
-      // A step covers at most step.max of frequency (lambda is scaled by the scene's unit):
-      // the rest of the window needs at least that many more points.
-      const std::string unit = " " + unit_name(C.unit);
-      const double last =
-          summary.points.empty()
-              ? C.from
-              : summary.points.back().y(summary.points.back().y.size() - 1) / C.to_rad_per_s();
-      const double remaining = std::abs(C.to - last);
-      const auto points = static_cast<double>(summary.points.size());
-      const double more = std::ceil(remaining / C.max_step);
-      // Rounded up to two significant digits, with a quarter more for the peaks' flanks.
-      const double total = points + 1.25 * more;
-      const double digits = std::pow(10.0, std::floor(std::log10(total)) - 1);
-      return "the curve reached " + format_number(last) + unit + " of " + format_number(C.from) +
-             ".." + format_number(C.to) + unit + " in " + std::to_string(summary.points.size()) +
-             " points (" + format_number(std::abs(last - C.from) / std::max(1.0, points), 3) +
-             unit + " a point on average, " + std::to_string(summary.turning_points) +
-             " turning points); a step covers at most continuation.step.max = " +
-             format_number(C.max_step) + unit + " of frequency, so the remaining " +
-             format_number(remaining, 4) + unit + " need at least " + format_number(more, 8) +
-             " more points: raise continuation.max_points to about " +
-             format_number(std::ceil(total / digits) * digits, 8) + ", or step.max" + many_folds;
-    }
-    case TerminationType::kStepTooSmall:
-      return std::string(
-                 "the corrector failed down to continuation.step.min: look at the last point "
-                 "(a contact changing regime, a fold); try more samples_per_period or "
-                 "trace_oversampling (a smoother residual), or a smaller step.min") +
-             (C.turning_point_control ? "" : ", or turning_point_control: true") + many_folds;
-    case TerminationType::kTimeLimit:
-      return "raise continuation.max_wall_seconds, or reduce harmonics or samples_per_period";
-    case TerminationType::kLeftBounds:
-      return "the curve came back a quarter of the window past the start of the sweep: it "
-             "walked its branch backwards after a kink or fold it could not pass forwards (the "
-             "points after that fold retrace the branch), or the branch overhangs the window "
-             "(widen continuation.frequency); try more samples_per_period" +
-             many_folds;
-    case TerminationType::kStartFailed:
-      return "no solution was found at the start frequency: start the sweep further from "
-             "resonance, or lower the excitation";
-    case TerminationType::kEvaluationFailed:
-      return "a contact law or the structure failed at the start point: see the message";
-    case TerminationType::kCancelled:
-      return "cancelled";
-    case TerminationType::kInvalidOptions:
-      return "check the continuation section (steps, tolerance)";
-  }
-  return "";
-}
-
 nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool plots) {
   write_csv(out.path("response.csv"), run.table.header, run.table.rows);
   nlohmann::json loops = nlohmann::json::array();
@@ -416,46 +355,6 @@ nlohmann::json write_contact_states(StagedOutput& out, const RunRecord& run,
   return entries;
 }
 
-void warn_about_results(const RunRecord& run) {
-  const auto& scene = run.scene;
-  const auto& summary = run.summary;
-  const std::string unit = unit_name(scene.continuation.unit);
-  const TurningPoints& folds = run.table.turning_points;
-  if (folds.micro_folds > 0)
-    spdlog::warn(
-        "{}: {} of the {} turning points come in clusters narrower than {} {} (near {} {}): "
-        "micro-folds of the time grid of a non-smooth contact force, not physics; they "
-        "shrink as harmonic_balance.samples_per_period grows (the outermost folds of a "
-        "cluster are the physical ones)",
-        scene.file.string(), folds.micro_folds, summary.turning_points,
-        format_number(folds.cluster_width), unit, format_number(folds.first_cluster), unit);
-  const double worst = summary.max_condition;
-  if (!summary.points.empty() && worst > 0.0 && !(worst <= kIllConditioned)) {
-    const Eigen::Index n = run.model.equation_count();
-    const double at =
-        summary.points[summary.max_condition_point].y(n) / scene.continuation.to_rad_per_s();
-    spdlog::warn(
-        "{}: the Newton matrix is ill-conditioned at {} {} (condition estimate {:.3g}: "
-        "about {:.0f} of 16 digits lost in a Newton update); check for a rigid-body mode "
-        "or a contact far stiffer than the structure, or set "
-        "continuation.displacement_scale",
-        scene.file.string(), format_number(at), unit, worst, std::min(16.0, std::log10(worst)));
-  }
-  const auto& stats = run.model.stats();
-  if (stats.non_periodic_traces > 0)
-    spdlog::warn(
-        "{}: {} contact traces did not become periodic within "
-        "harmonic_balance.max_trace_passes = {} passes (each costs that many passes; last: "
-        "{}); a contact that sticks and slips in a limit cycle of its own, or a tolerance "
-        "too tight for it: raise max_trace_passes if the curve changes, or raise "
-        "trace_oversampling",
-        scene.file.string(), stats.non_periodic_traces, scene.harmonic_balance.max_trace_passes,
-        stats.last_trace_diagnostic);
-  if (stats.contacts_with_fd_jacobian && run.model.jacobian_mode() == JacobianMode::kAnalytic)
-    spdlog::warn("{} contact traces used finite differences (a law without tangents)",
-                 stats.contacts_with_fd_jacobian);
-}
-
 nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_loops,
                            const nlohmann::json& timing, const nlohmann::json& study_context) {
   const auto& scene = run.scene;
@@ -507,12 +406,48 @@ nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_
   if (!stats.last_trace_diagnostic.empty())
     doc["last_trace_diagnostic"] = stats.last_trace_diagnostic;
   if (!study_context.is_null()) doc["study"] = study_context;
-  if (!scene_overrides().empty()) {
+  if (!scene.overrides.empty()) {
     nlohmann::json set = nlohmann::json::object();
-    for (const auto& o : scene_overrides()) set[o.path] = scene_override_json(o);
+    for (const auto& o : scene.overrides) set[o.path] = scene_override_json(o);
     doc["command_line_overrides"] = set;
   }
   return doc;
+}
+
+std::vector<std::string> run_outputs() {
+  return {"response.csv", "response.gp", "response.png", "summary.json", "loops"};
+}
+
+void write_run(const RunResult& result, StagedOutput& out) {
+  const auto started = std::chrono::steady_clock::now();
+  const Scene& scene = *result.scene;
+  const RunRecord record{scene,          *result.prepared.model, result.prepared.setup,
+                         result.summary, result.table,           result.loops};
+  const int plots_option = result.options.plots;
+  const bool plots = plots_option < 0 ? scene.output.plots : plots_option != 0;
+  const nlohmann::json loop_entries = write_curve_files(out, record, plots);
+  const nlohmann::json state_entries = write_contact_states(out, record, result.states, plots);
+  const double writing =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const nlohmann::json timing = {{"setup_s", result.setup_seconds},
+                                 {"continuation_s", result.continuation_seconds},
+                                 {"post_and_output_s", result.post_seconds + writing},
+                                 {"total_s", result.wall_seconds + writing}};
+  nlohmann::json doc = run_summary(record, loop_entries, timing, result.options.study_context);
+  doc["contact_states"] = state_entries;
+  write_json(out.path("summary.json"), doc);
+  spdlog::log(result.options.quiet ? spdlog::level::debug : spdlog::level::info,
+              "{} points; total {:.3f} s", result.table.rows.size(), result.wall_seconds + writing);
+}
+
+void write_run_folder(const RunResult& result, const fs::path& folder) {
+  StagedOutput out(folder, run_outputs());
+  write_run(result, out);
+  out.commit();
+}
+
+RunOutcome run_bound_scene(const Scene& scene, const fs::path& folder, const RunOptions& options) {
+  return run_member(scene, folder, options, write_run_folder);
 }
 
 }  // namespace frichb::core

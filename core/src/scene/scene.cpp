@@ -494,23 +494,9 @@ YAML::Node load_scene_yaml(const fs::path& file) {
   return root;
 }
 
-namespace {
-std::vector<SceneOverride>& override_storage() {
-  static std::vector<SceneOverride> overrides;
-  return overrides;
-}
-}  // namespace
-
-void set_scene_overrides(std::vector<SceneOverride> overrides) {
-  override_storage() = std::move(overrides);
-}
-const std::vector<SceneOverride>& scene_overrides() {
-  return override_storage();
-}
-
-YAML::Node load_scene_document(const fs::path& file) {
+YAML::Node load_scene_document(const fs::path& file, const std::vector<SceneOverride>& overrides) {
   YAML::Node document = load_scene_yaml(file);
-  for (const auto& o : scene_overrides()) {
+  for (const auto& o : overrides) {
     try {
       set_scene_override(document, o);
     } catch (const std::invalid_argument& e) {
@@ -520,8 +506,10 @@ YAML::Node load_scene_document(const fs::path& file) {
   return document;
 }
 
-Scene load_scene(const fs::path& file) {
-  return load_scene(load_scene_document(file), file);
+Scene load_scene(const fs::path& file, const std::vector<SceneOverride>& overrides) {
+  Scene scene = load_scene(load_scene_document(file, overrides), file);
+  scene.overrides = overrides;
+  return scene;
 }
 
 namespace {
@@ -1095,7 +1083,8 @@ void bind_plugins(Scene& scene, const Registry& registry) {
     ctx.fail(node, path, e.what());
   };
   try {
-    check_plugin_allowed(registry.file_of(scene.structure.provider), scene.plugin_paths);
+    check_plugin_allowed(registry.file_of(scene.structure.provider), scene.plugin_paths,
+                         scene.allow_scene_plugins);
     scene.structure.plugin = registry.load(scene.structure.provider, FRICHB_KIND_STRUCTURE);
   } catch (const PluginError& e) {
     fail_plugin(scene.root["structure"]["provider"], "structure.provider", e);
@@ -1105,7 +1094,7 @@ void bind_plugins(Scene& scene, const Registry& registry) {
   for (auto& c : scene.contacts) {
     const std::string path = "contacts[" + std::to_string(c.entry) + "]";
     try {
-      check_plugin_allowed(registry.file_of(c.law), scene.plugin_paths);
+      check_plugin_allowed(registry.file_of(c.law), scene.plugin_paths, scene.allow_scene_plugins);
       c.plugin = registry.load(c.law, FRICHB_KIND_CONTACT_LAW);
     } catch (const PluginError& e) {
       fail_plugin(scene.root["contacts"][c.entry]["law"], path + ".law", e);
@@ -1118,20 +1107,24 @@ void bind_plugins(Scene& scene, const Registry& registry) {
   }
 }
 
-bool load_bound_scene(const fs::path& file, Scene& scene, std::unique_ptr<Registry>& registry) {
+BoundScene load_bound_scene(const SceneInput& input) {
+  BoundScene bound;
   try {
-    scene = load_scene(file);
-    registry = std::make_unique<Registry>(Registry::default_search_path(scene.plugin_paths));
-    bind_plugins(scene, *registry);
-    return true;
-  } catch (const SceneError& e) {
-    spdlog::error("{}", e.what());
+    bound.scene = load_scene(input.file, input.overrides);
+    bound.scene.allow_scene_plugins = input.allow_scene_plugins;
+    bound.registry =
+        std::make_unique<Registry>(Registry::default_search_path(bound.scene.plugin_paths));
+    bind_plugins(bound.scene, *bound.registry);
+  } catch (const SceneError&) {
+    throw;
+  } catch (const PluginError&) {
+    throw;
   } catch (const std::exception& e) {
-    // Anything else while reading input (yaml-cpp conversions, the file system, a plugin that
-    // cannot load) is still bad input, not an internal failure.
-    spdlog::error("{}: {}", file.string(), e.what());
+    // Anything else while reading input (yaml-cpp conversions, the file system) is still bad
+    // input, not an internal failure.
+    throw SceneError(input.file.string(), 0, 0, "", e.what());
   }
-  return false;
+  return bound;
 }
 
 nlohmann::json scene_to_json(const Scene& scene) {

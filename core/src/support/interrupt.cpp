@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <csignal>
+#include <string>
 
 namespace frichb::core {
 
@@ -14,6 +15,10 @@ extern "C" void record_signal(int signal) {
   g_signal.compare_exchange_strong(none, signal);
 }
 }  // namespace
+
+Interrupted::Interrupted(int signal)
+    : std::runtime_error("interrupted by signal " + std::to_string(signal) + "; no output written"),
+      signal_(signal) {}
 
 void install_interrupt_handlers() {
   struct sigaction action {};

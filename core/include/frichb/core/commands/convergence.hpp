@@ -7,30 +7,84 @@
 // the time-integration reference (simulate_in_time at the finest setting's peak
 // frequency). Runs are serial by default so that their wall times are comparable.
 //
-// Outputs (staged, as every verb): DIR/convergence.csv (one row per setting: H, N, o,
-// unknowns, peak, errors, wall time), convergence.json (the same with the reference and
-// time-integration results), convergence.md (a Markdown table for reports) and
-// convergence.png (log-log: error against wall time). Each run's own files stay under
-// DIR/runs/H<H>_N<N>_o<o>/.
+// The verb shape: commands/verb.hpp; the writer: report/convergence_report.hpp. Each
+// setting's run is handed, as it finishes, to the request's RunWriter (the command line
+// writes it into DIR/runs/H<H>_N<N>_o<o>/).
 #pragma once
 
+#include <cmath>
 #include <filesystem>
+#include <string>
 #include <vector>
+
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/commands/verb.hpp"
+#include "frichb/core/scene/scene.hpp"
 
 namespace frichb::core {
 
 struct ConvergenceRequest {
-  std::filesystem::path scene_file;
-  std::filesystem::path output_directory;             // empty: out/<scene stem>-convergence
+  SceneInput scene;
   std::vector<int> harmonics = {1, 3, 5, 7, 10, 15};  // largest kept harmonic H
   std::vector<int> samples = {64, 128, 256, 512, 1024, 2048};
   std::vector<int> oversampling = {1, 4};
   bool time_integration = true;  // compare with simulate_in_time (plain structures)
   int timesim_steps_per_period = 8000;
+  // Where each setting's run is written, by write_run (empty write_run: nowhere).
+  std::filesystem::path runs_folder;
+  RunWriter write_run;
 };
 
-// Returns an ExitCode (run.hpp): kExitIncomplete when a setting's curve ended early (its
-// row says why); kExitInvalidInput for a bad scene or an empty setting list. Never throws.
-int run_convergence(const ConvergenceRequest& request);
+// One harmonic-balance setting: largest kept harmonic H (the kept ones follow the scene's
+// pattern: odd only, from 0, or from 1), samples per period N and trace oversampling o.
+struct ConvergenceSetting {
+  int max_harmonic = 0, samples = 0, oversampling = 1;
+  std::vector<int> harmonics;
+  std::string id;  // "H<H>_N<N>_o<o>"
+};
+
+// A setting's run and its relative errors (NaN where there is nothing to compare).
+struct ConvergenceRow {
+  ConvergenceSetting setting;
+  RunOutcome outcome;
+  double amplitude_m = NAN;                             // peak amplitude of the node
+  double frequency_hz = NAN;                            // at the peak
+  double amplitude_error = NAN, frequency_error = NAN;  // against the reference (0 for it)
+  double amplitude_error_vs_timesim = NAN;              // against the time integration
+};
+
+// The time-integration reference at the reference setting's peak frequency.
+struct ConvergenceTimesim {
+  bool run = false;  // false: not asked, a cyclic scene, no peak, or it failed (warned)
+  double frequency_hz = NAN;
+  double amplitude_m = NAN;  // of the node, over the last period integrated
+  bool periodic = false;
+  int periods = 0;
+  int steps_per_period = 0;
+  double wall_seconds = 0.0;
+  // The amplitude the settings are compared with: NaN unless the response became periodic.
+  double compared() const { return run && periodic ? amplitude_m : NAN; }
+};
+
+struct ConvergenceResult {
+  // kExitIncomplete (termination "settings_incomplete") when a setting's curve ended early
+  // (its row says why); 128 + signal when interrupted between settings.
+  Outcome outcome;
+  std::filesystem::path scene_file;
+  std::string scene_name;
+  std::string node;                  // the first output.response node
+  std::vector<ConvergenceRow> rows;  // coarse to fine; the reference (the finest) last
+  ConvergenceTimesim timesim;
+  int incomplete_settings = 0;
+  std::vector<int> oversampling;  // the factors run, ascending (one plot series each)
+  bool plots = true;              // the scene's output.plots
+};
+
+// Runs the scene at every valid setting, serially, and the time-integration reference.
+// Throws SceneError or PluginError for a scene it cannot load, and SceneError for a request
+// without a valid finest setting or a scene without a response node. Each setting's run is
+// handed to request.write_run (when set) into request.runs_folder / <setting id>; a setting
+// the scene refuses is a row with termination invalid_input.
+ConvergenceResult study_convergence(const ConvergenceRequest& request);
 
 }  // namespace frichb::core

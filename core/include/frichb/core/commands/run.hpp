@@ -1,32 +1,25 @@
 // One run of a scene, in stages: prepare (build the structure and the model, check them,
 // derive the continuation options), find the start point, trace, tabulate, solve the friction
-// loops (model/response_curve.hpp), report (report/run_report.hpp). run_bound_scene runs them
-// all and writes response.csv, summary.json, friction loops and plots; a program that wants the
-// results in memory calls prepare_run and the stages itself.
+// loops and contact states (model/response_curve.hpp). trace_scene runs them all and returns a
+// RunResult; report/run_report.hpp writes it (response.csv, summary.json, friction loops,
+// plots). run_scene is the verb `frichb run` (commands/verb.hpp): the scene read from a
+// SceneInput, then trace_scene.
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "frichb/core/commands/verb.hpp"
 #include "frichb/core/model/continuation_setup.hpp"
 #include "frichb/core/model/response_curve.hpp"
+#include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/exit_codes.hpp"
 
 namespace frichb::core {
-
-struct RunRequest {
-  std::filesystem::path scene_file;
-  std::filesystem::path output_directory;  // empty: out/<scene name>
-  bool validate_only = false;
-};
-
-// Runs the request; logs through spdlog; returns an ExitCode. Never throws.
-int run_scene(const RunRequest& request);
-
-struct Scene;
 
 struct RunOptions {
   // Routine progress (setup, points, outputs written) at debug level instead of info: for
@@ -41,24 +34,18 @@ struct RunOptions {
   int contact_threads = 0;
 };
 
-// What a run produced, for callers that run many scenes (studies, convergence reports).
+// What a run produced, in brief: one row of a study or a convergence study.
 struct RunOutcome {
   int exit_code = 4;            // an ExitCode
   std::string termination;      // continuation termination ("reached_end", "max_points", ...),
                                 // or "invalid_input" / "internal_error" before any tracing
   std::string message;          // why it ended (or the error)
   std::size_t points = 0;       // points on the response curve
+  long unknowns = 0;            // harmonic-balance unknowns (0 when the model was not built)
   std::vector<NodePeak> peaks;  // one per output.response node, in scene order
   double wall_seconds = 0.0;    // set-up, continuation, post-processing and outputs
   bool wrote_output = false;    // the output folder holds this run's files
 };
-
-// Runs a bound scene (load_bound_scene or load_scene + bind_plugins) and writes its outputs
-// into `output_directory` (staged: nothing is left there if the run fails before writing).
-// Never throws. Safe to call concurrently from several threads on different Scene objects
-// (each call creates its own structure and contact-law instances).
-RunOutcome run_bound_scene(const Scene& scene, const std::filesystem::path& output_directory,
-                           const RunOptions& options = {});
 
 // The first stage of a run: the structure and the model built (plugin parameters, matrix files,
 // DOF indices, frames, sector counts, modal bases), the memory the AFT tables and the Newton
@@ -74,8 +61,58 @@ struct PreparedRun {
 };
 PreparedRun prepare_run(const Scene& scene, int contact_threads = 0);
 
-// Every check `run_bound_scene` makes before its first Newton iteration (prepare_run, its
+// A Newton matrix whose condition estimate exceeds this has lost 10 of 16 digits: warned.
+inline constexpr double kIllConditioned = 1e10;
+
+// What a user can change when the curve ends early, by reason ("" when it reached the end).
+std::string suggestion(const ContinuationSummary& summary, const Scene& scene);
+
+// Every check `trace_scene` makes before its first Newton iteration (prepare_run, its
 // result dropped). For `frichb validate`.
 void check_run_start(const Scene& scene);
+
+// The results of one run, as report/run_report.hpp writes them. Move-only (it owns the model).
+struct RunResult {
+  // completed when the curve reached the end of the sweep; kExitIncomplete with the
+  // continuation's termination ("max_points", "step_too_small", ...) and message when it
+  // ended early (its results are written all the same); 128 + signal, termination
+  // "interrupted", when a signal stopped it (nothing to write).
+  Outcome outcome;
+  // The scene and its plugins when run_scene read them (null when the caller's scene was
+  // traced: the caller keeps it alive while the result lives).
+  std::shared_ptr<const BoundScene> bound;
+  const Scene* scene = nullptr;      // the scene traced
+  RunOptions options;                // as run
+  PreparedRun prepared;              // structure, model, continuation setup
+  ContinuationSummary summary;       // the curve's points and how it ended
+  ResponseTable table;               // response.csv's rows, the peaks, turning points
+  std::vector<FrictionLoop> loops;   // at output.friction_loops_at, every crossing
+  std::vector<FrictionLoop> states;  // at output.contact_states_at, every crossing
+  std::vector<NodePeak> peaks;       // of the output.response nodes that have one, in order
+  // Wall-clock times, s: set-up, continuation, peaks and loops, and the whole call.
+  double setup_seconds = 0.0, continuation_seconds = 0.0, post_seconds = 0.0, wall_seconds = 0.0;
+};
+
+// Runs every stage on a bound scene (load_bound_scene, or load_scene + bind_plugins): logs
+// progress (at debug level when options.quiet), writes nothing. Throws SceneError (located in
+// the scene) for a scene prepare_run refuses, std::runtime_error for a failure of the model
+// or a plugin. Safe to call concurrently from several threads on different Scene objects
+// (each call creates its own structure and contact-law instances).
+RunResult trace_scene(const Scene& scene, const RunOptions& options = {});
+
+// `frichb run`: the scene read from `scene` (load_bound_scene), then trace_scene. Throws as
+// both.
+RunResult run_scene(const SceneInput& scene, const RunOptions& options = {});
+
+// Writes a run's results into a folder: report/run_report.hpp's write_run_folder, handed down
+// by the caller of a verb that runs many scenes (the verbs compute, the report writes).
+using RunWriter = std::function<void(const RunResult& result, const std::filesystem::path& folder)>;
+
+// One member of a study or a convergence study: trace_scene, then `write` into `folder`
+// unless a signal stopped it. Never throws: a scene prepare_run refuses is termination
+// "invalid_input" (exit code 2), a folder that cannot be written "output_error" (2 or 5), any
+// other failure "internal_error" (4), each logged at error level.
+RunOutcome run_member(const Scene& scene, const std::filesystem::path& folder,
+                      const RunOptions& options, const RunWriter& write);
 
 }  // namespace frichb::core

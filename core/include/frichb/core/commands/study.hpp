@@ -88,9 +88,12 @@ std::vector<StudyRun> prepare_study_runs(const Scene& scene, const StudySpec& st
                                          const Registry& registry);
 
 struct StudyRequest {
-  std::filesystem::path scene_file;
+  SceneInput scene;
   std::filesystem::path output_directory;  // empty: out/<scene stem>-study
   int threads = -1;                        // -1: the scene's study.parallel
+  // Writes each run into runs/NNNN/ as it finishes (report/run_report.hpp's
+  // write_run_folder); required.
+  RunWriter write_run;
 };
 
 // Runs the study of a scene on `communicator`'s processes (run i on rank i mod size, each

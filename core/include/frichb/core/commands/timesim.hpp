@@ -7,16 +7,17 @@
 // response repeats from one period to the next (relative 1e-8, three periods in a row) or
 // `max_periods`. Use it to check a harmonic-balance result; it is far slower.
 //
-// Two entry points: simulate_in_time() integrates an already loaded and bound Scene in
-// process and returns the result (no files, no logging); run_timesim() is the command-line
-// verb: it loads the scene file, calls simulate_in_time() and writes timesim.csv and
-// summary.json.
+// Two entry points: simulate_in_time() integrates an already loaded and bound Scene and
+// returns the result (no files, no logging); integrate_scene() is the verb (commands/verb.hpp):
+// it loads the scene of a SceneInput and calls simulate_in_time(). report/timesim_report.hpp
+// writes its result.
 #pragma once
 
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "frichb/core/commands/verb.hpp"
 #include "frichb/core/scene/scene.hpp"
 
 namespace frichb::core {
@@ -44,6 +45,10 @@ struct TimesimNodeResult {
 };
 
 struct TimesimResult {
+  // completed, or kExitIncomplete with termination "not_periodic" when max_periods passed.
+  Outcome outcome;
+  std::filesystem::path scene_file;
+  TimesimOptions options;     // as integrated
   bool periodic = false;      // the response repeated (relative 1e-8, three periods in a row)
   int periods = 0;            // periods integrated (max_periods when not periodic)
   double wall_seconds = 0.0;  // wall-clock time of the whole call, s
@@ -78,20 +83,12 @@ struct TimesimResult {
 TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options);
 
 struct TimesimRequest {
-  std::filesystem::path scene_file;
-  std::filesystem::path output_directory;  // empty: out/<scene stem>-timesim
-  double frequency_hz = 0.0;
-  int steps_per_period = 4000;
-  int max_periods = 3000;
+  SceneInput scene;
+  TimesimOptions integration;
 };
 
-// load_bound_scene + simulate_in_time, then writes timesim.csv (the last period: time and
-// each response node's DOFs) and summary.json (per response node: maximum over the period of
-// the displacement norm, half peak-to-peak, harmonic amplitudes; periods run; whether the
-// response became periodic). Logs through spdlog and never throws. Returns an ExitCode
-// (run.hpp): kExitInvalidInput for a scene it cannot load or integrate (SceneError),
-// kExitInternal for any other failure, kExitIncomplete when max_periods passed without a
-// periodic response (outputs written), kExitOk otherwise.
-int run_timesim(const TimesimRequest& request);
+// load_bound_scene + simulate_in_time. Throws as simulate_in_time, and SceneError or
+// PluginError for a scene it cannot load. Logs the periods integrated.
+TimesimResult integrate_scene(const TimesimRequest& request);
 
 }  // namespace frichb::core

@@ -140,13 +140,11 @@ class StructureInstance {
 
 // Plugin folders that an input file names (a scene's or a loop input's `plugin_paths`) are
 // not trusted: loading a library runs its code, so a plugin found only there is loaded when
-// the user allows it (`frichb --allow-scene-plugins`) or lists the folder in
-// FRICHB_PLUGIN_PATH. Process-wide setting (set once, before any scene is loaded).
-void allow_input_plugin_folders(bool allowed);
-bool input_plugin_folders_allowed();
+// the caller allows it (`allowed`: `frichb --allow-scene-plugins`, SceneInput's
+// allow_scene_plugins) or when the folder is on the default search path (FRICHB_PLUGIN_PATH).
 // Throws PluginError naming `plugin_file` and the folder when the file lies in one of
 // `input_folders` and loading from there is not allowed.
 void check_plugin_allowed(const std::filesystem::path& plugin_file,
-                          const std::vector<std::filesystem::path>& input_folders);
+                          const std::vector<std::filesystem::path>& input_folders, bool allowed);
 
 }  // namespace frichb::core

@@ -1,11 +1,11 @@
 // The report of a response-curve run: response.csv, the friction loops (loops/*.csv, their
-// force harmonics, plots), response.png and summary.json, from the stages' results
-// (model/response_curve.hpp). One place decides what each file holds, for frichb run and for
-// every verb that runs scenes (study members, convergence runs) through it.
+// force harmonics, plots), the contact states, response.png and summary.json, from a RunResult
+// (commands/run.hpp). One place decides what each file holds, for frichb run and for every
+// verb that runs scenes (study members, convergence runs) through it.
 //
 // Units: summary.json and the CSV columns say theirs (frequency in the scene's unit where a key
 // has no suffix; _hz, _rad_s, _m, _N, _J otherwise). Failure: writes throw OutputError
-// (report/output.hpp); nothing else is thrown. Threading: reads its inputs; one report per
+// (support/output.hpp); nothing else is thrown. Threading: reads its inputs; one report per
 // output folder.
 #pragma once
 
@@ -13,14 +13,25 @@
 #include <string>
 #include <vector>
 
+#include "frichb/core/commands/run.hpp"
 #include "frichb/core/model/continuation_setup.hpp"
 #include "frichb/core/model/response_curve.hpp"
-#include "frichb/core/report/output.hpp"
+#include "frichb/core/support/output.hpp"
 
 namespace frichb::core {
 
-// A Newton matrix whose condition estimate exceeds this has lost 10 of 16 digits: warned.
-inline constexpr double kIllConditioned = 1e10;
+// The top-level names write_run writes: the output folder's managed names.
+std::vector<std::string> run_outputs();
+// Writes every file of the run into the staged folder `out` (the caller commits), and logs
+// the run's outputs at info level (debug when result.options.quiet).
+void write_run(const RunResult& result, StagedOutput& out);
+// write_run into `folder`, staged and committed: the RunWriter of study and convergence
+// members.
+void write_run_folder(const RunResult& result, const std::filesystem::path& folder);
+// run_member with write_run_folder: trace a bound scene and write it into `folder`. Never
+// throws.
+RunOutcome run_bound_scene(const Scene& scene, const std::filesystem::path& folder,
+                           const RunOptions& options = {});
 
 // Everything a run's report reads. References: the caller keeps them alive during the calls.
 struct RunRecord {
@@ -31,9 +42,6 @@ struct RunRecord {
   const ResponseTable& table;
   const std::vector<FrictionLoop>& loops;
 };
-
-// What a user can change when the curve ends early, by reason ("" when it reached the end).
-std::string suggestion(const ContinuationSummary& summary, const Scene& scene);
 
 // Writes response.csv, every friction loop (loops/<contact>_<frequency><unit>_<crossing>.csv
 // and _harmonics.csv) and, when `plots`, their gnuplot scripts and PNGs and response.png into
@@ -49,10 +57,6 @@ nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool p
 // coloured by the share stuck. Returns the contact_states entries of summary.json.
 nlohmann::json write_contact_states(StagedOutput& out, const RunRecord& run,
                                     const std::vector<FrictionLoop>& states, bool plots);
-
-// Logs the warnings a run's results call for: micro-folds, an ill-conditioned Newton matrix,
-// contact traces that did not become periodic, contact traces by finite differences.
-void warn_about_results(const RunRecord& run);
 
 // The summary.json document of a run: termination and suggestion, curve statistics, the
 // profile, resonance bands, peaks, scaling, plugins, the validated scene, `friction_loops`

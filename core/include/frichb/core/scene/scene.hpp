@@ -130,6 +130,29 @@ struct CyclicSpec {
   }
 };
 
+// Overrides of scene keys (`frichb run SCENE --set PATH=VALUE`, or a library caller's
+// SceneInput::overrides): a scene-key path (below) and a value in YAML's flow syntax, typed by
+// the schema of the key it sets like a value written in the file: a number, a boolean, a word,
+// or a list (`[330, 400]`). A scalar value sets a scalar (or a key the scene did not write); a
+// list value also replaces a list. They travel with the scene (Scene::overrides): every
+// document read again from its file (a study's runs, a convergence study's settings) has them
+// applied, and summary.json records them.
+struct SceneOverride {
+  std::string path;
+  std::string value;  // YAML flow text
+};
+
+// Where a verb reads its scene from and what its caller changes in it: the options every
+// scene-reading verb takes first. No process-wide setting changes how a scene is read.
+struct SceneInput {
+  std::filesystem::path file;
+  std::vector<SceneOverride> overrides;  // applied in order to the document read from `file`
+  // Load plugins from the folders the scene's plugin_paths names (loading a library runs its
+  // code: off unless the user allows it, `--allow-scene-plugins`). Folders of the default
+  // search path and FRICHB_PLUGIN_PATH are always allowed.
+  bool allow_scene_plugins = false;
+};
+
 struct OutputSpec {
   std::vector<std::string> response;      // node names
   std::vector<double> friction_loops_at;  // in the continuation unit
@@ -139,6 +162,10 @@ struct OutputSpec {
 
 struct Scene {
   std::filesystem::path file;
+  // How the scene was read (SceneInput): kept so that every re-reading applies the same
+  // overrides and every binding the same plugin permission.
+  std::vector<SceneOverride> overrides;
+  bool allow_scene_plugins = false;
   std::string name, description;
   std::vector<std::filesystem::path> plugin_paths;  // resolved against the scene's folder
   StructureSpec structure;
@@ -152,8 +179,10 @@ struct Scene {
   nlohmann::json core_values;  // every core key with its default filled in
 };
 
-// Parses and validates the scene's own structure. Throws SceneError.
-Scene load_scene(const std::filesystem::path& file);
+// Parses and validates the scene's own structure, `overrides` applied (and kept in
+// Scene::overrides). Throws SceneError.
+Scene load_scene(const std::filesystem::path& file,
+                 const std::vector<SceneOverride>& overrides = {});
 // The same on a document already parsed from `file` (marks give lines and columns in it).
 // The scene keeps a handle to `document`: give each Scene its own document.
 Scene load_scene(const YAML::Node& document, const std::filesystem::path& file);
@@ -184,17 +213,6 @@ void check_scene_path(const YAML::Node& document, const std::string& path);
 // A value as set_scene_value writes it.
 std::string format_scene_value(double x);
 
-// Command-line overrides of scene keys (`frichb run SCENE --set PATH=VALUE`): a scene-key
-// path (above) and a value in YAML's flow syntax, typed by the schema of the key it sets like a
-// value written in the file: a number, a boolean, a word, or a list (`[330, 400]`). A scalar
-// value sets a scalar (or a key the scene did not write); a list value also replaces a list.
-// Set once by the program before any scene is read (not thread-safe against concurrent
-// loads); every scene document read by load_scene_document() then has them applied, so
-// that a study's runs and a convergence study's settings carry them too.
-struct SceneOverride {
-  std::string path;
-  std::string value;  // YAML flow text
-};
 // Reads `PATH=VALUE`. Throws std::invalid_argument saying what is wrong with it (no '=', an
 // empty side, a malformed path, a value that is not YAML, a map, or a number out of range).
 SceneOverride parse_scene_override(const std::string& text);
@@ -202,22 +220,27 @@ SceneOverride parse_scene_override(const std::string& text);
 nlohmann::json scene_override_json(const SceneOverride& o);
 // Applies one override to `document`. Throws std::invalid_argument as set_scene_value.
 void set_scene_override(YAML::Node document, const SceneOverride& o);
-void set_scene_overrides(std::vector<SceneOverride> overrides);
-const std::vector<SceneOverride>& scene_overrides();
-// load_scene_yaml with the overrides applied. Throws SceneError naming the file and the
+// load_scene_yaml with `overrides` applied. Throws SceneError naming the file and the
 // override (`--set PATH`) whose path does not resolve.
-YAML::Node load_scene_document(const std::filesystem::path& file);
+YAML::Node load_scene_document(const std::filesystem::path& file,
+                               const std::vector<SceneOverride>& overrides);
 
-// Loads the plugins the scene names (and only those) and validates their params.
+// Loads the plugins the scene names (and only those) and validates their params. A plugin
+// found only in a folder of scene.plugin_paths is refused unless scene.allow_scene_plugins.
 // Throws SceneError (bad params, with file:line:column) or PluginError (unknown plugin...).
 void bind_plugins(Scene& scene, const Registry& registry);
 
-// load_scene + bind_plugins on the default plugin search path (and the scene's plugin_paths),
-// for the verbs of the command line: any input error is logged (file:line:column where known)
-// and false returned, for the caller to exit with kExitInvalidInput. `registry` keeps the
-// loaded plugins alive.
-bool load_bound_scene(const std::filesystem::path& file, Scene& scene,
-                      std::unique_ptr<Registry>& registry);
+// A scene bound to its plugins, with the registry that keeps them loaded (members destroyed
+// scene first).
+struct BoundScene {
+  std::unique_ptr<Registry> registry;
+  Scene scene;
+};
+// load_scene + bind_plugins on the default plugin search path and the scene's plugin_paths
+// (loaded from only when input.allow_scene_plugins). Throws SceneError (file:line:column and
+// key where known; any other failure while reading the input is reported as one, naming the
+// file) or PluginError.
+BoundScene load_bound_scene(const SceneInput& input);
 
 // The validated scene, defaults filled in, for summary.json.
 nlohmann::json scene_to_json(const Scene& scene);

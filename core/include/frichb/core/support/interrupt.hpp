@@ -4,7 +4,20 @@
 // signal's number. Thread-safe (a lock-free atomic).
 #pragma once
 
+#include <stdexcept>
+
 namespace frichb::core {
+
+// Thrown where a computation or a writer stops for a recorded signal (StagedOutput::commit
+// refuses to commit after one); report_failure maps it to 128 + the signal.
+class Interrupted : public std::runtime_error {
+ public:
+  explicit Interrupted(int signal);
+  int signal() const { return signal_; }
+
+ private:
+  int signal_;
+};
 
 // Installs handlers for SIGINT and SIGTERM that record the signal (the first one wins; a
 // second one then ends the process). For the verbs that poll it.

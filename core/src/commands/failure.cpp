@@ -1,14 +1,16 @@
 // The one mapping from a failure to an exit code (failure.hpp).
-#include "frichb/core/report/failure.hpp"
+#include "frichb/core/commands/failure.hpp"
 
 #include <spdlog/spdlog.h>
 
 #include <exception>
 
+#include "frichb/core/fe_import/sector_import.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
 #include "frichb/core/plugin_host/schema.hpp"
-#include "frichb/core/report/output.hpp"
 #include "frichb/core/support/exit_codes.hpp"
+#include "frichb/core/support/interrupt.hpp"
+#include "frichb/core/support/output.hpp"
 
 namespace frichb::core {
 
@@ -33,6 +35,15 @@ int report_failure(const std::string& file) noexcept {
     } catch (const PluginError& e) {
       log_error(file, "", e.what());
       return kExitInvalidInput;
+    } catch (const ImportError& e) {
+      spdlog::error("{}", e.what());
+      return kExitInvalidInput;
+    } catch (const ImportWriteError& e) {
+      log_error(file, "writing the outputs: ", e.what());
+      return kExitOutput;
+    } catch (const Interrupted& e) {
+      log_error(file, "", e.what());
+      return 128 + e.signal();
     } catch (const OutputError& e) {
       log_error(file, "writing the outputs: ", e.what());
       return e.user_error() ? kExitInvalidInput : kExitOutput;

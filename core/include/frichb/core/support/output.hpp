@@ -69,7 +69,8 @@ class StagedOutput {
   const std::filesystem::path& final_directory() const { return final_; }
   // Syncs the staged files and replaces the managed names of the final folder with them.
   // Throws OutputError; the final folder then holds the earlier set or, where the failure
-  // came after the swap, the new one.
+  // came after the swap, the new one. Throws Interrupted (support/interrupt.hpp), committing
+  // nothing, when a signal was recorded.
   void commit();
 
   // Test seam: `hook` is called with the name of each step of commit() ("synced",

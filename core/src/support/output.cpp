@@ -1,4 +1,4 @@
-#include "frichb/core/report/output.hpp"
+#include "frichb/core/support/output.hpp"
 
 #include <fcntl.h>
 #include <linux/magic.h>
@@ -514,6 +514,8 @@ fs::path StagedOutput::path(const fs::path& relative) const {
 }
 
 void StagedOutput::commit() {
+  // A signal while the set was written (gnuplot runs a while): nothing is committed.
+  if (interrupted()) throw Interrupted(interrupt_signal());
   const fs::path parent = final_.parent_path();
   // Every top-level name of the new set is the writer's to replace, and is recorded for the
   // next run into the folder to remove.
