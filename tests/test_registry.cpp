@@ -8,8 +8,10 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <boost/dll/shared_library.hpp>
 #include <filesystem>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "frichb/core/plugin_host/registry.hpp"
@@ -77,6 +79,28 @@ TEST(Registry, MissingFoldersOnTheSearchPathAreSkipped) {
   EXPECT_THAT(registry.names(), Contains("jenkins_1d"));
   const Registry empty({kPluginDir / "no_such_folder"});
   EXPECT_TRUE(empty.names().empty());
+}
+
+TEST(Registry, TheFirstFolderIsRelativeToTheProgramHoldingTheCore) {
+  // The core is linked into this test program: <program dir>/../lib/frichb/plugins.
+  const fs::path program = fs::canonical("/proc/self/exe");
+  std::error_code ec;
+  EXPECT_EQ(frichb::core::core_binary_location(ec), program);
+  EXPECT_FALSE(ec) << ec.message();
+  const auto path = Registry::default_search_path();
+  ASSERT_FALSE(path.empty());
+  EXPECT_EQ(path.front(), program.parent_path().parent_path() / "lib/frichb/plugins");
+}
+
+TEST(Registry, TheFirstFolderIsRelativeToTheModuleHoldingTheCore) {
+  // A module linking the core (as a Python extension does) searches beside itself, not
+  // beside the program that loaded it.
+  const fs::path module_dir = FRICHB_TEST_CORE_MODULE_DIR;
+  const boost::dll::shared_library module(
+      module_dir / "bin" / "frichb_test_core_module.so",
+      boost::dll::load_mode::rtld_lazy | boost::dll::load_mode::rtld_local);
+  const auto first = module.get<const char*()>("frichb_test_first_plugin_folder");
+  EXPECT_EQ(fs::path(first()), module_dir / "lib/frichb/plugins");
 }
 
 TEST(Registry, LoadsAContactLawWithVersionSummaryAndSchema) {

@@ -32,9 +32,10 @@ const char* kFooter =
             4 internal error; 5 the outputs could not be written (disk full, I/O error: the
             output folder keeps its earlier results); 130/143 interrupted by SIGINT/SIGTERM
             (no output written).
-Plugins are searched in <frichb dir>/../lib/frichb/plugins, the install prefix,
-$FRICHB_PLUGIN_PATH (':'-separated) and the scene's plugin_paths; a plugin found only in a
-scene's plugin_paths is loaded (its code run) only with --allow-scene-plugins.
+Plugins are searched in <dir>/../lib/frichb/plugins, relative to the binary holding the
+FricHB core (the frichb program, or the program or module linking the core), the install
+prefix, $FRICHB_PLUGIN_PATH (':'-separated) and the scene's plugin_paths; a plugin found
+only in a scene's plugin_paths is loaded (its code run) only with --allow-scene-plugins.
 Documentation: docs/getting-started.md and docs/scene-reference.md.
 )";
 

@@ -1,5 +1,7 @@
 #include "frichb/core/plugin_host/registry.hpp"
 
+#include <dlfcn.h>
+#include <link.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -60,11 +62,34 @@ std::shared_ptr<const LoadedPlugin> load_plugin_file(const fs::path& file) {
   return std::make_shared<LoadedPlugin>(std::move(library), d, file);
 }
 
+namespace {
+
+// Anchors the lookup of the binary that holds this code.
+const char core_binary_anchor = 0;
+
+}  // namespace
+
+fs::path core_binary_location(std::error_code& ec) {
+  ec.clear();
+  Dl_info info{};
+  link_map* map = nullptr;
+  if (dladdr1(&core_binary_anchor, &info, reinterpret_cast<void**>(&map), RTLD_DL_LINKMAP) == 0 ||
+      map == nullptr) {
+    ec = std::make_error_code(std::errc::bad_address);
+    return {};
+  }
+  // The main program's link map has no name (and dladdr would give argv[0], which is not a
+  // path when the program was found on PATH): its file is /proc/self/exe.
+  if (map->l_name == nullptr || map->l_name[0] == '\0') return boost::dll::program_location(ec);
+  return fs::absolute(fs::path(map->l_name), ec);
+}
+
 std::vector<fs::path> Registry::default_search_path(const std::vector<fs::path>& extra) {
   std::vector<fs::path> path;
   std::error_code ec;
-  const fs::path exe = boost::dll::program_location(ec);
-  if (!ec) path.push_back(exe.parent_path().parent_path() / FRICHB_PLUGIN_SUBDIR);
+  const fs::path binary = core_binary_location(ec);
+  if (!ec && !binary.empty())
+    path.push_back(binary.parent_path().parent_path() / FRICHB_PLUGIN_SUBDIR);
   path.push_back(fs::path(FRICHB_INSTALL_PREFIX) / FRICHB_PLUGIN_SUBDIR);
   if (const char* env = std::getenv("FRICHB_PLUGIN_PATH")) {
     std::stringstream ss(env);

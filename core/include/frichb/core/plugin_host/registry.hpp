@@ -12,6 +12,7 @@
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "frichb/core/plugin_host/schema.hpp"
@@ -54,11 +55,17 @@ class LoadedPlugin {
 // size, kind consistent with its function table). Throws PluginError naming the file.
 std::shared_ptr<const LoadedPlugin> load_plugin_file(const std::filesystem::path& file);
 
+// The file of the binary that holds the FricHB core: the core is a static library, so this is
+// the program or the shared module (a Python extension, a plugin of another application) it
+// is linked into, not necessarily the running program. Sets `ec` when it cannot be found.
+std::filesystem::path core_binary_location(std::error_code& ec);
+
 class Registry {
  public:
-  // Search path in priority order: the folder beside the running program
-  // (<exe>/../lib/frichb/plugins: the build tree and an installed prefix), the configured
-  // install prefix, each entry of $FRICHB_PLUGIN_PATH (':'-separated), then `extra`.
+  // Search path in priority order: <dir>/../lib/frichb/plugins, <dir> the folder of
+  // core_binary_location() (the frichb program, or the program or module linking the core;
+  // the build tree and an installed prefix alike), the configured install prefix, each entry
+  // of $FRICHB_PLUGIN_PATH (':'-separated), then `extra`.
   static std::vector<std::filesystem::path> default_search_path(
       const std::vector<std::filesystem::path>& extra = {});
 
