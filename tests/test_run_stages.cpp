@@ -8,12 +8,15 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "frichb/core/commands/run.hpp"
+#include "frichb/core/numerics/dense_lu.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
 #include "frichb/core/plugin_host/schema.hpp"
 #include "frichb/core/report/run_report.hpp"
@@ -184,3 +187,104 @@ TEST(RunStages, PrepareLocatesADofTheStructureLacks) {
 }
 
 }  // namespace
+
+namespace {
+
+std::string file_bytes(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+// `document` without its times (keys ending in _s) and the process's peak memory: what two
+// identical runs differ in.
+void drop_times(nlohmann::json& document) {
+  if (!document.is_object()) return;
+  for (auto it = document.begin(); it != document.end();) {
+    if (it.key().ends_with("_s") || it.key() == "peak_memory_mib") {
+      it = document.erase(it);
+    } else {
+      drop_times(it.value());
+      ++it;
+    }
+  }
+}
+
+// Every regular file under `folder`, by its path relative to it, with its bytes; summary.json
+// without its times.
+std::map<std::string, std::string> folder_bytes(const fs::path& folder) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::recursive_directory_iterator(folder)) {
+    if (!entry.is_regular_file()) continue;
+    const std::string name = entry.path().lexically_relative(folder).string();
+    if (name == "summary.json") {
+      auto summary = nlohmann::json::parse(file_bytes(entry.path()));
+      drop_times(summary);
+      files[name] = summary.dump(1);
+    } else if (name != std::string(StagedOutput::kManifest)) {
+      files[name] = file_bytes(entry.path());
+    }
+  }
+  return files;
+}
+
+}  // namespace
+
+// Two different scenes traced at once on two threads of one process (the verb as a library
+// calls it: run_scene, then write_run_folder) give the results of the same two runs made one
+// after the other: the same numbers in memory, bit for bit, and the same files byte for byte.
+// Thread counts are fixed (one contact thread per run, one dense-solver thread). The first
+// scene carries an override of its own, which the other must not see.
+TEST(RunStages, TwoScenesRunConcurrentlyGiveTheResultsOfTwoRunsInTurn) {
+  const std::vector<fs::path> scenes = {
+      fs::path(FRICHB_SOURCE_DIR) / "configs/quickstart_friction_oscillator.yaml",
+      fs::path(FRICHB_SOURCE_DIR) / "configs/two_dof_blade_damper.yaml"};
+  set_dense_solver_threads(1);
+  RunOptions options;
+  options.contact_threads = 1;
+  options.plots = 0;
+  options.quiet = true;
+  frichb::test::TempDir dir;
+  auto run = [&](std::size_t k, const std::string& tag) {
+    std::vector<SceneOverride> overrides;
+    if (k == 0) overrides.push_back({"contacts.root_friction.params.normal_load", "3"});
+    RunResult result = run_scene(SceneInput{scenes[k], overrides, false}, options);
+    write_run_folder(result, dir.path() / (tag + std::to_string(k)));
+    return result;
+  };
+  std::vector<RunResult> in_turn;
+  for (std::size_t k = 0; k < scenes.size(); ++k) in_turn.push_back(run(k, "in_turn_"));
+  std::vector<RunResult> together(scenes.size());
+  {
+    std::vector<std::jthread> threads;
+    for (std::size_t k = 0; k < scenes.size(); ++k)
+      threads.emplace_back([&, k] { together[k] = run(k, "together_"); });
+  }
+  for (std::size_t k = 0; k < scenes.size(); ++k) {
+    SCOPED_TRACE(scenes[k].filename().string());
+    ASSERT_EQ(in_turn[k].outcome.status, kExitOk) << in_turn[k].outcome.message;
+    ASSERT_EQ(together[k].outcome.status, kExitOk) << together[k].outcome.message;
+    ASSERT_GT(in_turn[k].table.rows.size(), 50u);
+    EXPECT_EQ(together[k].table.rows, in_turn[k].table.rows);
+    ASSERT_EQ(together[k].peaks.size(), in_turn[k].peaks.size());
+    for (std::size_t p = 0; p < in_turn[k].peaks.size(); ++p) {
+      EXPECT_EQ(together[k].peaks[p].amplitude_m, in_turn[k].peaks[p].amplitude_m);
+      EXPECT_EQ(together[k].peaks[p].omega_rad_s, in_turn[k].peaks[p].omega_rad_s);
+    }
+    const auto a = folder_bytes(dir.path() / ("in_turn_" + std::to_string(k)));
+    const auto b = folder_bytes(dir.path() / ("together_" + std::to_string(k)));
+    EXPECT_GE(a.size(), 2u);  // response.csv, summary.json (and the friction loops)
+    EXPECT_EQ(a, b);
+  }
+  // The two scenes are different runs: the comparison above is not of a run with itself.
+  EXPECT_NE(in_turn[0].table.rows, in_turn[1].table.rows);
+  // The override reached its own run only.
+  const auto summary = [&](const std::string& folder) {
+    return nlohmann::json::parse(file_bytes(dir.path() / folder / "summary.json"));
+  };
+  EXPECT_EQ(
+      summary("together_0")["command_line_overrides"]["contacts.root_friction.params.normal_load"],
+      3);
+  EXPECT_FALSE(summary("together_1").contains("command_line_overrides"));
+}

@@ -33,7 +33,6 @@ namespace frichb::app {
 namespace {
 
 namespace fs = std::filesystem;
-using core::kExitOk;
 using core::kExitUsage;
 
 // The one way a verb runs on the command line (core/include/frichb/core/commands/verb.hpp):

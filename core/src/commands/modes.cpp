@@ -27,7 +27,7 @@ ModesResult compute_modes(const ModesOptions& options) {
   // Harmonic indices h and sectors - h have complex-conjugate sector matrices, hence the
   // same natural frequencies: only h = 0..sectors/2 (one per nodal diameter) are solved.
   auto& by_nd = result.frequencies_hz;
-  by_nd.resize(static_cast<std::size_t>(result.sectors / 2 + 1));
+  by_nd.resize(static_cast<std::size_t>(result.sectors / 2) + 1);
   const auto started = std::chrono::steady_clock::now();
   for (int h = 0; 2 * h <= result.sectors; ++h) {
     const frichb_modal_basis b = structure.modal_basis(h, kept);

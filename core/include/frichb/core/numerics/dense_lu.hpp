@@ -6,8 +6,10 @@
 // Eigen's PartialPivLU. Both give the same factors up to rounding (same pivoting rule).
 //
 // Threading: an object is used by one thread. OpenBLAS itself may run a factorisation on
-// several threads; set_dense_solver_threads bounds them (a study running one scene per core
-// sets 1, so that its threads do not oversubscribe the cores).
+// several threads; set_dense_solver_threads bounds them. The bound is process-wide (OpenBLAS
+// keeps one): OpenBLAS's default (every core, or OPENBLAS_NUM_THREADS) until a program sets
+// it; `frichb study` sets it once per process to the cores each of its runs gets (1 for one
+// scene per core); a program running several verbs at once sets it once, before them.
 // Failure: factorising a matrix with a non-finite entry gives rcond() == 0; a singular matrix
 // gives rcond() == 0 (exactly singular) or a tiny estimate. solve() on such a matrix returns
 // non-finite entries rather than throwing; callers test invertible() first.

@@ -1,5 +1,5 @@
-// The exit codes of the frichb program, returned by every verb's entry point (run_scene,
-// run_study, run_loop, ...) and documented in docs/getting-started.md.
+// The exit codes of the frichb program (a verb's Outcome::status, commands/verb.hpp, and
+// report_failure's mapping of what a verb throws), documented in docs/getting-started.md.
 #pragma once
 
 namespace frichb::core {

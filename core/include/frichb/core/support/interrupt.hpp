@@ -1,7 +1,9 @@
 // Interruption by SIGINT or SIGTERM: the signal only sets a flag; long computations poll it
 // (the continuation at every step, Newton solves at every iteration, studies between runs, child
 // programs while they run), stop, discard their staged outputs and return exit code 128 + the
-// signal's number. Thread-safe (a lock-free atomic).
+// signal's number. Thread-safe (a lock-free atomic). The flag is process-wide: a recorded stop
+// stops every computation of the process. Only the frichb program installs the handlers; a
+// program that links the core keeps its own and calls request_interrupt to stop the core.
 #pragma once
 
 #include <stdexcept>
