@@ -277,6 +277,40 @@ TEST_F(Cli, MissingSceneFile) {
   EXPECT_THAT(v.output, HasSubstr("cannot open the scene file"));
 }
 
+// An input a verb cannot read is refused before its output folder is made: a nested -o leaves
+// no folder behind, for every verb that writes one.
+TEST_F(Cli, ARefusedInputCreatesNoOutputFolder) {
+  const fs::path missing = dir_ / "no_such_input.yaml";
+  const fs::path out = dir_ / "a" / "b" / "out";
+  for (const std::string verb :
+       {"run", "study", "loop", "modes", "timesim --at-hz 300", "convergence"}) {
+    SCOPED_TRACE(verb);
+    const Result r = frichb(verb + " " + quoted(missing) + " -o " + quoted(out));
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_THAT(r.output, HasSubstr(missing.string()));
+    EXPECT_TRUE(fs::is_empty(dir_)) << "left behind: " << (dir_ / "a").string();
+  }
+}
+
+// `frichb convergence` end to end: each setting's run under runs/, the table of every setting
+// with its errors against the finest, and the incomplete count in the exit code (0 here).
+TEST_F(Cli, ConvergenceWritesEverySettingsRunAndTheTable) {
+  const fs::path out = dir_ / "conv";
+  const Result r =
+      frichb("convergence " + quoted(kQuickstart) +
+             " --harmonics 1,3 --samples 64 --oversampling 1 --no-timesim -o " + quoted(out));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto report = nlohmann::json::parse(read_text(out / "convergence.json"));
+  EXPECT_EQ(report.at("reference"), "H3_N64_o1");
+  ASSERT_EQ(report.at("settings").size(), 2u);
+  EXPECT_EQ(report.at("settings").at(1).at("amplitude_error"), 0.0);
+  EXPECT_GT(report.at("settings").at(0).at("amplitude_error").get<double>(), 0.0);
+  EXPECT_TRUE(report.at("time_integration").is_null());
+  for (const char* id : {"H1_N64_o1", "H3_N64_o1"})
+    EXPECT_TRUE(fs::is_regular_file(out / "runs" / id / "response.csv")) << id;
+  EXPECT_THAT(read_text(out / "convergence.md"), HasSubstr("| reference |"));
+}
+
 TEST_F(Cli, PluginOfAnotherAbi) {
   ASSERT_TRUE(fs::is_regular_file(kTestPluginDir / "frichb_test_wrong_abi.so"))
       << "build the target frichb_test_plugins";

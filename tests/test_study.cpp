@@ -12,6 +12,7 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <regex>
 #include <sstream>
 
@@ -19,6 +20,7 @@
 #include "frichb/core/commands/study.hpp"
 #include "frichb/core/report/convergence_report.hpp"
 #include "frichb/core/report/run_report.hpp"
+#include "frichb/core/report/study_report.hpp"
 #include "frichb/core/support/output.hpp"
 #include "test_support.hpp"
 
@@ -29,14 +31,27 @@ using frichb::test::TempDir;
 using namespace frichb::core;
 using ::testing::HasSubstr;
 
-// A study request as the command line makes it: each run written into runs/NNNN/.
-StudyRequest study_request(const fs::path& scene, const fs::path& folder, int threads) {
+// A study as the command line runs it: the output folder staged once every rank has
+// validated, each run written into runs/NNNN/, the index written and committed by rank 0.
+// Returns the study's exit code.
+int study_into(const fs::path& scene, const fs::path& folder, int threads,
+               StudyCommunicator& comm) {
   StudyRequest request;
   request.scene.file = scene;
-  request.output_directory = folder;
   request.threads = threads;
+  std::optional<StagedOutput> out;
+  request.stage_runs = [&] {
+    out.emplace(folder, study_outputs());
+    return out->path("runs");
+  };
   request.write_run = write_run_folder;
-  return request;
+  const StudyResult result = run_study(request, comm);
+  const int code = result.outcome.status;
+  if (result.leader && (code == kExitOk || code == kExitIncomplete)) {
+    write_study(result, *out);
+    out->commit();
+  }
+  return code;
 }
 
 const fs::path kQuickstart =
@@ -266,7 +281,7 @@ TEST(StudyRun, RunsMatchHandEditedScenesAndLinearLimits) {
       "    - {path: contacts.root_friction.params.normal_load, values: [1.0e6, 5.0, 5.0]}\n"
       "    - {path: contacts.root_friction.params.mu, values: [0.5, 0.5, 0.0]}\n");
   StudyCommunicator serial;
-  ASSERT_EQ(run_study(study_request(file, dir.path() / "study", -1), serial), kExitOk);
+  ASSERT_EQ(study_into(file, dir.path() / "study", -1, serial), kExitOk);
   const auto index = nlohmann::json::parse(read_text(dir.path() / "study" / "study.json"));
   ASSERT_EQ(index["runs"].size(), 3u);
   const double peak_stuck = index["runs"][0]["peak"]["blade"]["amplitude_m"].get<double>();
@@ -320,8 +335,8 @@ TEST(StudyRun, SweptVariablesAreTheKeysTheyStandFor) {
       "    - {path: contacts.root_friction.params.normal_load, values: [1.0e6, 5]}\n",
       "keys.yaml");
   StudyCommunicator serial;
-  ASSERT_EQ(run_study(study_request(by_variable, dir.path() / "variable", 1), serial), kExitOk);
-  ASSERT_EQ(run_study(study_request(by_key, dir.path() / "key", 1), serial), kExitOk);
+  ASSERT_EQ(study_into(by_variable, dir.path() / "variable", 1, serial), kExitOk);
+  ASSERT_EQ(study_into(by_key, dir.path() / "key", 1, serial), kExitOk);
   for (const char* run : {"0000", "0001"})
     EXPECT_EQ(read_text(dir.path() / "variable" / "runs" / run / "response.csv"),
               read_text(dir.path() / "key" / "runs" / run / "response.csv"))
@@ -385,8 +400,8 @@ TEST(StudyRun, OneThreadAndTwoThreadsWriteTheSameIndex) {
       "    - {path: contacts.root_friction.params.normal_load, values: [2, 5]}\n"
       "    - {path: excitation.0.amplitude, values: [1, 3]}\n");
   StudyCommunicator serial;
-  ASSERT_EQ(run_study(study_request(file, dir.path() / "one", 1), serial), kExitOk);
-  ASSERT_EQ(run_study(study_request(file, dir.path() / "two", 2), serial), kExitOk);
+  ASSERT_EQ(study_into(file, dir.path() / "one", 1, serial), kExitOk);
+  ASSERT_EQ(study_into(file, dir.path() / "two", 2, serial), kExitOk);
   EXPECT_EQ(without_wall_time(dir.path() / "one" / "study.csv"),
             without_wall_time(dir.path() / "two" / "study.csv"));
   for (const char* run : {"0000", "0001", "0002", "0003"})
@@ -404,7 +419,7 @@ TEST(StudyRun, InvalidStudyWritesNothing) {
   const auto file = quickstart_with_study(
       dir, "study:\n  sweep:\n    - {path: contacts.root_friction.params.kt, values: [1, -5]}\n");
   StudyCommunicator serial;
-  EXPECT_EQ(run_study(study_request(file, dir.path() / "out", -1), serial), kExitInvalidInput);
+  EXPECT_EQ(study_into(file, dir.path() / "out", -1, serial), kExitInvalidInput);
   EXPECT_FALSE(fs::exists(dir.path() / "out"));
 }
 
@@ -452,7 +467,7 @@ TEST(StudyRun, ARankStopsWhenAnotherCouldNotValidate) {
   const auto file = quickstart_with_study(
       dir, "study:\n  sweep:\n    - {path: contacts.root_friction.params.kt, values: [1e5]}\n");
   RankOneOfTwo rank_one(std::to_string(kExitInvalidInput));
-  EXPECT_EQ(run_study(study_request(file, dir.path() / "out", 1), rank_one), kExitInvalidInput);
+  EXPECT_EQ(study_into(file, dir.path() / "out", 1, rank_one), kExitInvalidInput);
   EXPECT_FALSE(fs::exists(dir.path() / "out"));
   // One collective pair, the verdict; no staging folder broadcast, no outcomes gathered.
   EXPECT_EQ(rank_one.gathers, 1);
@@ -471,15 +486,18 @@ TEST(Output, JsonWithTextThatIsNotUtf8IsWritten) {
             "cannot read caf\xef\xbf\xbd.yaml");
 }
 
-// The convergence verb as the command line runs it: the folder staged, each setting's run
-// written into runs/, the report written and committed. Returns the result.
+// The convergence verb as a library caller runs it into a folder: the folder staged once the
+// request is valid, each setting's run written into runs/, the report written and committed.
 ConvergenceResult convergence_into(ConvergenceRequest request, const fs::path& folder) {
-  StagedOutput out(folder, convergence_outputs());
-  request.runs_folder = out.path("runs");
+  std::optional<StagedOutput> out;
+  request.stage_runs = [&] {
+    out.emplace(folder, convergence_outputs());
+    return out->path("runs");
+  };
   request.write_run = write_run_folder;
   ConvergenceResult result = study_convergence(request);
-  write_convergence(result, out);
-  out.commit();
+  write_convergence(result, *out);
+  out->commit();
   return result;
 }
 

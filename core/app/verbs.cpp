@@ -2,6 +2,7 @@
 #include <spdlog/spdlog.h>
 
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -23,6 +24,7 @@
 #include "frichb/core/report/loop_report.hpp"
 #include "frichb/core/report/modes_report.hpp"
 #include "frichb/core/report/run_report.hpp"
+#include "frichb/core/report/study_report.hpp"
 #include "frichb/core/report/timesim_report.hpp"
 #include "frichb/core/report/validate_report.hpp"
 #include "frichb/core/support/interrupt.hpp"
@@ -55,22 +57,24 @@ int conclude(const std::string& subject, const Compute& compute, const Write& wr
   }
 }
 
-// `conclude` for a verb that writes an output folder. The folder is taken (staged, with the
-// writer's managed names) before any work, so that a place that cannot hold the results, or a
-// folder another run writes, stops the verb at once; `compute` receives it (a verb whose
-// members write as they finish writes them into it); the result is written into it and
-// committed whole.
+// `conclude` for a verb that writes an output folder. The folder is staged before any work
+// (core::StagedOutput: a place that cannot hold the results, or a folder another run writes,
+// stops the verb at once; what is staged, and any folder made on the way, is removed again
+// when nothing is committed); `compute` receives it (a verb whose members are written as they
+// end writes them into it); the result is written into it and committed whole.
 template <typename Compute, typename Write>
 int conclude_into(const std::string& subject, const fs::path& folder,
                   const std::vector<std::string>& managed, const Compute& compute,
                   const Write& write) {
   std::optional<core::StagedOutput> out;
+  try {
+    out.emplace(folder, managed);
+  } catch (const core::OutputError& e) {
+    spdlog::error("{}", e.what());
+    return e.user_error() ? core::kExitInvalidInput : core::kExitOutput;
+  }
   return conclude(
-      subject,
-      [&] {
-        out.emplace(folder, managed);
-        return compute(*out);
-      },
+      subject, [&] { return compute(*out); },
       [&](const auto& result) {
         write(result, *out);
         out->commit();
@@ -109,11 +113,40 @@ int validate_verb(const Invocation& call) {
       [](const core::ValidationResult& result) { core::log_validation(result); });
 }
 
+// The study's adapter: `conclude_into`'s steps on every rank of `comm`. Rank 0 stages the
+// output folder once every rank has validated the study (run_study calls stage_runs), writes
+// the index and commits; every rank exits with rank 0's code.
+int conclude_study(const Invocation& call, core::StudyRequest& request,
+                   core::StudyCommunicator& comm) {
+  const std::string subject = call.arguments[0];
+  const fs::path folder = call.output_folder("-study");
+  std::optional<core::StagedOutput> out;
+  request.stage_runs = [&] {
+    out.emplace(folder, core::study_outputs());
+    return out->path("runs");
+  };
+  request.write_run = core::write_run_folder;
+  int code = core::kExitOk;
+  try {
+    const core::StudyResult result = core::run_study(request, comm);
+    code = result.outcome.status;
+    if (code >= 128) {
+      spdlog::error("{}: {}; no output written", subject, result.outcome.message);
+    } else if (result.leader && (code == core::kExitOk || code == core::kExitIncomplete)) {
+      core::write_study(result, *out);
+      out->commit();
+      spdlog::info("wrote {}", folder.string());
+    }
+  } catch (...) {
+    code = core::report_failure(subject);
+  }
+  out.reset();  // a staging left uncommitted is removed before the ranks part
+  return comm.size() > 1 ? std::stoi(comm.broadcast(std::to_string(code))) : code;
+}
+
 int study_verb(const Invocation& call) {
   core::StudyRequest request;
   request.scene = call.scene_input();
-  request.write_run = core::write_run_folder;
-  request.output_directory = call.output;
   if (call.options.count("threads")) {
     request.threads = call.options["threads"].as<int>();
     if (request.threads < 0)
@@ -121,7 +154,7 @@ int study_verb(const Invocation& call) {
   }
   if (!launched_by_mpi()) {
     core::StudyCommunicator serial;
-    return core::run_study(request, serial);
+    return conclude_study(call, request, serial);
   }
   auto mpi = make_mpi_communicator();
   if (!mpi) {
@@ -136,7 +169,7 @@ int study_verb(const Invocation& call) {
                                           "] [%^%l%$] %v");
     if (spdlog::get_level() == spdlog::level::info) spdlog::set_level(spdlog::level::warn);
   }
-  return core::run_study(request, *mpi);
+  return conclude_study(call, request, *mpi);
 }
 
 int loop_verb(const Invocation& call) {
@@ -198,7 +231,7 @@ int convergence_verb(const Invocation& call) {
   return conclude_into(
       call.arguments[0], call.output_folder("-convergence"), core::convergence_outputs(),
       [&](core::StagedOutput& out) {
-        request.runs_folder = out.path("runs");
+        request.stage_runs = [&] { return out.path("runs"); };
         request.write_run = core::write_run_folder;
         return core::study_convergence(request);
       },
@@ -252,13 +285,13 @@ int import_verb(const Invocation& call) {
 
 int plugins_verb(const Invocation& /*call*/) {
   return conclude(
-      "plugins", [] { return core::list_plugins({}); },
+      "", [] { return core::list_plugins({}); },
       [](const core::PluginsResult& result) { core::print_plugins(result, std::cout); });
 }
 
 int describe_verb(const Invocation& call) {
   return conclude(
-      call.arguments[0], [&] { return core::describe({call.arguments[0]}); },
+      "", [&] { return core::describe({call.arguments[0]}); },
       [](const core::DescribeResult& result) { core::print_description(result, std::cout); });
 }
 

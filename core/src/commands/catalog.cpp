@@ -48,9 +48,10 @@ ReferenceResult scene_reference(const ReferenceOptions& /*options*/) {
   result.scene_sections = scene_sections();
   result.loop_sections = loop_schemas();
   const Registry registry(Registry::default_search_path());
+  const auto plugins = every_plugin(registry);
   for (const auto kind : {FRICHB_KIND_STRUCTURE, FRICHB_KIND_CONTACT_LAW})
-    for (auto& plugin : every_plugin(registry))
-      if (plugin->kind() == kind) result.plugins.push_back(std::move(plugin));
+    for (const auto& plugin : plugins)
+      if (plugin->kind() == kind) result.plugins.push_back(plugin);
   return result;
 }
 

@@ -13,6 +13,7 @@
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/commands/timesim.hpp"
 #include "frichb/core/scene/scene.hpp"
+#include "frichb/core/support/format.hpp"
 #include "frichb/core/support/interrupt.hpp"
 
 namespace frichb::core {
@@ -33,12 +34,6 @@ std::vector<int> harmonics_like(const std::vector<int>& scene, int max_harmonic)
   for (int n = with_zero ? 0 : 1; n <= max_harmonic; ++n)
     if (!odd_only || n % 2 == 1) kept.push_back(n);
   return kept;
-}
-
-std::string number(double x, int precision = 6) {
-  std::ostringstream os;
-  os << std::setprecision(precision) << x;
-  return os.str();
 }
 
 double relative_error(double value, double reference) {
@@ -86,27 +81,24 @@ Ladder build_ladder(const ConvergenceRequest& request, const Scene& base) {
 // The scene re-read with the setting's harmonic-balance keys, run and handed to the request's
 // writer. A setting the scene refuses (e.g. a key out of range) gives a row with invalid_input.
 Row run_setting(const Scene& base, const Registry& registry, const Setting& s,
-                const std::string& node, const ConvergenceRequest& request) {
+                const std::string& node, const RunWriter& write_run, const fs::path& runs_folder) {
   Row row{s, {}};
   try {
-    YAML::Node document = load_scene_document(base.file, base.overrides);
+    YAML::Node document = reread_scene_document(base);
     YAML::Node hb = document["harmonic_balance"];
     hb.remove("max_harmonic");
     hb["harmonics"] = s.harmonics;
     hb["samples_per_period"] = s.samples;
     hb["trace_oversampling"] = s.oversampling;
-    Scene scene = load_scene(document, base.file);
-    scene.overrides = base.overrides;
-    scene.allow_scene_plugins = base.allow_scene_plugins;
+    Scene scene = load_scene_variant(document, base);
     bind_plugins(scene, registry);
     RunOptions options;
     options.quiet = true;
     options.plots = 0;
     options.study_context = {{"convergence_setting", s.id}};
     const RunWriter nowhere = [](const RunResult&, const fs::path&) {};
-    row.outcome = run_member(scene, request.runs_folder / s.id, options,
-                             request.write_run ? request.write_run : nowhere);
-    if (!request.write_run) row.outcome.wrote_output = false;
+    row.outcome = run_member(scene, runs_folder / s.id, options, write_run ? write_run : nowhere);
+    if (!write_run) row.outcome.wrote_output = false;
   } catch (const std::exception& e) {  // this setting only (e.g. a key out of range)
     row.outcome.exit_code = kExitInvalidInput;
     row.outcome.termination = "invalid_input";
@@ -121,22 +113,18 @@ Row run_setting(const Scene& base, const Registry& registry, const Setting& s,
   return row;
 }
 
-// Runs every setting serially, in order; no rows when a signal stopped the study.
-std::optional<std::vector<Row>> run_settings(const Scene& base, const Registry& registry,
-                                             const std::vector<Setting>& settings,
-                                             const std::string& node,
-                                             const ConvergenceRequest& request) {
+// Runs every setting serially, in order, until a signal stops the study (then fewer rows).
+std::vector<Row> run_settings(const Scene& base, const Registry& registry,
+                              const std::vector<Setting>& settings, const std::string& node,
+                              const RunWriter& write_run, const fs::path& runs_folder) {
   std::vector<Row> rows;
   for (std::size_t i = 0; i < settings.size(); ++i) {
-    if (interrupted()) {
-      spdlog::error("{}: interrupted by signal {} after {} of {} settings", base.file.string(),
-                    interrupt_signal(), i, settings.size());
-      return std::nullopt;
-    }
-    Row row = run_setting(base, registry, settings[i], node, request);
+    if (interrupted()) return rows;
+    Row row = run_setting(base, registry, settings[i], node, write_run, runs_folder);
     spdlog::info("[{}/{}] {}: {} unknowns, peak {} m at {} Hz, {:.3f} s ({})", i + 1,
-                 settings.size(), row.setting.id, row.outcome.unknowns, number(row.amplitude_m),
-                 number(row.frequency_hz, 8), row.outcome.wall_seconds, row.outcome.termination);
+                 settings.size(), row.setting.id, row.outcome.unknowns,
+                 format_number(row.amplitude_m), format_number(row.frequency_hz, 8),
+                 row.outcome.wall_seconds, row.outcome.termination);
     rows.push_back(std::move(row));
   }
   const Row& reference = rows.back();
@@ -168,8 +156,8 @@ ConvergenceTimesim timesim_reference(const ConvergenceRequest& request, const Sc
     timesim.steps_per_period = options.steps_per_period;
     timesim.wall_seconds = result.wall_seconds;
     spdlog::info("time integration at {} Hz: amplitude {} m ({} periods, {:.1f} s)",
-                 number(reference.frequency_hz, 8), number(timesim.amplitude_m), result.periods,
-                 result.wall_seconds);
+                 format_number(reference.frequency_hz, 8), format_number(timesim.amplitude_m),
+                 result.periods, result.wall_seconds);
   } catch (const std::exception& e) {
     spdlog::warn("time-integration reference skipped: {}", e.what());
   }
@@ -205,15 +193,19 @@ ConvergenceResult study_convergence(const ConvergenceRequest& request) {
   result.oversampling.assign(factors.begin(), factors.end());
   spdlog::info("convergence of {}: {} settings, reference H = {}, N = {}, oversampling {}", file,
                ladder.settings.size(), ladder.h_max, ladder.n_max, ladder.o_max);
-  auto rows = run_settings(base, *bound.registry, ladder.settings, result.node, request);
-  if (!rows) {
+  const bool written = request.stage_runs && request.write_run;
+  const fs::path runs_folder = written ? request.stage_runs() : fs::path();
+  result.rows = run_settings(base, *bound.registry, ladder.settings, result.node,
+                             written ? request.write_run : RunWriter(), runs_folder);
+  if (result.rows.size() < ladder.settings.size()) {
     result.outcome = {interrupted_exit_code(),
                       "interrupted",
-                      "interrupted by signal " + std::to_string(interrupt_signal()),
+                      "interrupted by signal " + std::to_string(interrupt_signal()) + " after " +
+                          std::to_string(result.rows.size()) + " of " +
+                          std::to_string(ladder.settings.size()) + " settings",
                       {}};
     return result;
   }
-  result.rows = std::move(*rows);
   result.timesim = timesim_reference(request, base, result.node, result.rows.back());
   const ConvergenceRow& reference = result.rows.back();
   for (auto& r : result.rows) {

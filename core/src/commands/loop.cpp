@@ -142,9 +142,11 @@ LoopInput read_loop_input(const LoopRequest& request) {
 }
 
 // The motion's coefficients in the tracer's unknown layout (component-major, each a HarmonicLayout
-// coefficient vector). Terms of an axis the law does not use are ignored with a warning.
+// coefficient vector). Terms of an axis the law does not use are ignored with a warning (logged
+// and added to `warnings`).
 Eigen::VectorXd motion_coefficients(const LoopInput& in, const PeriodicTracer& tracer,
-                                    const HarmonicLayout& layout) {
+                                    const HarmonicLayout& layout,
+                                    std::vector<std::string>& warnings) {
   const YamlContext ctx{in.file};
   YAML::Node root = in.root;
   const auto mv = view(motion_schema(), in.motion);
@@ -156,9 +158,11 @@ Eigen::VectorXd motion_coefficients(const LoopInput& in, const PeriodicTracer& t
     const auto it = std::find(comps.begin(), comps.end(), k);
     const std::size_t terms = mv.record_count(name);
     if (it == comps.end()) {
-      if (terms)
-        spdlog::warn("{}: law '{}' does not use motion.{}: ignored", in.file, in.plugin->name(),
-                     name);
+      if (terms) {
+        warnings.push_back(fmt::format("{}: law '{}' does not use motion.{}: ignored", in.file,
+                                       in.plugin->name(), name));
+        spdlog::warn("{}", warnings.back());
+      }
       continue;
     }
     const auto a = static_cast<int>(it - comps.begin());
@@ -245,15 +249,15 @@ LoopResult trace_loop(const LoopRequest& request) {
   TraceOptions options;
   options.max_passes = static_cast<int>(view(sampling_schema(), in.sampling).integer("max_passes"));
   PeriodicTracer tracer(law, layout, options);
-  const Eigen::VectorXd u = motion_coefficients(in, tracer, layout);
+  LoopResult result;
+  const Eigen::VectorXd u = motion_coefficients(in, tracer, layout, result.outcome.warnings);
 
   ContactTrace trace;
   std::string error;
   if (!tracer.trace(u, JacobianMode::kNone, trace, &error)) throw PluginError(error);
-  LoopResult result;
   if (!trace.periodic) {
-    spdlog::warn("{}: {}", file, trace.diagnostic);
-    result.outcome.warnings.push_back(trace.diagnostic);
+    result.outcome.warnings.push_back(file + ": " + trace.diagnostic);
+    spdlog::warn("{}", result.outcome.warnings.back());
   }
   LoopAnalysis analysis = analyse_loop(in, tracer, trace);
   result.input_file = request.input_file;

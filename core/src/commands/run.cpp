@@ -72,17 +72,18 @@ namespace {
 // motion are within 0.3 % at 16 samples for 5 harmonics (coupled_3d on its ellipse).
 constexpr int kSampleOnlySamplesPerHarmonic = 10;
 
-void warn_of_few_samples(const Scene& scene, const HarmonicBalanceModel& model) {
+// The warning of a law traced at too few samples per harmonic, "" when none is due.
+std::string few_samples_warning(const Scene& scene, const HarmonicBalanceModel& model) {
   const auto& hb = scene.harmonic_balance;
   const auto& harmonics = model.layout().harmonics();
-  if (harmonics.empty()) return;
+  if (harmonics.empty()) return "";
   const int highest = *std::max_element(harmonics.begin(), harmonics.end());
   const int samples = hb.samples_per_period * hb.trace_oversampling;
   const int wanted = kSampleOnlySamplesPerHarmonic * highest;
-  if (samples >= wanted) return;
+  if (samples >= wanted) return "";
   for (const auto& contact : model.contacts()) {
     if (hb.trace_along_motion && contact.law->traces_motion()) continue;
-    spdlog::warn(
+    return fmt::format(
         "{}: harmonic_balance.samples_per_period = {}{} for harmonics up to {}: contact '{}' "
         "({}) is traced at the samples alone, whose peaks pass 1 % of error below about {} "
         "samples per harmonic (the 2-DOF damper's peak is 1.3 % high at 48 samples for 7 "
@@ -92,8 +93,8 @@ void warn_of_few_samples(const Scene& scene, const HarmonicBalanceModel& model) 
                                   : std::string(),
         highest, contact.name, contact.law->plugin().name(), kSampleOnlySamplesPerHarmonic,
         (wanted + hb.trace_oversampling - 1) / hb.trace_oversampling);
-    return;
   }
+  return "";
 }
 
 }  // namespace
@@ -258,7 +259,10 @@ PreparedRun prepare_run(const Scene& scene, int contact_threads) {
                    "structure or drop harmonic 0");
   }
 
-  warn_of_few_samples(scene, *model);
+  if (std::string warning = few_samples_warning(scene, *model); !warning.empty()) {
+    spdlog::warn("{}", warning);
+    start.warnings.push_back(std::move(warning));
+  }
   start.setup = derive_continuation(scene, *model);
   {
     // The linear solver's own matrices, by the path the continuation will take.
@@ -296,7 +300,10 @@ RunResult run_scene(const SceneInput& input, const RunOptions& options) {
   return result;
 }
 
-RunResult trace_scene(const Scene& scene, const RunOptions& run_options) {
+namespace {
+
+// Every stage of trace_scene.
+RunResult trace_stages(const Scene& scene, const RunOptions& run_options) {
   const auto t_start = Clock::now();
   const auto routine = run_options.quiet ? spdlog::level::debug : spdlog::level::info;
   RunResult result;
@@ -311,6 +318,7 @@ RunResult trace_scene(const Scene& scene, const RunOptions& run_options) {
     return std::move(result);
   };
   result.prepared = prepare_run(scene, run_options.contact_threads);
+  result.outcome.warnings = result.prepared.warnings;
   result.setup_seconds = seconds_since(t_start);
   const HarmonicBalanceModel& model = *result.prepared.model;
   const ContinuationOptions& options = result.prepared.setup.options;
@@ -362,6 +370,18 @@ RunResult trace_scene(const Scene& scene, const RunOptions& run_options) {
   }
   result.wall_seconds = seconds_since(t_start);
   return result;
+}
+
+}  // namespace
+
+RunResult trace_scene(const Scene& scene, const RunOptions& run_options) {
+  try {
+    return trace_stages(scene, run_options);
+  } catch (const PluginError& e) {
+    // A plugin that fails while the scene is traced (its input was accepted): an internal
+    // failure, not invalid input.
+    throw std::runtime_error(e.what());
+  }
 }
 
 RunOutcome run_member(const Scene& scene, const fs::path& folder, const RunOptions& options,

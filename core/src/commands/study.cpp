@@ -133,21 +133,6 @@ int parse_threads(const std::string& text, const YAML::Node& node, const YamlCon
            "expected auto, serial or a thread count >= 1, got '" + text + "'");
 }
 
-// The CSV cell of a number (empty when not finite: a failed run has no peak).
-std::string cell(double x) {
-  if (!std::isfinite(x)) return "";
-  std::ostringstream os;
-  os << std::setprecision(12) << x;
-  return os.str();
-}
-
-std::string csv_text(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
-  return q + "\"";
-}
-
 nlohmann::json outcome_json(const StudyRun& run, const RunOutcome& o) {
   nlohmann::json peaks = nlohmann::json::array();
   for (const auto& p : o.peaks)
@@ -155,10 +140,9 @@ nlohmann::json outcome_json(const StudyRun& run, const RunOutcome& o) {
                      {"amplitude_m", p.amplitude_m},
                      {"omega_rad_s", p.omega_rad_s},
                      {"refined", p.refined}});
-  return {{"index", run.index},           {"exit_code", o.exit_code},
-          {"termination", o.termination}, {"message", o.message},
-          {"points", o.points},           {"peaks", peaks},
-          {"wall_s", o.wall_seconds},     {"wrote_output", o.wrote_output}};
+  return {{"index", run.index},   {"exit_code", o.exit_code}, {"termination", o.termination},
+          {"message", o.message}, {"points", o.points},       {"unknowns", o.unknowns},
+          {"peaks", peaks},       {"wall_s", o.wall_seconds}, {"wrote_output", o.wrote_output}};
 }
 
 // Reports finished runs: a bar on a terminal, a log line per run otherwise.
@@ -304,12 +288,10 @@ std::vector<StudyRun> prepare_study_runs(const Scene& scene, const StudySpec& st
       label += (k ? ", " : "") + study.sweeps[k].path + " = " + short_value(combos[i][k]);
     std::size_t current = 0;  // the sweep whose value is being applied (for errors)
     try {
-      YAML::Node document = load_scene_document(scene.file, scene.overrides);
+      YAML::Node document = reread_scene_document(scene);
       for (current = 0; current < combos[i].size(); ++current)
         set_scene_value(document, study.sweeps[current].path, combos[i][current]);
-      run.scene = load_scene(document, scene.file);
-      run.scene.overrides = scene.overrides;
-      run.scene.allow_scene_plugins = scene.allow_scene_plugins;
+      run.scene = load_scene_variant(document, scene);
       bind_plugins(run.scene, registry);
       for (const auto& c : run.scene.contacts) ContactLawInstance probe(c.plugin, c.values);
     } catch (const SceneError& e) {
@@ -407,22 +389,19 @@ int requested_threads(const StudyRequest& request, const StudySpec& study) {
   return threads;
 }
 
-// Rank 0 stages the output (into `out`); every rank receives the staging folder of the runs
-// in `staging`. kExitOk, or the code every rank exits with when rank 0 could not stage.
-int stage_output(StudyCommunicator& comm, const fs::path& out_dir, const fs::path& scene_file,
-                 std::unique_ptr<StagedOutput>& out, std::string& staging) {
+// Rank 0 stages the runs folder (the request's stage_runs); every rank receives it in
+// `staging`. kExitOk, or the code every rank exits with when rank 0 could not stage.
+int stage_runs(StudyCommunicator& comm, const StudyRequest& request, std::string& staging) {
   int staging_failure = kExitInternal;
   if (comm.rank() == 0) {
     try {
-      out = std::make_unique<StagedOutput>(
-          out_dir, std::vector<std::string>{"study.csv", "study.json", "overlay.gp", "overlay.png",
-                                            "peak.gp", "peak.png", "runs"});
-      staging = out->path("runs").string();
+      staging = request.stage_runs().string();
     } catch (const OutputError& e) {
-      spdlog::error("{}: {}", scene_file.string(), e.what());
+      spdlog::error("{}: {}", request.scene.file.string(), e.what());
       staging_failure = e.user_error() ? kExitInvalidInput : kExitOutput;
     } catch (const std::exception& e) {
-      spdlog::error("cannot create the output folder {}: {}", out_dir.string(), e.what());
+      spdlog::error("{}: cannot stage the output folder: {}", request.scene.file.string(),
+                    e.what());
     }
   }
   staging = comm.broadcast(staging.empty() ? "!" + std::to_string(staging_failure) : staging);
@@ -522,16 +501,6 @@ std::vector<std::string> gather_outcomes(StudyCommunicator& comm, const std::vec
   return comm.gather(my_outcomes.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
 }
 
-// What rank 0 writes the study's outputs from.
-struct StudyReport {
-  const Scene& scene;
-  const StudySpec& study;
-  const std::vector<StudyRun>& runs;
-  int processes = 1;
-  int threads = 1;                       // per process
-  std::vector<nlohmann::json> outcomes;  // every run's outcome_json, by run index
-};
-
 // The gathered outcomes by run index (null where a run has none).
 std::vector<nlohmann::json> outcomes_by_index(const std::vector<std::string>& gathered,
                                               std::size_t run_count) {
@@ -542,295 +511,108 @@ std::vector<nlohmann::json> outcomes_by_index(const std::vector<std::string>& ga
   return by_index;
 }
 
-// study.csv's text and study.json's runs, with the count of failed runs and the run of the
-// lowest peak of study.node among those that reached the end of their sweep.
-struct StudyIndex {
-  std::string csv;
-  nlohmann::json runs = nlohmann::json::array();
-  int failed = 0;
-  std::size_t best = 0;  // the runs' count when no run qualifies
-  double best_amp = std::numeric_limits<double>::infinity();
-};
-
-StudyIndex study_index(const StudyReport& r) {
-  const Scene& scene = r.scene;
-  const StudySpec& study = r.study;
-  const auto& runs = r.runs;
-  const auto& C = scene.continuation;
-  const double unit = C.to_rad_per_s();
-  const std::string fcol = C.unit == FrequencyUnit::kHz ? "hz" : "rad_s";
-  // study.csv: one row per run.
-  std::ostringstream csv;
-  csv << "run";
-  for (const auto& s : study.sweeps) csv << "," << csv_text(s.path);
-  csv << ",exit_code,termination,points";
-  for (const auto& node : scene.output.response)
-    csv << "," << node << "_peak_amplitude_m," << node << "_peak_frequency_" << fcol;
-  csv << ",wall_s\n";
-  StudyIndex index;
-  index.best = runs.size();
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    const nlohmann::json& o = r.outcomes[i];
-    if (o.is_null()) throw std::runtime_error("no outcome for run " + runs[i].id);
-    csv << runs[i].id;
-    for (double x : runs[i].values) csv << "," << cell(x);
-    csv << "," << o["exit_code"].get<int>() << "," << o["termination"].get<std::string>() << ","
-        << o["points"].get<std::size_t>();
-    nlohmann::json peaks = nlohmann::json::object();
-    for (const auto& node : scene.output.response) {
-      double amp = std::numeric_limits<double>::quiet_NaN(), w = amp;
-      for (const auto& p : o["peaks"])
-        if (p["node"] == node) {
-          amp = p["amplitude_m"].get<double>();
-          w = p["omega_rad_s"].get<double>();
-        }
-      csv << "," << cell(amp) << "," << cell(w / unit);
-      if (std::isfinite(amp))
-        peaks[node] = {{"amplitude_m", amp}, {"frequency", w / unit}, {"omega_rad_s", w}};
-      if (node == study.node && o["exit_code"] == kExitOk && amp < index.best_amp) {
-        index.best_amp = amp;
-        index.best = i;
-      }
-    }
-    csv << "," << cell(o["wall_s"].get<double>()) << "\n";
-    if (o["exit_code"].get<int>() != kExitOk) ++index.failed;
-    nlohmann::json params = nlohmann::json::object();
-    for (std::size_t s = 0; s < study.sweeps.size(); ++s)
-      params[study.sweeps[s].path] = runs[i].values[s];
-    index.runs.push_back({{"run", runs[i].id},
-                          {"folder", o["wrote_output"].get<bool>() ? "runs/" + runs[i].id : ""},
-                          {"parameters", params},
-                          {"exit_code", o["exit_code"]},
-                          {"termination", o["termination"]},
-                          {"message", o["message"]},
-                          {"points", o["points"]},
-                          {"peak", peaks},
-                          {"wall_s", o["wall_s"]}});
-  }
-  index.csv = csv.str();
-  return index;
-}
-
-// study.json: the study's settings, every run's index entry and the optimum.
-nlohmann::json study_json(const StudyReport& r, const StudyIndex& index, double wall) {
-  const StudySpec& study = r.study;
-  nlohmann::json sweeps = nlohmann::json::array();
-  for (const auto& s : study.sweeps) sweeps.push_back({{"path", s.path}, {"values", s.values}});
-  nlohmann::json optimum = nullptr;
-  if (index.best < r.runs.size())
-    optimum = {{"run", r.runs[index.best].id},
-               {"node", study.node},
-               {"parameters", index.runs[index.best]["parameters"]},
-               {"peak_amplitude_m", index.best_amp},
-               {"among", "runs that reached the end of their sweep"}};
-  return {{"frichb_version", version()},
-          {"scene", {{"file", r.scene.file.string()}, {"name", r.scene.name}}},
-          {"sweeps", sweeps},
-          {"combine", study.zip ? "zip" : "grid"},
-          {"processes", r.processes},
-          {"threads_per_process", r.threads},
-          {"node", study.node},
-          {"frequency_unit", unit_name(r.scene.continuation.unit)},
-          {"runs", index.runs},
-          {"failed_runs", index.failed},
-          {"optimum", optimum},
-          {"wall_s", wall}};
-}
-
-// overlay.gp/png: the response curves of study.node, one line per run that wrote its output
-// (nothing when none did).
-void write_overlay_plot(const StudyReport& r, const std::string& title, const StagedOutput& out) {
-  const StudySpec& study = r.study;
-  const auto& runs = r.runs;
-  const auto& C = r.scene.continuation;
-  std::ostringstream gp;
-  gp << "# gnuplot script written by frichb study; `gnuplot overlay.gp` remakes it\n"
-     << "set terminal pngcairo size 1100,700 noenhanced\nset output 'overlay.png'\n"
-     << "set datafile separator ','\nset grid\nset key outside right top\n"
-     << "set title " << gnuplot_string(title + ": " + study.node + " over the study") << "\n"
-     << "set xlabel 'frequency [" << unit_name(C.unit) << "]'\n"
-     << "set ylabel 'amplitude [m]'\n"
-     << "set palette defined (0 '#1f4fbf', 0.5 '#2ca02c', 1 '#d62728')\nunset colorbox\n"
-     << "plot ";
-  bool first = true;
-  const int xcol = C.unit == FrequencyUnit::kHz ? 2 : 3;
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    if (!r.outcomes[i]["wrote_output"].get<bool>()) continue;
-    std::string label;
-    for (std::size_t s = 0; s < study.sweeps.size(); ++s)
-      label += (s ? ", " : "") +
-               study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) + "=" +
-               short_value(runs[i].values[s]);
-    gp << (first ? "" : ", \\\n     ") << gnuplot_string("runs/" + runs[i].id + "/response.csv")
-       << " using " << xcol << ":(column(" << gnuplot_string(study.node + "_amplitude_m")
-       << ")) with lines lw 1.5 lc palette frac "
-       << (runs.size() > 1 ? static_cast<double>(i) / static_cast<double>(runs.size() - 1) : 0.0)
-       << " title " << gnuplot_string(label);
-    first = false;
-  }
-  gp << "\n";
-  if (!first) {
-    write_text(out.path("overlay.gp"), gp.str());
-    run_gnuplot(out.path("overlay.gp"));
-  }
-}
-
-// The plot command of peak.gp when the grid has more than one axis: the first axis on x, one
-// line per combination of the sweeps of the other axes.
-std::string peak_plot_per_combination(const StudyReport& r, std::size_t first_axis, int peak_col) {
-  const StudySpec& study = r.study;
-  std::vector<std::vector<double>> others;
-  for (const auto& run : r.runs) {
-    std::vector<double> rest(run.values.begin() + static_cast<std::ptrdiff_t>(first_axis),
-                             run.values.end());
-    if (std::find(others.begin(), others.end(), rest) == others.end()) others.push_back(rest);
-  }
-  std::ostringstream pk;
-  pk << "plot ";
-  for (std::size_t g = 0; g < others.size(); ++g) {
-    std::string cond = "1", label;
-    for (std::size_t s = first_axis; s < study.sweeps.size(); ++s) {
-      const double value = others[g][s - first_axis];
-      cond += " && abs(column(" + std::to_string(s + 2) + ") - (" + format_scene_value(value) +
-              ")) <= 1e-9 * (1 + abs(" + format_scene_value(value) + "))";
-      label += (s > first_axis ? ", " : "") +
-               study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) + "=" +
-               short_value(value);
-    }
-    pk << (g ? ", \\\n     " : "") << "'study.csv' using 2:((" << cond << ") ? column(" << peak_col
-       << ") : 1/0) with linespoints pt 7 lw 2 title " << gnuplot_string(label);
-  }
-  pk << "\n";
-  return pk.str();
-}
-
-// peak.gp/png: the peak amplitude of study.node (from study.csv) against the first swept value.
-void write_peak_plot(const StudyReport& r, const std::string& title, const StagedOutput& out) {
-  const StudySpec& study = r.study;
-  const auto& response = r.scene.output.response;
-  const auto& s0 = study.sweeps.front();
-  double lo = std::numeric_limits<double>::infinity(), hi = 0;
-  for (double x : s0.values) {
-    lo = std::min(lo, x);
-    hi = std::max(hi, x);
-  }
-  std::ostringstream pk;
-  pk << "# gnuplot script written by frichb study; `gnuplot peak.gp` remakes it\n"
-     << "set terminal pngcairo size 900,600 noenhanced\nset output 'peak.png'\n"
-     << "set datafile separator ','\nset grid\nset key outside right top\n"
-     << "set title " << gnuplot_string(title + ": peak amplitude of " + study.node) << "\n"
-     << "set xlabel " << gnuplot_string(s0.path) << "\nset ylabel 'peak amplitude [m]'\n"
-     << (lo > 0 && hi / lo > 100 ? "set logscale x\n" : "");
-  const int peak_col =
-      static_cast<int>(1 + study.sweeps.size() + 3) +
-      2 * static_cast<int>(std::find(response.begin(), response.end(), study.node) -
-                           response.begin()) +
-      1;
-  const std::size_t first_axis = study.axes().front().size();
-  if (first_axis == study.sweeps.size()) {
-    pk << "plot 'study.csv' using 2:" << peak_col << " with linespoints pt 7 lw 2 title "
-       << gnuplot_string(study.node) << "\n";
-  } else {
-    pk << peak_plot_per_combination(r, first_axis, peak_col);
-  }
-  write_text(out.path("peak.gp"), pk.str());
-  run_gnuplot(out.path("peak.gp"));
-}
-
-// Rank 0 writes the study's index and plots from the gathered outcomes into `out` and commits
-// it to `out_dir` (`out` removed, staging and all, when that fails). Returns an ExitCode.
-int write_study(StudyReport report, const std::vector<std::string>& gathered,
-                const StudyRequest& request, const fs::path& out_dir,
-                std::unique_ptr<StagedOutput>& out, Clock::time_point t_start) {
-  const Scene& scene = report.scene;
-  const StudySpec& study = report.study;
-  const auto& runs = report.runs;
-  int code = kExitOk;
-  try {
-    report.outcomes = outcomes_by_index(gathered, runs.size());
-    const StudyIndex index = study_index(report);
-    write_text(out->path("study.csv"), index.csv);
-    const double wall = std::chrono::duration<double>(Clock::now() - t_start).count();
-    write_json(out->path("study.json"), study_json(report, index, wall));
-    if (scene.output.plots && !study.node.empty()) {
-      const std::string title = scene.name.empty() ? scene.file.stem().string() : scene.name;
-      write_overlay_plot(report, title, *out);
-      write_peak_plot(report, title, *out);
-    }
-    if (interrupted())  // a signal while gnuplot ran: nothing is committed
-      throw std::runtime_error("interrupted by signal " + std::to_string(interrupt_signal()) +
-                               "; no output written");
-    out->commit();
-    spdlog::info("wrote {}: {} runs, {} did not reach the end of their sweep{} ({:.2f} s)",
-                 out_dir.string(), runs.size(), index.failed,
-                 index.best < runs.size()
-                     ? "; lowest peak of " + study.node + " among them: run " +
-                           runs[index.best].id + " (" + short_value(index.best_amp) + " m)"
-                     : std::string(),
-                 wall);
-    code = index.failed ? kExitIncomplete : kExitOk;
-  } catch (const OutputError& e) {
-    spdlog::error("{}: writing the study: {}", request.scene.file.string(), e.what());
-    code = e.user_error() ? kExitInvalidInput : kExitOutput;
-  } catch (const std::exception& e) {
-    spdlog::error("{}: writing the study index: {}", request.scene.file.string(), e.what());
-    code = interrupted() ? interrupted_exit_code() : kExitInternal;
-  }
-  if (code != kExitOk && code != kExitIncomplete) out.reset();  // staging removed
-  return code;
+// A run's outcome as outcome_json wrote it.
+RunOutcome outcome_from_json(const nlohmann::json& o) {
+  RunOutcome outcome;
+  outcome.exit_code = o.at("exit_code").get<int>();
+  outcome.termination = o.at("termination").get<std::string>();
+  outcome.message = o.at("message").get<std::string>();
+  outcome.points = o.at("points").get<std::size_t>();
+  outcome.unknowns = o.at("unknowns").get<long>();
+  for (const auto& p : o.at("peaks"))
+    outcome.peaks.push_back({p.at("node").get<std::string>(), p.at("amplitude_m").get<double>(),
+                             p.at("omega_rad_s").get<double>(), p.at("refined").get<bool>()});
+  outcome.wall_seconds = o.at("wall_s").get<double>();
+  outcome.wrote_output = o.at("wrote_output").get<bool>();
+  return outcome;
 }
 
 }  // namespace
 
-int run_study(const StudyRequest& request, StudyCommunicator& comm) {
-  if (!request.write_run) {
-    spdlog::error("run_study: the request has no RunWriter (write_run) for its runs");
-    return kExitInternal;
-  }
+StudyResult run_study(const StudyRequest& request, StudyCommunicator& comm) {
   const auto t_start = Clock::now();
-  const bool leader = comm.rank() == 0;
+  StudyResult result;
+  result.leader = comm.rank() == 0;
+  auto refused = [&](int code, const std::string& termination) {
+    result.outcome = {code, termination, "", {}};
+    return std::move(result);
+  };
+  if (!request.write_run || !request.stage_runs) {
+    spdlog::error("run_study: the request needs stage_runs and write_run");
+    return refused(kExitInternal, "internal_error");
+  }
   Scene scene;
   std::unique_ptr<Registry> registry;
   StudySpec study;
   std::vector<StudyRun> runs;
   const int validation = prepare_study(request.scene, scene, registry, study, runs);
   if (const int verdict = common_verdict(comm, validation, request.scene.file); verdict != kExitOk)
-    return verdict;
+    return refused(verdict, "invalid_input");
   int threads = requested_threads(request, study);
-  fs::path out_dir = request.output_directory;
-  if (out_dir.empty()) out_dir = fs::path("out") / (scene.file.stem().string() + "-study");
 
-  // Rank 0 stages the output; every rank writes its runs into the staging folder.
-  std::unique_ptr<StagedOutput> out;
+  // Rank 0 stages the runs folder; every rank writes its runs into it.
   std::string staging;
-  if (const int staged = stage_output(comm, out_dir, request.scene.file, out, staging);
-      staged != kExitOk)
-    return staged;
+  if (const int staged = stage_runs(comm, request, staging); staged != kExitOk)
+    return refused(staged, "output_error");
 
   const std::vector<std::size_t> mine = rank_share(comm, runs.size());
   constexpr int kMaxThreads = 256;  // a typo's 100000 threads would exhaust the process
   threads = std::clamp(std::min<int>(threads, static_cast<int>(mine.size())), 1, kMaxThreads);
   const int cores_per_run = share_cores(threads);
-  if (leader)
-    spdlog::info("study of {}: {} runs ({} on {} process(es) x {} thread(s)) -> {}",
-                 scene.file.string(), runs.size(), study.zip ? "zip" : "grid", comm.size(), threads,
-                 out_dir.string());
+  if (result.leader)
+    spdlog::info("study of {}: {} runs ({} on {} process(es) x {} thread(s))", scene.file.string(),
+                 runs.size(), study.zip ? "zip" : "grid", comm.size(), threads);
   else
     spdlog::debug("rank {}: {} runs on {} thread(s)", comm.rank(), mine.size(), threads);
 
-  const auto outcomes =
-      run_share(runs, mine, study, staging, threads, cores_per_run, leader, request.write_run);
+  const auto outcomes = run_share(runs, mine, study, staging, threads, cores_per_run, result.leader,
+                                  request.write_run);
   const auto gathered = gather_outcomes(comm, runs, mine, outcomes);
-  int code = kExitOk;
-  if (leader && interrupted()) {
-    spdlog::error("{}: interrupted by signal {}; no output written", request.scene.file.string(),
-                  interrupt_signal());
-    code = interrupted_exit_code();
-  } else if (leader) {
-    code = write_study({scene, study, runs, comm.size(), threads, {}}, gathered, request, out_dir,
-                       out, t_start);
+  if (interrupted()) {
+    result.outcome = {interrupted_exit_code(),
+                      "interrupted",
+                      "interrupted by signal " + std::to_string(interrupt_signal()),
+                      {}};
+    return result;
   }
-  return std::stoi(comm.broadcast(std::to_string(code)));
+  result.scene_file = scene.file;
+  result.scene_name = scene.name;
+  result.unit = scene.continuation.unit;
+  result.response = scene.output.response;
+  result.plots = scene.output.plots;
+  result.processes = comm.size();
+  result.threads = threads;
+  result.study = study;
+  result.optimum = runs.size();
+  if (result.leader) {
+    const auto by_index = outcomes_by_index(gathered, runs.size());
+    result.optimum_amplitude_m = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      StudyRunRow row{runs[i].id, runs[i].values, {}};
+      if (by_index[i].is_null()) {  // a rank that ended without reporting the run
+        row.outcome.termination = "internal_error";
+        row.outcome.message = "no outcome was gathered for run " + runs[i].id;
+      } else {
+        row.outcome = outcome_from_json(by_index[i]);
+      }
+      if (row.outcome.exit_code != kExitOk) ++result.failed_runs;
+      for (const auto& p : row.outcome.peaks)
+        if (p.node == study.node && row.outcome.exit_code == kExitOk &&
+            p.amplitude_m < result.optimum_amplitude_m) {
+          result.optimum_amplitude_m = p.amplitude_m;
+          result.optimum = i;
+        }
+      result.runs.push_back(std::move(row));
+    }
+    if (result.failed_runs > 0)
+      result.outcome = {kExitIncomplete,
+                        "runs_incomplete",
+                        std::to_string(result.failed_runs) + " of " + std::to_string(runs.size()) +
+                            " runs did not reach the end of their sweep",
+                        {}};
+  }
+  result.wall_seconds = std::chrono::duration<double>(Clock::now() - t_start).count();
+  return result;
 }
 
 }  // namespace frichb::core

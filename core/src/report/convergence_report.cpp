@@ -1,24 +1,18 @@
 #include "frichb/core/report/convergence_report.hpp"
 
 #include <cmath>
-#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "frichb/core/support/format.hpp"
 #include "frichb/core/support/version.hpp"
 
 namespace frichb::core {
 
 namespace {
 
-std::string number(double x, int precision = 6) {
-  std::ostringstream os;
-  os << std::setprecision(precision) << x;
-  return os.str();
-}
-
 std::string cell(double x) {
-  return std::isfinite(x) ? number(x, 12) : std::string();
+  return std::isfinite(x) ? format_number(x, 12) : std::string();
 }
 
 std::string csv_line(const ConvergenceRow& r) {
@@ -32,15 +26,15 @@ std::string csv_line(const ConvergenceRow& r) {
 }
 
 std::string markdown_line(const ConvergenceRow& r, bool reference) {
-  auto sci = [](double x) { return std::isfinite(x) ? number(x, 3) : std::string("-"); };
+  auto sci = [](double x) { return std::isfinite(x) ? format_number(x, 3) : std::string("-"); };
   std::ostringstream md;
   md << "| " << r.setting.max_harmonic << " | " << r.setting.samples << " | "
-     << r.setting.oversampling << " | " << r.outcome.unknowns << " | " << number(r.amplitude_m, 6)
-     << " | " << number(r.frequency_hz, 7) << " | "
+     << r.setting.oversampling << " | " << r.outcome.unknowns << " | "
+     << format_number(r.amplitude_m, 6) << " | " << format_number(r.frequency_hz, 7) << " | "
      << (reference ? "reference" : sci(r.amplitude_error)) << " | "
      << (reference ? "reference" : sci(r.frequency_error)) << " | "
-     << sci(r.amplitude_error_vs_timesim) << " | " << number(r.outcome.wall_seconds, 3) << " | "
-     << r.outcome.termination << " |\n";
+     << sci(r.amplitude_error_vs_timesim) << " | " << format_number(r.outcome.wall_seconds, 3)
+     << " | " << r.outcome.termination << " |\n";
   return md.str();
 }
 

@@ -506,6 +506,17 @@ YAML::Node load_scene_document(const fs::path& file, const std::vector<SceneOver
   return document;
 }
 
+YAML::Node reread_scene_document(const Scene& base) {
+  return load_scene_document(base.file, base.overrides);
+}
+
+Scene load_scene_variant(const YAML::Node& document, const Scene& base) {
+  Scene scene = load_scene(document, base.file);
+  scene.overrides = base.overrides;
+  scene.allow_scene_plugins = base.allow_scene_plugins;
+  return scene;
+}
+
 Scene load_scene(const fs::path& file, const std::vector<SceneOverride>& overrides) {
   Scene scene = load_scene(load_scene_document(file, overrides), file);
   scene.overrides = overrides;

@@ -295,41 +295,72 @@ void StagedOutput::set_commit_hook(std::function<void(std::string_view)> hook,
   commit_without_exchange() = without_exchange;
 }
 
-StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::string> managed)
-    : managed_(std::move(managed)) {
+fs::path StagedOutput::checked_place(const fs::path& final_directory) {
   std::error_code ec;
-  final_ = fs::absolute(final_directory, ec).lexically_normal();
-  if (ec || final_.empty())
+  fs::path place;
+  place = fs::absolute(final_directory, ec).lexically_normal();
+  if (ec || place.empty())
     throw OutputError("output folder '" + final_directory.string() + "': not a usable path", true);
-  if (!final_.has_filename()) final_ = final_.parent_path();  // "out/" -> "out"
-  if (final_ == final_.root_path() || final_.filename() == "..")
+  if (!place.has_filename()) place = place.parent_path();  // "out/" -> "out"
+  if (place == place.root_path() || place.filename() == "..")
     throw OutputError("output folder '" + final_directory.string() +
                           "': give a folder of its own, e.g. -o out/run1",
                       true);
-  if (fs::is_symlink(fs::symlink_status(final_, ec)))
+  if (fs::is_symlink(fs::symlink_status(place, ec)))
     throw OutputError("output folder '" + final_directory.string() +
                           "' is a symbolic link: give the folder it points to",
                       true);
   const fs::path cwd = fs::current_path(ec);
   if (!ec) {
     const fs::path rel =
-        fs::weakly_canonical(cwd, ec).lexically_relative(fs::weakly_canonical(final_, ec));
+        fs::weakly_canonical(cwd, ec).lexically_relative(fs::weakly_canonical(place, ec));
     if (!rel.empty() && *rel.begin() != "..")
       throw OutputError("output folder '" + final_directory.string() +
                             "' contains the current folder, which the results would replace: "
                             "choose another folder, e.g. -o out/run1",
                         true);
   }
-  if (fs::exists(fs::symlink_status(final_, ec)) && !fs::is_directory(final_, ec))
+  if (fs::exists(fs::symlink_status(place, ec)) && !fs::is_directory(place, ec))
     throw OutputError("output folder '" + final_directory.string() +
                           "' exists and is not a folder: choose another path with -o",
                       true);
+  check_location(place, final_directory.string());
+  return place;
+}
+
+StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::string> managed)
+    : final_(checked_place(final_directory)), managed_(std::move(managed)) {
+  std::error_code ec;
   const fs::path parent = final_.parent_path();
-  check_location(final_directory.string());
+  // The folders on the way that do not exist yet, deepest first: made here, and removed again
+  // when no output is committed (a refused input leaves no folder behind).
+  for (fs::path p = parent;
+       !p.empty() && p != p.root_path() && !fs::exists(fs::symlink_status(p, ec));
+       p = p.parent_path())
+    created_parents_.push_back(p);
   fs::create_directories(parent, ec);
-  if (ec)
+  if (ec) {
+    remove_created_parents();
     throw OutputError(
         "cannot create the folder " + parent.string() + " for the outputs: " + ec.message(), true);
+  }
+  try {
+    take_lock_and_stage();
+  } catch (...) {
+    release_lock();
+    remove_created_parents();
+    throw;
+  }
+}
+
+void StagedOutput::remove_created_parents() noexcept {
+  for (const auto& folder : created_parents_) ::rmdir(folder.c_str());  // only when empty
+  created_parents_.clear();
+}
+
+void StagedOutput::take_lock_and_stage() {
+  std::error_code ec;
+  const fs::path parent = final_.parent_path();
   const std::string name = final_.filename().string();
   lock_file_ = parent / ("." + name + ".lock");
   // The lock: flock on a file beside the folder (the folder itself is swapped by commit). A
@@ -418,9 +449,9 @@ StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::str
   }
 }
 
-void StagedOutput::check_location(const std::string& given) const {
+void StagedOutput::check_location(const fs::path& place, const std::string& given) {
   // The nearest folder that exists on the way to the output folder: where it would be made.
-  fs::path existing = final_;
+  fs::path existing = place;
   std::error_code ec;
   while (!fs::exists(fs::symlink_status(existing, ec)) && existing != existing.root_path())
     existing = existing.parent_path();
@@ -435,21 +466,21 @@ void StagedOutput::check_location(const std::string& given) const {
   long name_max = ::pathconf(existing.c_str(), _PC_NAME_MAX);
   if (name_max <= 0) name_max = NAME_MAX;
   constexpr std::size_t kHiddenExtra = 23;  // "." + NAME + ".unrestored-" + a pid of 10 digits
-  const std::size_t longest_hidden = final_.filename().string().size() + kHiddenExtra;
+  const std::size_t longest_hidden = place.filename().string().size() + kHiddenExtra;
   if (longest_hidden > static_cast<std::size_t>(name_max))
     throw OutputError("output folder '" + given + "': its name is too long (" +
-                          std::to_string(final_.filename().string().size()) +
+                          std::to_string(place.filename().string().size()) +
                           " characters; the hidden names beside it add up to " +
                           std::to_string(kHiddenExtra) + " to it and the file system takes " +
                           std::to_string(name_max) + "): choose a shorter name with -o",
                       true);
   const std::size_t longest_path =
-      final_.parent_path().string().size() + 1 + longest_hidden + 2 * (1 + name_max);
+      place.parent_path().string().size() + 1 + longest_hidden + 2 * (1 + name_max);
   if (longest_path >= PATH_MAX)
     throw OutputError("output folder '" + given + "': its path is too long (" +
-                          std::to_string(final_.string().size()) +
+                          std::to_string(place.string().size()) +
                           " characters; the files below it may add " +
-                          std::to_string(longest_path - final_.string().size()) +
+                          std::to_string(longest_path - place.string().size()) +
                           " and the system takes paths of at most " + std::to_string(PATH_MAX - 1) +
                           "): choose a shorter path with -o",
                       true);
@@ -457,21 +488,21 @@ void StagedOutput::check_location(const std::string& given) const {
   // folder itself is renamed. The owner's write bit is checked as well as the access: root
   // may write where its owner has forbidden it.
   struct stat folder {};
-  if (::stat(final_.c_str(), &folder) != 0) return;
+  if (::stat(place.c_str(), &folder) != 0) return;
   char mode[8];
   std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(folder.st_mode & 07777));
   if ((folder.st_mode & S_IWUSR) == 0)
     throw OutputError("output folder '" + given + "' is write-protected (mode " + mode +
                           "): make it writable (chmod u+w) or choose another folder with -o",
                       true);
-  if (::faccessat(AT_FDCWD, final_.c_str(), W_OK | X_OK, AT_EACCESS) != 0) {
+  if (::faccessat(AT_FDCWD, place.c_str(), W_OK | X_OK, AT_EACCESS) != 0) {
     const int e = errno;
     throw OutputError("output folder '" + given + "' is not writable (mode " + mode +
                           "): " + system_reason(e) + "; choose another folder with -o",
                       true);
   }
   struct stat above {};
-  if (::stat(final_.parent_path().c_str(), &above) == 0 && above.st_dev != folder.st_dev)
+  if (::stat(place.parent_path().c_str(), &above) == 0 && above.st_dev != folder.st_dev)
     throw OutputError("output folder '" + given +
                           "' is a mount point, which cannot be replaced by the new results: "
                           "give a folder inside it, e.g. -o " +
@@ -496,6 +527,7 @@ StagedOutput::~StagedOutput() {
   if (!staging_.empty()) unregister_staging(staging_);
   if (!committed_ && !staging_.empty()) remove_quietly(staging_);
   release_lock();
+  if (!committed_) remove_created_parents();
 }
 
 void StagedOutput::release_lock() noexcept {

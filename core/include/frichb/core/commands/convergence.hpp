@@ -14,6 +14,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -30,8 +31,10 @@ struct ConvergenceRequest {
   std::vector<int> oversampling = {1, 4};
   bool time_integration = true;  // compare with simulate_in_time (plain structures)
   int timesim_steps_per_period = 8000;
-  // Where each setting's run is written, by write_run (empty write_run: nowhere).
-  std::filesystem::path runs_folder;
+  // Called once the request and the scene are valid, before the first setting: the folder
+  // each setting's run is written into (<folder>/<setting id>), by write_run. Either empty:
+  // the runs are not written.
+  std::function<std::filesystem::path()> stage_runs;
   RunWriter write_run;
 };
 
@@ -83,7 +86,7 @@ struct ConvergenceResult {
 // Runs the scene at every valid setting, serially, and the time-integration reference.
 // Throws SceneError or PluginError for a scene it cannot load, and SceneError for a request
 // without a valid finest setting or a scene without a response node. Each setting's run is
-// handed to request.write_run (when set) into request.runs_folder / <setting id>; a setting
+// handed to request.write_run (when set) into <request.stage_runs()>/<setting id>; a setting
 // the scene refuses is a row with termination invalid_input.
 ConvergenceResult study_convergence(const ConvergenceRequest& request);
 

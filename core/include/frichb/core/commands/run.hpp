@@ -58,6 +58,7 @@ struct PreparedRun {
   std::unique_ptr<StructureInstance> structure;
   std::unique_ptr<HarmonicBalanceModel> model;
   ContinuationSetup setup;
+  std::vector<std::string> warnings;  // logged as they arose (too few samples per harmonic)
 };
 PreparedRun prepare_run(const Scene& scene, int contact_threads = 0);
 

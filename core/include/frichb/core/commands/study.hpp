@@ -19,12 +19,9 @@
 //
 // Every run is validated before any computes: a value out of its key's range is an error
 // naming the study entry and the run. Runs are independent and deterministic: the same run
-// gives the same files whether it ran alone, on a thread, or on another MPI rank. Outputs:
-//
-//   DIR/study.csv, study.json   the index: parameters, termination, peaks, wall time per run
-//   DIR/overlay.png             response curves of study.node, one line per run
-//   DIR/peak.png                peak amplitude of study.node against the first parameter
-//   DIR/runs/NNNN/              each run's response.csv and summary.json (as `frichb run`)
+// gives the same files whether it ran alone, on a thread, or on another MPI rank. The verb
+// shape: commands/verb.hpp; the writer of the index: report/study_report.hpp; each run is
+// written by the request's RunWriter into runs/NNNN/ (as `frichb run`).
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -36,6 +33,7 @@
 #include <vector>
 
 #include "frichb/core/commands/run.hpp"
+#include "frichb/core/commands/verb.hpp"
 #include "frichb/core/scene/scene.hpp"
 
 namespace frichb::core {
@@ -89,17 +87,52 @@ std::vector<StudyRun> prepare_study_runs(const Scene& scene, const StudySpec& st
 
 struct StudyRequest {
   SceneInput scene;
-  std::filesystem::path output_directory;  // empty: out/<scene stem>-study
-  int threads = -1;                        // -1: the scene's study.parallel
-  // Writes each run into runs/NNNN/ as it finishes (report/run_report.hpp's
-  // write_run_folder); required.
+  int threads = -1;  // -1: the scene's study.parallel
+  // Called once, on rank 0, after every rank has validated the study and before any run:
+  // returns the folder the runs are written into (the command line stages the output folder
+  // and returns its runs/). Required.
+  std::function<std::filesystem::path()> stage_runs;
+  // Writes each run into <runs folder>/NNNN as it finishes (report/run_report.hpp's
+  // write_run_folder). Required.
   RunWriter write_run;
 };
 
+// One run of a study in the index.
+struct StudyRunRow {
+  std::string id;              // "0000", ...: its folder under runs/
+  std::vector<double> values;  // one per sweep
+  RunOutcome outcome;
+};
+
+struct StudyResult {
+  // completed; kExitIncomplete (termination "runs_incomplete") when a run ended before the end
+  // of its sweep or failed (its row says why); kExitInvalidInput when a rank could not
+  // validate the study, or the code of a runs folder that could not be staged (logged, no
+  // rows); 128 + signal when interrupted (no rows).
+  Outcome outcome;
+  bool leader = true;  // this process holds the rows (rank 0); the other ranks hold none
+  std::filesystem::path scene_file;
+  std::string scene_name;
+  FrequencyUnit unit = FrequencyUnit::kHz;  // of the scene's sweep
+  std::vector<std::string> response;        // the scene's output.response nodes
+  bool plots = true;                        // the scene's output.plots
+  StudySpec study;
+  std::vector<StudyRunRow> runs;  // by run index
+  int processes = 1;
+  int threads = 1;  // per process
+  int failed_runs = 0;
+  // The run with the lowest peak of study.node among those that reached the end of their
+  // sweep (runs.size() when none did), and that peak, m.
+  std::size_t optimum = 0;
+  double optimum_amplitude_m = 0.0;
+  double wall_seconds = 0.0;
+};
+
 // Runs the study of a scene on `communicator`'s processes (run i on rank i mod size, each
-// rank's share on its threads). Returns an ExitCode: kExitIncomplete when a run ended before
-// the end of its sweep or failed (the index says which and why). Never throws.
-int run_study(const StudyRequest& request, StudyCommunicator& communicator);
+// rank's share on its threads), every run handed to request.write_run as it ends; rank 0
+// gathers the rows. Never throws: a study that does not validate on some rank logs why and
+// is refused on every rank.
+StudyResult run_study(const StudyRequest& request, StudyCommunicator& communicator);
 
 // The core section schemas of `study` (for the generated scene reference).
 std::vector<CoreSection> study_schemas();

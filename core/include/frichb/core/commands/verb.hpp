@@ -2,12 +2,13 @@
 // typed options and returns the verb's typed result:
 //
 //   ModesResult compute_modes(const ModesOptions& options);          // commands/modes.hpp
-//   void write_modes(const ModesResult& result, const std::filesystem::path& folder);
-//                                                                     // report/modes_report.hpp
+//   std::vector<std::string> modes_outputs();                        // report/modes_report.hpp
+//   void write_modes(const ModesResult& result, StagedOutput& out);  // report/modes_report.hpp
 //
-// The function computes and returns: it writes no file, reads no process-wide setting (the
-// scene, its overrides and the plugin permission come in the options as a SceneInput), and
-// logs only progress and warnings through spdlog. Its result holds the numbers, an Outcome
+// The function computes and returns: it writes no file; the scene, its overrides and the
+// plugin permission come in the options as a SceneInput (the process-wide settings it reads
+// are the plugin search path's FRICHB_PLUGIN_PATH and the stop flag of support/interrupt.hpp);
+// it logs progress and warnings through spdlog. Its result holds the numbers, an Outcome
 // (how the computation ended and what it warned about) and the settings the writer needs; a
 // library caller reads it in memory. A writer in report/ turns a result into the verb's files
 // and plots, staged (support/output.hpp: the folder holds the earlier set or the whole new

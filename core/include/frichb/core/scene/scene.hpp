@@ -225,6 +225,13 @@ void set_scene_override(YAML::Node document, const SceneOverride& o);
 YAML::Node load_scene_document(const std::filesystem::path& file,
                                const std::vector<SceneOverride>& overrides);
 
+// A variant of a scene read so far: the document of `base`'s file read again with its
+// overrides (for a study's run or a convergence setting to change keys of), and the scene of
+// such a document, keeping `base`'s file, overrides and plugin permission. Throw as
+// load_scene_document and load_scene.
+YAML::Node reread_scene_document(const Scene& base);
+Scene load_scene_variant(const YAML::Node& document, const Scene& base);
+
 // Loads the plugins the scene names (and only those) and validates their params. A plugin
 // found only in a folder of scene.plugin_paths is refused unless scene.allow_scene_plugins.
 // Throws SceneError (bad params, with file:line:column) or PluginError (unknown plugin...).

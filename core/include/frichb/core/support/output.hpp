@@ -18,8 +18,9 @@
 // restored by the next run if the commit is interrupted). The entries of the earlier set that
 // the writer manages, that the new set holds, or that the earlier set's manifest lists (its
 // own results) are removed with it; every other entry (a user's notes) is moved into the new
-// folder. A StagedOutput destroyed before commit() removes its staging folder and leaves the
-// output folder as it was.
+// folder. A StagedOutput destroyed before commit() removes its staging folder and the folders
+// it made on the way to the output folder (those still empty), and leaves the output folder as
+// it was.
 //
 // Every write is checked after it is flushed and closed; a failure throws OutputError.
 // Threading: one StagedOutput per thread; distinct output folders may be staged concurrently.
@@ -82,15 +83,21 @@ class StagedOutput {
                               bool without_exchange = false);
 
  private:
-  // The checks of the place made before anything is created (above); `given`: the path as
-  // the user wrote it, for the messages.
-  void check_location(const std::string& given) const;
+  // The checks of the place made before anything is created (above): the output folder's
+  // absolute path. `given`: the path as the user wrote it, for the messages.
+  static std::filesystem::path checked_place(const std::filesystem::path& given);
+  static void check_location(const std::filesystem::path& place, const std::string& given);
   void release_lock() noexcept;
+  // The lock, the recovery of a killed run's leftovers and the staging folder (constructor).
+  void take_lock_and_stage();
+  // Removes the folders the constructor made on the way to the output folder (when empty).
+  void remove_created_parents() noexcept;
   // Renames `folder` (an old set holding files of the user's that could not be moved back) to
   // `.NAME.unrestored-PID`, which no later run removes, and says where.
   void keep_aside(const std::filesystem::path& folder) const noexcept;
   std::filesystem::path final_, staging_, lock_file_;
   std::vector<std::string> managed_;
+  std::vector<std::filesystem::path> created_parents_;  // deepest first
   int lock_fd_ = -1;
   bool committed_ = false;
 };
