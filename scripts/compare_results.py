@@ -11,7 +11,8 @@ when their FE model has been generated: run; studies/: study; friction_loops/: l
 DIR/old/NAME and DIR/new/NAME. Compared: the exit code; every CSV cell (numbers within
 --rtol of the larger magnitude in their column, text exactly; not the wall-time columns); every JSON value (numbers
 within --rtol relative, everything else exactly) except timings, peak memory, file paths and
-the program's version. Plots and gnuplot scripts are not compared. Prints one line per input
+the program's version. Plots, gnuplot scripts and the folder's manifest of what it holds
+(.frichb-written.json, by inode) are not compared. Prints one line per input
 and exits 1 when any differs.
 """
 import argparse
@@ -25,6 +26,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+
+# The output folder's manifest (support/output.hpp): its entries' identities are inode numbers.
+MANIFEST = ".frichb-written.json"
 
 # JSON keys whose values depend on the machine, the clock or the paths, not on the results.
 # Keys with "wall" in their name (wall_s, wall_time_s) are left out too.
@@ -128,6 +132,8 @@ def compare_folders(old, new, rtol):
         only = set(files_old) ^ set(files_new)
         return f"different files: {sorted(str(p) for p in only)[:5]}"
     for rel in files_old:
+        if rel.name == MANIFEST:  # what the folder holds, by inode: not a result
+            continue
         if rel.suffix == ".csv":
             why = compare_csv(old / rel, new / rel, rtol)
         elif rel.suffix == ".json":
