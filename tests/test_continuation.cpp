@@ -6,8 +6,10 @@
 #include <csignal>
 #include <cstdio>
 #include <functional>
+#include <latch>
 #include <limits>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "frichb/core/support/interrupt.hpp"
@@ -869,16 +871,20 @@ TEST(Continuation, BudgetsAndCancellationStopTheTrace) {
   EXPECT_STREQ(to_string(TerminationType::kStepTooSmall), "step_too_small");
 }
 
-// A signal stops a fixed-parameter Newton solve at its next iteration (unconverged, saying
-// why) and a trace at its next step (cancelled); without it the same calls converge.
-TEST(Continuation, AnInterruptionStopsNewtonSolvesAndTraces) {
+// A stop requested on the call's token ends a fixed-parameter Newton solve at its next
+// iteration (unconverged, saying why) and a trace at its next step (cancelled); the same calls
+// with a token of their own converge.
+TEST(Continuation, AStopStopsNewtonSolvesAndTraces) {
   const ScalarCurve sq([](double x, double) { return x * x - 2.0; },
                        [](double x, double) { return Eigen::Vector2d(2.0 * x, 0.0); });
-  request_interrupt(SIGINT);
-  const NewtonResult stopped = solve_fixed_parameter(sq, Eigen::Vector2d(1.0, 0.7), {});
+  ContinuationOptions stopped_options = Sweep(-2.0, 2.0);
+  const StopSource source;
+  stopped_options.newton.stop = source.token();
+  source.request_stop(SIGINT);
+  const NewtonResult stopped =
+      solve_fixed_parameter(sq, Eigen::Vector2d(1.0, 0.7), stopped_options);
   const ScalarCurve curve = SCurve();
-  const ContinuationSummary cut = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), Sweep(-2.0, 2.0));
-  clear_interrupt();
+  const ContinuationSummary cut = trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), stopped_options);
   EXPECT_FALSE(stopped.converged);
   EXPECT_EQ(stopped.iterations, 0);
   EXPECT_NE(stopped.message.find("interrupted by signal " + std::to_string(SIGINT)),
@@ -888,6 +894,47 @@ TEST(Continuation, AnInterruptionStopsNewtonSolvesAndTraces) {
   EXPECT_NE(cut.message.find("interrupted"), std::string::npos) << cut.message;
   EXPECT_TRUE(solve_fixed_parameter(sq, Eigen::Vector2d(1.0, 0.7), {}).converged);
   EXPECT_TRUE(trace_curve(curve, Eigen::Vector2d(-1.5, -2.0), Sweep(-2.0, 2.0)).reached_end());
+}
+
+// Tokens are per call: a trace whose token is stopped (as by a SIGTERM) at its fourth point ends
+// there, cancelled, while a trace running beside it on another thread, with a token of its own,
+// reaches its end with the points it gives alone.
+TEST(Continuation, AStopEndsItsOwnCallOnly) {
+  const Eigen::Vector2d y0(-1.5, -2.0);
+  const ContinuationSummary alone = trace_curve(SCurve(), y0, Sweep(-2.0, 2.0));
+  ASSERT_TRUE(alone.reached_end());
+  ASSERT_GT(alone.points.size(), 8u);
+  const StopSource stopping, running_source;
+  ContinuationOptions stopped_options = Sweep(-2.0, 2.0);
+  stopped_options.newton.stop = stopping.token();
+  ContinuationOptions running_options = Sweep(-2.0, 2.0);
+  running_options.newton.stop = running_source.token();
+  ContinuationSummary cut, beside;
+  {
+    std::latch start(2);
+    std::jthread stopped([&] {
+      const ScalarCurve curve = SCurve();
+      start.arrive_and_wait();
+      cut = trace_curve(curve, y0, stopped_options, [&](const ContinuationPoint&, std::size_t i) {
+        if (i == 3) stopping.request_stop(SIGTERM);
+        return true;
+      });
+    });
+    std::jthread running([&] {
+      const ScalarCurve curve = SCurve();
+      start.arrive_and_wait();
+      beside = trace_curve(curve, y0, running_options);
+    });
+  }
+  EXPECT_EQ(cut.termination, TerminationType::kCancelled);
+  EXPECT_EQ(cut.points.size(), 4u);
+  EXPECT_NE(cut.message.find("interrupted by signal " + std::to_string(SIGTERM)), std::string::npos)
+      << cut.message;
+  EXPECT_FALSE(running_source.stop_requested());
+  ASSERT_TRUE(beside.reached_end()) << beside.message;
+  ASSERT_EQ(beside.points.size(), alone.points.size());
+  for (std::size_t i = 0; i < alone.points.size(); ++i)
+    EXPECT_EQ(beside.points[i].y, alone.points[i].y) << "point " << i;
 }
 
 // Solves one after another on one FixedParameterSolver give what separate solves give, and

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <climits>
 #include <csignal>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -23,9 +25,13 @@ namespace {
 
 namespace fs = std::filesystem;
 using frichb::core::gnuplot_string;
+using frichb::core::Interrupted;
 using frichb::core::OutputError;
 using frichb::core::run_gnuplot;
 using frichb::core::StagedOutput;
+using frichb::core::StagingControl;
+using frichb::core::StopSource;
+using frichb::core::StopToken;
 using frichb::core::write_file;
 
 class TempDir {
@@ -94,8 +100,8 @@ const std::vector<std::string> kManaged = {"summary.json", "response.csv", "loop
 
 // Writes one result set ("A" or "B") into a staged output of `folder` and commits it. Set B
 // has no loops folder, so a stale loops/ of set A must not survive it.
-void write_set(const fs::path& folder, const std::string& tag) {
-  StagedOutput out(folder, kManaged);
+void write_set(const fs::path& folder, const std::string& tag, StagingControl control = {}) {
+  StagedOutput out(folder, kManaged, std::move(control));
   write_file(out.path("summary.json"), "{\"set\": \"" + tag + "\"}\n");
   write_file(out.path("response.csv"), "point,set\n0," + tag + "\n");
   if (tag == "A") write_file(out.path("loops/c_1.csv"), "loop of " + tag + "\n");
@@ -125,10 +131,6 @@ fs::path prepare_folder(const TempDir& dir, const std::string& name = "out") {
   write_file(folder / "notes.txt", "mine\n");
   return folder;
 }
-
-struct HookGuard {
-  ~HookGuard() { StagedOutput::set_commit_hook({}); }
-};
 
 TEST(StagedOutput, CommitReplacesTheManagedSetAndKeepsTheUsersFiles) {
   TempDir dir;
@@ -222,7 +224,6 @@ TEST(StagedOutput, DestroyedBeforeCommitLeavesTheFolderAsItWas) {
 // before the swap) or the whole new one (after it), the user's file in both cases, and
 // nothing is left beside it.
 TEST(StagedOutput, AFailureAtEveryStepOfTheCommitLeavesOneWholeSet) {
-  HookGuard guard;
   for (const bool exchange : {true, false}) {
     for (const std::string step :
          {"synced", "moved_aside", "swapped", "kept_unmanaged", "removed_old"}) {
@@ -230,13 +231,12 @@ TEST(StagedOutput, AFailureAtEveryStepOfTheCommitLeavesOneWholeSet) {
       SCOPED_TRACE(step + (exchange ? " (exchange)" : " (move aside)"));
       TempDir dir;
       const fs::path folder = prepare_folder(dir);
-      StagedOutput::set_commit_hook(
-          [step](std::string_view at) {
-            if (at == step) throw OutputError("injected failure at " + step, false);
-          },
-          !exchange);
-      EXPECT_THROW(write_set(folder, "B"), OutputError);
-      StagedOutput::set_commit_hook({});
+      StagingControl control;
+      control.commit_hook = [step](std::string_view at) {
+        if (at == step) throw OutputError("injected failure at " + step, false);
+      };
+      control.without_exchange = !exchange;
+      EXPECT_THROW(write_set(folder, "B", control), OutputError);
       const bool before_swap = step == "synced" || step == "moved_aside";
       auto expected = expected_set(before_swap ? "A" : "B");
       expected["notes.txt"] = "mine\n";
@@ -262,12 +262,12 @@ TEST(StagedOutput, AKillAtEveryStepOfTheCommitIsRecoveredByTheNextRun) {
         const pid_t child = fork();
         ASSERT_GE(child, 0);
         if (child == 0) {
-          StagedOutput::set_commit_hook(
-              [step](std::string_view at) {
-                if (at == step) _exit(9);
-              },
-              !exchange);
-          write_set(folder, "B");
+          StagingControl control;
+          control.commit_hook = [step](std::string_view at) {
+            if (at == step) _exit(9);
+          };
+          control.without_exchange = !exchange;
+          write_set(folder, "B", control);
           _exit(0);
         }
         int status = 0;
@@ -469,7 +469,7 @@ TEST(GnuplotString, HostileTextIsReadBackByteForByteAndRunsNothing) {
   for (const auto& t : texts) script << "print " << gnuplot_string(t) << "\n";
   const fs::path gp = dir.path() / "strings.gp";
   write_file(gp, script.str());
-  ASSERT_TRUE(run_gnuplot(gp)) << script.str();
+  ASSERT_TRUE(run_gnuplot(gp, StopToken())) << script.str();
   std::string expected;
   for (const auto& t : texts) expected += t + "\n";
   EXPECT_EQ(read_text(dir.path() / "printed.txt"), expected);
@@ -482,11 +482,55 @@ TEST(RunGnuplot, RunsInTheScriptsFolderWithoutAShell) {
   const fs::path folder = dir.path() / "a b';touch PWNED;'$(touch PWNED2)";
   fs::create_directories(folder);
   write_file(folder / "-s.gp", "set print 'done.txt'\nprint 'ok'\n");
-  ASSERT_TRUE(run_gnuplot(folder / "-s.gp"));
+  ASSERT_TRUE(run_gnuplot(folder / "-s.gp", StopToken()));
   EXPECT_EQ(read_text(folder / "done.txt"), "ok\n");
   EXPECT_FALSE(fs::exists(dir.path() / "PWNED"));
   EXPECT_FALSE(fs::exists(folder / "PWNED"));
   EXPECT_FALSE(fs::exists(folder / "PWNED2"));
+}
+
+// A stop requested while gnuplot runs ends it (it would pause for a minute) and run_gnuplot
+// returns false at once; a stopped token starts no gnuplot at all.
+TEST(RunGnuplot, AStopEndsTheChild) {
+  TempDir dir;
+  write_file(dir.path() / "slow.gp",
+             "set print 'started.txt'\nprint 'yes'\nunset print\npause 60\n"
+             "set print 'finished.txt'\nprint 'yes'\n");
+  const StopSource source;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::jthread stopper([&] {
+    // Once gnuplot has started its script.
+    while (!fs::exists(dir.path() / "started.txt") &&
+           std::chrono::steady_clock::now() - t0 < std::chrono::seconds(20))
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    source.request_stop(SIGTERM);
+  });
+  EXPECT_FALSE(run_gnuplot(dir.path() / "slow.gp", source.token()));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_TRUE(fs::exists(dir.path() / "started.txt"));
+  EXPECT_FALSE(fs::exists(dir.path() / "finished.txt"));
+  EXPECT_LT(seconds, 30.0);  // not the minute's pause
+  write_file(dir.path() / "quick.gp", "set print 'ran.txt'\nprint 'yes'\n");
+  EXPECT_FALSE(run_gnuplot(dir.path() / "quick.gp", source.token()));
+  EXPECT_FALSE(fs::exists(dir.path() / "ran.txt"));
+}
+
+// A staged set whose token is stopped before the commit is not committed: the folder keeps the
+// earlier set and the user's file, and nothing staged is left behind.
+TEST(StagedOutput, AStoppedCallCommitsNothing) {
+  TempDir dir;
+  const fs::path folder = prepare_folder(dir);
+  const auto before = snapshot(folder);
+  const StopSource source;
+  {
+    StagedOutput out(folder, kManaged, StagingControl(source.token()));
+    write_file(out.path("summary.json"), "{\"set\": \"B\"}\n");
+    source.request_stop(SIGINT);
+    EXPECT_THROW(out.commit(), Interrupted);
+  }
+  EXPECT_EQ(snapshot(folder), before);
+  EXPECT_TRUE(leftovers(dir.path(), "out").empty()) << leftovers(dir.path(), "out").front();
 }
 
 }  // namespace

@@ -24,6 +24,7 @@
 #include "frichb/core/plugin_host/schema.hpp"
 #include "frichb/core/report/run_report.hpp"
 #include "frichb/core/scene/scene.hpp"
+#include "frichb/core/support/interrupt.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -305,4 +306,45 @@ TEST(RunStages, TwoScenesRunConcurrentlyGiveTheResultsOfTwoRunsInTurn) {
       summary("together_0")["command_line_overrides"]["contacts.root_friction.params.normal_load"],
       3);
   EXPECT_FALSE(summary("together_1").contains("command_line_overrides"));
+}
+
+// A run whose token is stopped ends interrupted, before its first point, and its folder is not
+// written; a run beside it on another thread, with a token of its own, gives what it gives
+// alone.
+TEST(RunStages, AStoppedRunEndsInterruptedAndARunBesideItIsNotStopped) {
+  const fs::path quickstart =
+      fs::path(FRICHB_SOURCE_DIR) / "configs/quickstart_friction_oscillator.yaml";
+  RunOptions options;
+  options.contact_threads = 1;
+  options.plots = 0;
+  options.quiet = true;
+  const RunResult alone = run_scene(SceneInput{quickstart, {}, false}, options);
+  ASSERT_EQ(alone.outcome.status, kExitOk) << alone.outcome.message;
+  RunOptions stopped_options = options;
+  const StopSource source;
+  stopped_options.stop = source.token();
+  source.request_stop(SIGINT);
+  std::optional<RunResult> stopped, beside;
+  {
+    std::latch start(2);
+    std::jthread a([&] {
+      start.arrive_and_wait();
+      stopped = run_scene(SceneInput{quickstart, {}, false}, stopped_options);
+    });
+    std::jthread b([&] {
+      start.arrive_and_wait();
+      beside = run_scene(SceneInput{quickstart, {}, false}, options);
+    });
+  }
+  ASSERT_TRUE(stopped && beside);
+  EXPECT_EQ(stopped->outcome.status, 128 + SIGINT);
+  EXPECT_EQ(stopped->outcome.termination, "interrupted");
+  EXPECT_NE(stopped->outcome.message.find("interrupted by signal 2 at point 0"), std::string::npos)
+      << stopped->outcome.message;
+  EXPECT_TRUE(stopped->summary.points.empty());
+  frichb::test::TempDir dir;
+  EXPECT_THROW(write_run_folder(*stopped, dir.path() / "stopped"), Interrupted);
+  EXPECT_FALSE(fs::exists(dir.path() / "stopped"));
+  ASSERT_EQ(beside->outcome.status, kExitOk) << beside->outcome.message;
+  EXPECT_EQ(beside->table.rows, alone.table.rows);
 }

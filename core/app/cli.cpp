@@ -303,7 +303,7 @@ int run_command_line(int argc, char** argv) {
   logger->set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
   spdlog::set_default_logger(logger);
   spdlog::set_level(*level);
-  if (verb->polls_interrupts) core::install_interrupt_handlers();
+  if (verb->polls_interrupts) core::install_interrupt_handlers(call.stop);
 
   try {
     return verb->run(call);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "frichb/core/scene/scene.hpp"
+#include "frichb/core/support/interrupt.hpp"
 
 namespace frichb::app {
 
@@ -24,6 +25,7 @@ struct Invocation {
   std::string output;                          // -o DIR, empty when not given
   std::vector<core::SceneOverride> overrides;  // --set PATH=VALUE, in order
   bool allow_scene_plugins = false;            // --allow-scene-plugins (before or after the verb)
+  core::StopSource stop;  // stops the call's tokens; SIGINT/SIGTERM do (polls_interrupts)
 
   // The scene input of a verb that reads one: the first argument, the overrides and the
   // plugin permission.
@@ -45,7 +47,7 @@ struct Verb {
   bool input_plugins = false;         // takes --allow-scene-plugins
   bool writes_output = false;         // takes -o DIR
   std::string output_default;         // what -o defaults to, for the help
-  bool polls_interrupts = false;      // stops at SIGINT/SIGTERM by itself (interrupt.hpp)
+  bool polls_interrupts = false;      // SIGINT/SIGTERM stop its call's token (interrupt.hpp)
   std::function<void(po::options_description&)> add_options;  // its own options, may be empty
   std::function<int(const Invocation&)> run;                  // returns an exit code
 };

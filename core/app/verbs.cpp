@@ -61,14 +61,15 @@ int conclude(const std::string& subject, const Compute& compute, const Write& wr
 // (core::StagedOutput: a place that cannot hold the results, or a folder another run writes,
 // stops the verb at once; what is staged, and any folder made on the way, is removed again
 // when nothing is committed); `compute` receives it (a verb whose members are written as they
-// end writes them into it); the result is written into it and committed whole.
+// end writes them into it); the result is written into it and committed whole, unless the
+// call's token was stopped.
 template <typename Compute, typename Write>
-int conclude_into(const std::string& subject, const fs::path& folder,
+int conclude_into(const Invocation& call, const std::string& subject, const fs::path& folder,
                   const std::vector<std::string>& managed, const Compute& compute,
                   const Write& write) {
   std::optional<core::StagedOutput> out;
   try {
-    out.emplace(folder, managed);
+    out.emplace(folder, managed, core::StagingControl(call.stop.token()));
   } catch (const core::OutputError& e) {
     spdlog::error("{}", e.what());
     return e.user_error() ? core::kExitInvalidInput : core::kExitOutput;
@@ -103,8 +104,13 @@ bool parse_counts(const std::string& text, std::vector<int>& counts) {
 
 int run_verb(const Invocation& call) {
   return conclude_into(
-      call.arguments[0], call.output_folder(""), core::run_outputs(),
-      [&](core::StagedOutput&) { return core::run_scene(call.scene_input()); }, core::write_run);
+      call, call.arguments[0], call.output_folder(""), core::run_outputs(),
+      [&](core::StagedOutput&) {
+        core::RunOptions options;
+        options.stop = call.stop.token();
+        return core::run_scene(call.scene_input(), options);
+      },
+      core::write_run);
 }
 
 int validate_verb(const Invocation& call) {
@@ -122,7 +128,7 @@ int conclude_study(const Invocation& call, core::StudyRequest& request,
   const fs::path folder = call.output_folder("-study");
   std::optional<core::StagedOutput> out;
   request.stage_runs = [&] {
-    out.emplace(folder, core::study_outputs());
+    out.emplace(folder, core::study_outputs(), core::StagingControl(call.stop.token()));
     return out->path("runs");
   };
   request.write_run = core::write_run_folder;
@@ -147,6 +153,7 @@ int conclude_study(const Invocation& call, core::StudyRequest& request,
 int study_verb(const Invocation& call) {
   core::StudyRequest request;
   request.scene = call.scene_input();
+  request.stop = call.stop.token();
   if (call.options.count("threads")) {
     request.threads = call.options["threads"].as<int>();
     if (request.threads < 0)
@@ -174,7 +181,7 @@ int study_verb(const Invocation& call) {
 
 int loop_verb(const Invocation& call) {
   return conclude_into(
-      call.arguments[0], call.output_folder(""), core::loop_outputs(),
+      call, call.arguments[0], call.output_folder(""), core::loop_outputs(),
       [&](core::StagedOutput&) {
         return core::trace_loop({call.arguments[0], call.allow_scene_plugins});
       },
@@ -199,7 +206,7 @@ int modes_verb(const Invocation& call) {
           "--rpm takes a positive speed R or a range A:B with 0 < A <= B, not '" + text + "'");
   }
   return conclude_into(
-      call.arguments[0], call.output_folder("-modes"), core::modes_outputs(),
+      call, call.arguments[0], call.output_folder("-modes"), core::modes_outputs(),
       [&](core::StagedOutput&) { return core::compute_modes(request); }, core::write_modes);
 }
 
@@ -209,8 +216,9 @@ int timesim_verb(const Invocation& call) {
   core::TimesimRequest request;
   request.scene = call.scene_input();
   request.integration.frequency_hz = call.options["at-hz"].as<double>();
+  request.integration.stop = call.stop.token();
   return conclude_into(
-      call.arguments[0], call.output_folder("-timesim"), core::timesim_outputs(),
+      call, call.arguments[0], call.output_folder("-timesim"), core::timesim_outputs(),
       [&](core::StagedOutput&) { return core::integrate_scene(request); }, core::write_timesim);
 }
 
@@ -218,6 +226,7 @@ int convergence_verb(const Invocation& call) {
   core::ConvergenceRequest request;
   request.scene = call.scene_input();
   request.time_integration = call.options.count("no-timesim") == 0;
+  request.stop = call.stop.token();
   for (auto [key, list] :
        {std::pair{"harmonics", &request.harmonics}, std::pair{"samples", &request.samples},
         std::pair{"oversampling", &request.oversampling}}) {
@@ -229,7 +238,7 @@ int convergence_verb(const Invocation& call) {
                                    text + "'");
   }
   return conclude_into(
-      call.arguments[0], call.output_folder("-convergence"), core::convergence_outputs(),
+      call, call.arguments[0], call.output_folder("-convergence"), core::convergence_outputs(),
       [&](core::StagedOutput& out) {
         request.stage_runs = [&] { return out.path("runs"); };
         request.write_run = core::write_run_folder;
@@ -279,7 +288,7 @@ int import_verb(const Invocation& call) {
     if (!(request.tolerance > 0)) return usage_error(call, "--tolerance takes a length > 0");
   }
   return conclude_into(
-      call.output, call.output, core::import_outputs(),
+      call, call.output, call.output, core::import_outputs(),
       [&](core::StagedOutput&) { return core::import_sector(request); }, core::write_import);
 }
 
@@ -452,6 +461,7 @@ Verb timesim_spec() {
   v.input_plugins = true;
   v.writes_output = true;
   v.output_default = "out/<scene file stem>-timesim";
+  v.polls_interrupts = true;
   v.add_options = [](po::options_description& d) {
     d.add_options()("at-hz", po::value<double>()->value_name("F"),
                     "excitation frequency, Hz (required)");

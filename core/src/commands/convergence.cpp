@@ -81,7 +81,8 @@ Ladder build_ladder(const ConvergenceRequest& request, const Scene& base) {
 // The scene re-read with the setting's harmonic-balance keys, run and handed to the request's
 // writer. A setting the scene refuses (e.g. a key out of range) gives a row with invalid_input.
 Row run_setting(const Scene& base, const Registry& registry, const Setting& s,
-                const std::string& node, const RunWriter& write_run, const fs::path& runs_folder) {
+                const std::string& node, const RunWriter& write_run, const fs::path& runs_folder,
+                const StopToken& stop) {
   Row row{s, {}};
   try {
     YAML::Node document = reread_scene_document(base);
@@ -93,6 +94,7 @@ Row run_setting(const Scene& base, const Registry& registry, const Setting& s,
     Scene scene = load_scene_variant(document, base);
     bind_plugins(scene, registry);
     RunOptions options;
+    options.stop = stop;
     options.quiet = true;
     options.plots = 0;
     options.study_context = {{"convergence_setting", s.id}};
@@ -116,11 +118,12 @@ Row run_setting(const Scene& base, const Registry& registry, const Setting& s,
 // Runs every setting serially, in order, until a signal stops the study (then fewer rows).
 std::vector<Row> run_settings(const Scene& base, const Registry& registry,
                               const std::vector<Setting>& settings, const std::string& node,
-                              const RunWriter& write_run, const fs::path& runs_folder) {
+                              const RunWriter& write_run, const fs::path& runs_folder,
+                              const StopToken& stop) {
   std::vector<Row> rows;
   for (std::size_t i = 0; i < settings.size(); ++i) {
-    if (interrupted()) return rows;
-    Row row = run_setting(base, registry, settings[i], node, write_run, runs_folder);
+    if (stop.stop_requested()) return rows;
+    Row row = run_setting(base, registry, settings[i], node, write_run, runs_folder, stop);
     spdlog::info("[{}/{}] {}: {} unknowns, peak {} m at {} Hz, {:.3f} s ({})", i + 1,
                  settings.size(), row.setting.id, row.outcome.unknowns,
                  format_number(row.amplitude_m), format_number(row.frequency_hz, 8),
@@ -146,6 +149,7 @@ ConvergenceTimesim timesim_reference(const ConvergenceRequest& request, const Sc
     TimesimOptions options;
     options.frequency_hz = reference.frequency_hz;
     options.steps_per_period = request.timesim_steps_per_period;
+    options.stop = request.stop;
     const TimesimResult result = simulate_in_time(base, options);
     timesim.run = true;
     timesim.frequency_hz = reference.frequency_hz;
@@ -196,17 +200,22 @@ ConvergenceResult study_convergence(const ConvergenceRequest& request) {
   const bool written = request.stage_runs && request.write_run;
   const fs::path runs_folder = written ? request.stage_runs() : fs::path();
   result.rows = run_settings(base, *bound.registry, ladder.settings, result.node,
-                             written ? request.write_run : RunWriter(), runs_folder);
-  if (result.rows.size() < ladder.settings.size()) {
-    result.outcome = {interrupted_exit_code(),
-                      "interrupted",
-                      "interrupted by signal " + std::to_string(interrupt_signal()) + " after " +
-                          std::to_string(result.rows.size()) + " of " +
-                          std::to_string(ladder.settings.size()) + " settings",
-                      {}};
-    return result;
+                             written ? request.write_run : RunWriter(), runs_folder, request.stop);
+  auto interrupted_after = [&](const std::string& what) {
+    result.outcome = {
+        request.stop.exit_code(), "interrupted", request.stop.reason() + " " + what, {}};
+    return std::move(result);
+  };
+  if (request.stop.stop_requested()) {
+    // A setting stopped while it ran is not a row of the table.
+    std::size_t done = result.rows.size();
+    if (done > 0 && result.rows.back().outcome.exit_code >= 128) --done;
+    return interrupted_after("after " + std::to_string(done) + " of " +
+                             std::to_string(ladder.settings.size()) + " settings");
   }
   result.timesim = timesim_reference(request, base, result.node, result.rows.back());
+  if (request.stop.stop_requested())
+    return interrupted_after("during the time-integration reference");
   const ConvergenceRow& reference = result.rows.back();
   for (auto& r : result.rows) {
     const bool is_reference = &r == &reference;

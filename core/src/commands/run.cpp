@@ -39,10 +39,10 @@ double physical_memory_bytes() {
 // Progress of the trace in the log: every 5 % of the sweep, and the start point.
 class TraceProgress {
  public:
-  TraceProgress(const Scene& scene, Eigen::Index n, spdlog::level::level_enum level)
-      : scene_(scene), n_(n), level_(level) {}
+  TraceProgress(const Scene& scene, Eigen::Index n, spdlog::level::level_enum level, StopToken stop)
+      : scene_(scene), n_(n), level_(level), stop_(std::move(stop)) {}
   bool operator()(const ContinuationPoint& p, std::size_t index) {
-    if (interrupted()) return false;
+    if (stop_.stop_requested()) return false;
     const auto& C = scene_.continuation;
     const double f = p.y(n_) / C.to_rad_per_s();
     const double done = std::clamp((f - C.from) / (C.to - C.from), 0.0, 1.0);
@@ -58,6 +58,7 @@ class TraceProgress {
   const Scene& scene_;
   Eigen::Index n_;
   spdlog::level::level_enum level_;
+  StopToken stop_;
   double last_report_ = -1.0;
 };
 
@@ -310,14 +311,13 @@ RunResult trace_stages(const Scene& scene, const RunOptions& run_options) {
   result.scene = &scene;
   result.options = run_options;
   auto interrupted_while = [&](const std::string& when) {
-    result.outcome = {interrupted_exit_code(),
-                      "interrupted",
-                      "interrupted by signal " + std::to_string(interrupt_signal()) + " " + when,
-                      {}};
+    result.outcome = {
+        run_options.stop.exit_code(), "interrupted", run_options.stop.reason() + " " + when, {}};
     result.wall_seconds = seconds_since(t_start);
     return std::move(result);
   };
   result.prepared = prepare_run(scene, run_options.contact_threads);
+  result.prepared.setup.options.newton.stop = run_options.stop;
   result.outcome.warnings = result.prepared.warnings;
   result.setup_seconds = seconds_since(t_start);
   const HarmonicBalanceModel& model = *result.prepared.model;
@@ -332,10 +332,12 @@ RunResult trace_stages(const Scene& scene, const RunOptions& run_options) {
 
   const Eigen::VectorXd y0 = find_start_point(model, options, routine);
   const auto t_cont = Clock::now();
-  result.summary = trace_response(scene, model, options, y0, TraceProgress(scene, n, routine));
+  result.summary =
+      trace_response(scene, model, options, y0, TraceProgress(scene, n, routine, run_options.stop));
   const ContinuationSummary& summary = result.summary;
   result.continuation_seconds = seconds_since(t_cont);
-  if (interrupted()) return interrupted_while("at point " + std::to_string(summary.points.size()));
+  if (run_options.stop.stop_requested())
+    return interrupted_while("at point " + std::to_string(summary.points.size()));
   if (summary.reached_end()) {
     spdlog::log(routine,
                 "reached {} {} with {} points ({} rejected steps, {} turning points) in {:.3f} s",
@@ -356,13 +358,14 @@ RunResult trace_stages(const Scene& scene, const RunOptions& run_options) {
                   ? std::string()
                   : ", then solving at the frequencies of the friction loops and contact states");
   result.table = tabulate_response(scene, model, options, summary);
-  if (interrupted()) return interrupted_while("while refining the peaks");
+  if (run_options.stop.stop_requested()) return interrupted_while("while refining the peaks");
   for (const auto& peak : result.table.peaks)
     if (peak) result.peaks.push_back(*peak);
   result.loops = solve_friction_loops(scene, model, options, summary);
   result.states =
       solve_contact_traces(scene, model, options, summary, scene.output.contact_states_at);
-  if (interrupted()) return interrupted_while("while solving the friction loops");
+  if (run_options.stop.stop_requested())
+    return interrupted_while("while solving the friction loops");
   result.post_seconds = seconds_since(t_post);
   for (auto& warning : result_warnings(scene, result)) {
     spdlog::warn("{}", warning);

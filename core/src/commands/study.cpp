@@ -433,8 +433,9 @@ int share_cores(int threads) {
 
 // One run of the study, quiet and without plots, into its folder under `staging`.
 RunOutcome run_study_member(const StudyRun& run, const StudySpec& study, const std::string& staging,
-                            int cores_per_run, const RunWriter& write_run) {
+                            int cores_per_run, const RunWriter& write_run, const StopToken& stop) {
   RunOptions options;
+  options.stop = stop;
   options.quiet = true;
   options.plots = 0;
   options.contact_threads = cores_per_run;
@@ -460,19 +461,20 @@ std::string progress_line(const StudyRun& run, const RunOutcome& o, const StudyS
   return line;
 }
 
-// Runs `mine` on `threads` threads (fewer when one cannot start), until done or interrupted.
-// The outcomes are indexed as `runs`; rank 0 (`leader`) reports its progress.
+// Runs `mine` on `threads` threads (fewer when one cannot start), until done or stopped through
+// the request's token. The outcomes are indexed as `runs`; rank 0 (`leader`) reports its progress.
 std::vector<RunOutcome> run_share(const std::vector<StudyRun>& runs,
                                   const std::vector<std::size_t>& mine, const StudySpec& study,
                                   const std::string& staging, int threads, int cores_per_run,
-                                  bool leader, const RunWriter& write_run) {
+                                  bool leader, const StudyRequest& request) {
   std::vector<RunOutcome> outcomes(runs.size());
   Progress progress(mine.size(), leader);  // under MPI: rank 0's share of the runs
   std::atomic<std::size_t> next{0};
   auto worker = [&] {
-    for (std::size_t k = next++; k < mine.size() && !interrupted(); k = next++) {
+    for (std::size_t k = next++; k < mine.size() && !request.stop.stop_requested(); k = next++) {
       const StudyRun& run = runs[mine[k]];
-      outcomes[mine[k]] = run_study_member(run, study, staging, cores_per_run, write_run);
+      outcomes[mine[k]] =
+          run_study_member(run, study, staging, cores_per_run, request.write_run, request.stop);
       progress.finished(progress_line(run, outcomes[mine[k]], study));
     }
   };
@@ -565,14 +567,11 @@ StudyResult run_study(const StudyRequest& request, StudyCommunicator& comm) {
   else
     spdlog::debug("rank {}: {} runs on {} thread(s)", comm.rank(), mine.size(), threads);
 
-  const auto outcomes = run_share(runs, mine, study, staging, threads, cores_per_run, result.leader,
-                                  request.write_run);
+  const auto outcomes =
+      run_share(runs, mine, study, staging, threads, cores_per_run, result.leader, request);
   const auto gathered = gather_outcomes(comm, runs, mine, outcomes);
-  if (interrupted()) {
-    result.outcome = {interrupted_exit_code(),
-                      "interrupted",
-                      "interrupted by signal " + std::to_string(interrupt_signal()),
-                      {}};
+  if (request.stop.stop_requested()) {
+    result.outcome = {request.stop.exit_code(), "interrupted", request.stop.reason(), {}};
     return result;
   }
   result.scene_file = scene.file;

@@ -102,6 +102,16 @@ TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options
   TimesimResult result;
   int settled = 0;
   while (result.periods < options.max_periods && !result.periodic) {
+    if (options.stop.stop_requested()) {
+      result.scene_file = scene.file;
+      result.options = options;
+      result.outcome = {
+          options.stop.exit_code(),
+          "interrupted",
+          options.stop.reason() + " after " + std::to_string(result.periods) + " periods",
+          {}};
+      return result;
+    }
     for (int s = 0; s < n_steps; ++s) {
       q += dt * qd + 0.5 * dt * dt * a;
       t += dt;

@@ -26,12 +26,10 @@ namespace {
 // golden probes sit at fixed fractions of the bracket. Returns (amplitude, omega) or nothing
 // when the curve turns around the top point, the top point is an end of the curve, or a
 // probe fails.
-std::optional<std::pair<double, double>> refine_peak(const HarmonicBalanceModel& model,
-                                                     FixedParameterSolver* solver,
-                                                     const std::vector<ContinuationPoint>& points,
-                                                     std::size_t top,
-                                                     const std::vector<Eigen::Index>& kept,
-                                                     AmplitudeSampler& sampler) {
+std::optional<std::pair<double, double>> refine_peak(
+    const HarmonicBalanceModel& model, FixedParameterSolver* solver,
+    const std::vector<ContinuationPoint>& points, std::size_t top,
+    const std::vector<Eigen::Index>& kept, AmplitudeSampler& sampler, const StopToken& stop) {
   if (top == 0 || top + 1 >= points.size() || kept.empty()) return std::nullopt;
   const Eigen::Index n = model.equation_count();
   const Eigen::VectorXd& before = points[top - 1].y;
@@ -62,7 +60,8 @@ std::optional<std::pair<double, double>> refine_peak(const HarmonicBalanceModel&
   double a = before(n), b = after(n);
   double c = b - inv_phi * (b - a), d = a + inv_phi * (b - a);
   double fc = amplitude(c), fd = amplitude(d);
-  for (int i = 0; i < 80 && !failed && !interrupted() && std::abs(b - a) > 1e-10 * std::abs(at(n));
+  for (int i = 0;
+       i < 80 && !failed && !stop.stop_requested() && std::abs(b - a) > 1e-10 * std::abs(at(n));
        ++i) {
     if (fc > fd) {
       b = d;
@@ -78,7 +77,7 @@ std::optional<std::pair<double, double>> refine_peak(const HarmonicBalanceModel&
       fd = amplitude(d);
     }
   }
-  if (failed || interrupted()) return std::nullopt;
+  if (failed || stop.stop_requested()) return std::nullopt;
   return fc > fd ? std::make_pair(fc, c) : std::make_pair(fd, d);
 }
 
@@ -165,7 +164,7 @@ Eigen::VectorXd find_start_point(const HarmonicBalanceModel& model,
   const NewtonResult first = solver.solve(y0);
   if (first.converged) return first.y;  // trace_curve then starts from the solution itself
   for (const double shrink : {0.0, 1e-3, 1e-6}) {
-    if (interrupted()) break;
+    if (options.newton.stop.stop_requested()) break;
     Eigen::VectorXd guess = y0;
     guess.head(n) *= shrink;
     const NewtonResult start = solver.solve(guess);
@@ -257,8 +256,8 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
     for (std::size_t i = 1; i < rows.size(); ++i)
       if (rows[i][3 + k * (1 + harmonics.size())] > rows[top][3 + k * (1 + harmonics.size())])
         top = i;
-    const auto refined_peak =
-        refine_peak(model, solver.get(), summary.points, top, nodes[k].kept, sampler);
+    const auto refined_peak = refine_peak(model, solver.get(), summary.points, top, nodes[k].kept,
+                                          sampler, options.newton.stop);
     if (refined_peak && refined_peak->first >= peak_amp[k]) {
       peak_amp[k] = refined_peak->first;
       peak_w[k] = refined_peak->second;
@@ -297,12 +296,12 @@ std::vector<FrictionLoop> solve_contact_traces(const Scene& scene,
   const Eigen::Index n = model.equation_count();
   std::unique_ptr<FixedParameterSolver> solver;
   for (double f_req : frequencies) {
-    if (interrupted()) break;  // the caller reports it
+    if (options.newton.stop.stop_requested()) break;  // the caller reports it
     const double w_req = f_req * unit;
     int crossing = 0;
     for (std::size_t i = 1; i < summary.points.size(); ++i) {
       const double wa = summary.points[i - 1].y(n), wb = summary.points[i].y(n);
-      if (interrupted()) break;
+      if (options.newton.stop.stop_requested()) break;
       if ((wa - w_req) * (wb - w_req) > 0 || wa == wb) continue;
       if (wb == w_req && i + 1 < summary.points.size()) continue;  // counted at the next pair
       const double s = (w_req - wa) / (wb - wa);
@@ -329,7 +328,7 @@ std::vector<FrictionLoop> solve_contact_traces(const Scene& scene,
         loops.push_back(std::move(loop));
       }
     }
-    if (crossing == 0 && !interrupted())
+    if (crossing == 0 && !options.newton.stop.stop_requested())
       spdlog::warn("friction loop at {} {}: the response curve does not reach it", f_req,
                    unit_name(C.unit));
   }

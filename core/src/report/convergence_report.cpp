@@ -134,7 +134,7 @@ void write_plot(const ConvergenceResult& result, StagedOutput& out) {
   }
   gp << "unset multiplot\n";
   write_text(out.path("convergence.gp"), gp.str());
-  run_gnuplot(out.path("convergence.gp"));
+  run_gnuplot(out.path("convergence.gp"), out.stop());
 }
 
 }  // namespace

@@ -77,7 +77,7 @@ void write_loop(const LoopResult& result, StagedOutput& out) {
   write_json(out.path("summary.json"), doc);
   if (result.plots) {
     write_text(out.path("loop.gp"), loop_plot_script(result));
-    run_gnuplot(out.path("loop.gp"));
+    run_gnuplot(out.path("loop.gp"), out.stop());
   }
 }
 

@@ -75,7 +75,7 @@ void write_modes(const ModesResult& result, StagedOutput& out) {
   write_csv(out.path("families.csv"), header, families);
   if (result.plots) {
     write_text(out.path("modes.gp"), map_script(result));
-    run_gnuplot(out.path("modes.gp"));
+    run_gnuplot(out.path("modes.gp"), out.stop());
   }
 }
 

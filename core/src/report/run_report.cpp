@@ -238,7 +238,7 @@ nlohmann::json write_loop(StagedOutput& out, const RunRecord& run, const Frictio
                loop_plot_script(csv.string(),
                                 contact.name + " at " + format_number(loop.frequency) + " " + unit,
                                 static_cast<int>(comps.size())));
-    run_gnuplot(gp);
+    run_gnuplot(gp, out.stop());
   }
   return {{"contact", contact.name},
           {"frequency", loop.frequency},
@@ -279,7 +279,7 @@ nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool p
   if (plots && !run.table.rows.empty()) {  // no points: no empty plot
     const fs::path gp = out.path("response.gp");
     write_text(gp, response_plot_script(run.scene, run.table.nodes));
-    run_gnuplot(gp);
+    run_gnuplot(gp, out.stop());
   }
   return loops;
 }
@@ -343,7 +343,7 @@ nlohmann::json write_contact_states(StagedOutput& out, const RunRecord& run,
       title.append(": share of the period stuck");
       const fs::path gp = out.path("contact_states/" + face + ".gp");
       write_text(gp, face_plot_script(stem + ".csv", face + ".png", patches[k], title));
-      run_gnuplot(gp);
+      run_gnuplot(gp, out.stop());
       plot_files.push_back("contact_states/" + face + ".png");
     }
     entries.push_back({{"frequency", frequency},
@@ -441,7 +441,7 @@ void write_run(const RunResult& result, StagedOutput& out) {
 }
 
 void write_run_folder(const RunResult& result, const fs::path& folder) {
-  StagedOutput out(folder, run_outputs());
+  StagedOutput out(folder, run_outputs(), StagingControl(result.options.stop));
   write_run(result, out);
   out.commit();
 }

@@ -143,7 +143,7 @@ void write_overlay_plot(const StudyResult& r, const std::string& title, StagedOu
   gp << "\n";
   if (!first) {
     write_text(out.path("overlay.gp"), gp.str());
-    run_gnuplot(out.path("overlay.gp"));
+    run_gnuplot(out.path("overlay.gp"), out.stop());
   }
 }
 
@@ -206,7 +206,7 @@ void write_peak_plot(const StudyResult& r, const std::string& title, StagedOutpu
     pk << peak_plot_per_combination(r, first_axis, peak_col);
   }
   write_text(out.path("peak.gp"), pk.str());
-  run_gnuplot(out.path("peak.gp"));
+  run_gnuplot(out.path("peak.gp"), out.stop());
 }
 
 }  // namespace

@@ -44,10 +44,9 @@ struct Ending {
   std::string reason;
 };
 
-// The ending of a trace stopped by a signal (support/interrupt.hpp).
-Ending interruption() {
-  return Ending{TerminationType::kCancelled,
-                "interrupted by signal " + std::to_string(interrupt_signal())};
+// The ending of a trace stopped through its token (support/interrupt.hpp).
+Ending interruption(const StopToken& stop) {
+  return Ending{TerminationType::kCancelled, stop.reason()};
 }
 
 // One traced curve: the driver's state between steps. trace() finds the start point, then
@@ -172,7 +171,7 @@ std::optional<Ending> CurveTracer::start(const VectorXd& y_guess) {
   ys0(n_) = options_.lambda_start / problem_->scaling().unknown(n_);
   const Correction start = newton_correct(*problem_, ys0, newton_);
   summary_.total_newton_iterations += start.iterations;
-  if (!start.converged && interrupted()) return interruption();
+  if (!start.converged && newton_.stop.stop_requested()) return interruption(newton_.stop);
   if (start.first_evaluation_failed)
     return Ending{TerminationType::kEvaluationFailed, "start point: " + start.message};
   if (!start.converged)
@@ -200,7 +199,7 @@ std::optional<Ending> CurveTracer::limits_reached(long attempt) const {
     return Ending{TerminationType::kMaxPoints, "step attempt budget exhausted"};
   if (elapsed() > options_.max_wall_seconds)
     return Ending{TerminationType::kTimeLimit, "max_wall_seconds elapsed"};
-  if (interrupted()) return interruption();
+  if (newton_.stop.stop_requested()) return interruption(newton_.stop);
   return std::nullopt;
 }
 

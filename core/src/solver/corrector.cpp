@@ -35,8 +35,8 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
 
   Correction out;
   out.ys = ys0;
-  if (interrupted()) {
-    out.message = "interrupted by signal " + std::to_string(interrupt_signal());
+  if (opt.stop.stop_requested()) {
+    out.message = opt.stop.reason();
     return out;
   }
   VectorXd r;
@@ -64,8 +64,8 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
   const std::unique_ptr<LinearSolver> lu = make_linear_solver(problem.linear());
   Jacobian trial_js, best_js;
   while (out.iterations < opt.max_iterations) {
-    if (interrupted()) {
-      out.message = "interrupted by signal " + std::to_string(interrupt_signal());
+    if (opt.stop.stop_requested()) {
+      out.message = opt.stop.reason();
       return out;
     }
     if (keller)
@@ -178,7 +178,7 @@ Correction chord_correct(const ScaledProblem& problem, const KellerFactor& facto
   double update_norm = kInf;
   while (!(out.residual_norm <= 1e-3 * opt.residual_tolerance ||
            (out.residual_norm <= opt.residual_tolerance && update_norm <= opt.step_tolerance))) {
-    if (out.chord_iterations >= max_chord || interrupted()) return out;
+    if (out.chord_iterations >= max_chord || opt.stop.stop_requested()) return out;
     const VectorXd dz = factor.solve(-r);
     if (!dz.allFinite()) return out;
     const VectorXd trial = out.ys + dz;

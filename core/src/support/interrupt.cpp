@@ -1,18 +1,23 @@
 #include "frichb/core/support/interrupt.hpp"
 
-#include <atomic>
-#include <csignal>
 #include <string>
 
 namespace frichb::core {
 
 namespace {
-std::atomic<int> g_signal{0};
 static_assert(std::atomic<int>::is_always_lock_free);
+static_assert(std::atomic<std::atomic<int>*>::is_always_lock_free);
+
+// The state the handlers stop.
+std::atomic<std::atomic<int>*> g_handled{nullptr};
+
+void record(std::atomic<int>& state, int signal) noexcept {
+  int none = 0;
+  state.compare_exchange_strong(none, signal);
+}
 
 extern "C" void record_signal(int signal) {
-  int none = 0;
-  g_signal.compare_exchange_strong(none, signal);
+  if (std::atomic<int>* state = g_handled.load()) record(*state, signal);
 }
 }  // namespace
 
@@ -20,7 +25,29 @@ Interrupted::Interrupted(int signal)
     : std::runtime_error("interrupted by signal " + std::to_string(signal) + "; no output written"),
       signal_(signal) {}
 
-void install_interrupt_handlers() {
+StopSource::StopSource() : state_(std::make_shared<std::atomic<int>>(0)) {}
+
+void StopSource::request_stop(int signal) const noexcept {
+  record(*state_, signal);
+}
+
+int StopToken::exit_code() const noexcept {
+  const int s = signal();
+  return s ? 128 + s : 0;
+}
+
+std::string StopToken::reason() const {
+  return "interrupted by signal " + std::to_string(signal());
+}
+
+void StopToken::throw_if_stopped() const {
+  if (stop_requested()) throw Interrupted(signal());
+}
+
+void install_interrupt_handlers(const StopSource& source) {
+  // The state is kept for the rest of the process: a handler may run at any time after this.
+  const auto* kept = new StopSource(source);  // NOLINT(cppcoreguidelines-owning-memory)
+  g_handled.store(kept->state_.get());
   struct sigaction action {};
   action.sa_handler = record_signal;
   sigemptyset(&action.sa_mask);
@@ -28,23 +55,6 @@ void install_interrupt_handlers() {
   action.sa_flags = SA_RESETHAND;
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
-}
-
-int interrupt_signal() {
-  return g_signal.load();
-}
-
-void request_interrupt(int signal) {
-  record_signal(signal);
-}
-
-void clear_interrupt() {
-  g_signal.store(0);
-}
-
-int interrupted_exit_code() {
-  const int s = interrupt_signal();
-  return s ? 128 + s : 0;
 }
 
 }  // namespace frichb::core

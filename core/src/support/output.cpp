@@ -35,18 +35,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::function<void(std::string_view)>& commit_hook() {
-  static std::function<void(std::string_view)> hook;
-  return hook;
-}
-bool& commit_without_exchange() {
-  static bool without = false;
-  return without;
-}
-void step_done(std::string_view step) {
-  if (commit_hook()) commit_hook()(step);
-}
-
 // The staging folders of the live StagedOutputs with their final folders, so that a write
 // error names the file the user asked for (a study's runs stage on several threads).
 struct StagingFolder {
@@ -289,12 +277,6 @@ bool remove_quietly(const fs::path& p) {
 
 }  // namespace
 
-void StagedOutput::set_commit_hook(std::function<void(std::string_view)> hook,
-                                   bool without_exchange) {
-  commit_hook() = std::move(hook);
-  commit_without_exchange() = without_exchange;
-}
-
 fs::path StagedOutput::checked_place(const fs::path& final_directory) {
   std::error_code ec;
   fs::path place;
@@ -328,8 +310,11 @@ fs::path StagedOutput::checked_place(const fs::path& final_directory) {
   return place;
 }
 
-StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::string> managed)
-    : final_(checked_place(final_directory)), managed_(std::move(managed)) {
+StagedOutput::StagedOutput(const fs::path& final_directory, std::vector<std::string> managed,
+                           StagingControl control)
+    : final_(checked_place(final_directory)),
+      managed_(std::move(managed)),
+      control_(std::move(control)) {
   std::error_code ec;
   const fs::path parent = final_.parent_path();
   // The folders on the way that do not exist yet, deepest first: made here, and removed again
@@ -546,8 +531,11 @@ fs::path StagedOutput::path(const fs::path& relative) const {
 }
 
 void StagedOutput::commit() {
-  // A signal while the set was written (gnuplot runs a while): nothing is committed.
-  if (interrupted()) throw Interrupted(interrupt_signal());
+  // A stop while the set was written (gnuplot runs a while): nothing is committed.
+  control_.stop.throw_if_stopped();
+  const auto step_done = [this](std::string_view step) {
+    if (control_.commit_hook) control_.commit_hook(step);
+  };
   const fs::path parent = final_.parent_path();
   // Every top-level name of the new set is the writer's to replace, and is recorded for the
   // next run into the folder to remove.
@@ -579,9 +567,9 @@ void StagedOutput::commit() {
     return;
   }
   fs::path old_set = staging_;
-  if (commit_without_exchange() ||
+  if (control_.without_exchange ||
       ::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, final_.c_str(), RENAME_EXCHANGE) != 0) {
-    const int e = commit_without_exchange() ? EINVAL : errno;
+    const int e = control_.without_exchange ? EINVAL : errno;
     if (e != EINVAL && e != ENOSYS && e != ENOTSUP)
       throw OutputError(
           "cannot swap " + staging_.string() + " and " + final_.string() + ": " + system_reason(e),
@@ -719,13 +707,13 @@ std::string find_on_path(const std::string& program) {
 
 }  // namespace
 
-bool run_gnuplot(const fs::path& script) {
+bool run_gnuplot(const fs::path& script, const StopToken& stop) {
   const std::string gnuplot = find_on_path("gnuplot");
   if (gnuplot.empty()) {
     spdlog::warn("gnuplot not found on PATH: kept {} but made no PNG", script.filename().string());
     return false;
   }
-  if (interrupted()) return false;
+  if (stop.stop_requested()) return false;
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
@@ -752,7 +740,7 @@ bool run_gnuplot(const fs::path& script) {
       spdlog::warn("lost track of gnuplot on {}: {}", script.string(), system_reason(errno));
       return false;
     }
-    if (interrupted()) {
+    if (stop.stop_requested()) {
       ::kill(pid, SIGTERM);
       while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
       }

@@ -36,6 +36,10 @@ struct ConvergenceRequest {
   // the runs are not written.
   std::function<std::filesystem::path()> stage_runs;
   RunWriter write_run;
+  // The call's stop token (support/interrupt.hpp): a stop ends the setting under way at its
+  // next step (and the time integration after its period), starts no other, and the result's
+  // outcome says so (128 + the signal).
+  StopToken stop;
 };
 
 // One harmonic-balance setting: largest kept harmonic H (the kept ones follow the scene's

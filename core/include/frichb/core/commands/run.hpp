@@ -18,6 +18,7 @@
 #include "frichb/core/model/response_curve.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/exit_codes.hpp"
+#include "frichb/core/support/interrupt.hpp"
 
 namespace frichb::core {
 
@@ -32,6 +33,10 @@ struct RunOptions {
   // Threads tracing the contacts within one evaluation (0: one per core); a study running
   // several scenes at once gives each the cores it leaves.
   int contact_threads = 0;
+  // The call's stop token (support/interrupt.hpp): a stop requested on it ends the trace at
+  // its next step and the result's outcome says so (128 + the signal); write_run_folder then
+  // refuses to commit.
+  StopToken stop;
 };
 
 // What a run produced, in brief: one row of a study or a convergence study.

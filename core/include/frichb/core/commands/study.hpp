@@ -95,6 +95,9 @@ struct StudyRequest {
   // Writes each run into <runs folder>/NNNN as it finishes (report/run_report.hpp's
   // write_run_folder). Required.
   RunWriter write_run;
+  // The call's stop token (support/interrupt.hpp): a stop ends the runs under way at their next
+  // step, starts no other, and the result's outcome says so (128 + the signal).
+  StopToken stop;
 };
 
 // One run of a study in the index.

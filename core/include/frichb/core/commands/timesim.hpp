@@ -19,6 +19,7 @@
 
 #include "frichb/core/commands/verb.hpp"
 #include "frichb/core/scene/scene.hpp"
+#include "frichb/core/support/interrupt.hpp"
 
 namespace frichb::core {
 
@@ -26,6 +27,9 @@ struct TimesimOptions {
   double frequency_hz = 0.0;    // excitation frequency f, Hz; must be finite and > 0
   int steps_per_period = 4000;  // time steps per excitation period T = 1/f; >= 1
   int max_periods = 3000;       // periods integrated at most before giving up; >= 1
+  // The call's stop token (support/interrupt.hpp), polled after every period: a stop ends the
+  // integration there and the result's outcome says so (128 + the signal).
+  StopToken stop;
 };
 
 // One response node (scene.output.response) over the last integrated period.

@@ -40,6 +40,8 @@
 #include <string>
 #include <vector>
 
+#include "frichb/core/support/interrupt.hpp"
+
 namespace frichb::core {
 
 class JacobianOperator;
@@ -138,6 +140,9 @@ struct NewtonOptions {
   // shortened, or taken past the kink). At fixed lambda (the start point, the landing on
   // lambda_end) any floor within the tolerance is accepted.
   int residual_floor_iterations = 3;
+  // The stop token of the call (support/interrupt.hpp): a stop requested on it ends a solve
+  // unconverged at its next iteration, and a trace (cancelled) at its next step.
+  StopToken stop;
 };
 
 // How messages write lambda: lambda / per_unit followed by unit ("291.5 Hz" for lambda in
@@ -345,7 +350,7 @@ enum class TerminationType {
   kEvaluationFailed,  // evaluate() reported failure at the start point
   kTimeLimit,         // max_wall_seconds elapsed
   kLeftBounds,        // a point fell outside [lambda_min, lambda_max] (not kept)
-  kCancelled,         // the point callback asked to stop, or an interruption (interrupt.hpp)
+  kCancelled,         // the point callback asked to stop, or a stop on newton.stop (interrupt.hpp)
   kInvalidOptions,
 };
 
@@ -392,7 +397,7 @@ struct NewtonResult {
 
 // Solves e(x, lambda) = 0 for x at the lambda given in y_guess (last entry, held fixed).
 // Scaling as in `options` (unknown_scale / residual_scale of ContinuationOptions).
-// An interruption (support/interrupt.hpp) ends the solve unconverged at its next iteration.
+// A stop requested on options.newton.stop ends the solve unconverged at its next iteration.
 NewtonResult solve_fixed_parameter(const CurveProblem& problem, const Eigen::VectorXd& y_guess,
                                    const ContinuationOptions& options);
 

@@ -34,6 +34,8 @@
 #include <string_view>
 #include <vector>
 
+#include "frichb/core/support/interrupt.hpp"
+
 namespace frichb::core {
 
 // A failure to write the outputs. `user_error`: the output path itself is wrong (a file where
@@ -49,6 +51,22 @@ class OutputError : public std::runtime_error {
   bool user_error_;
 };
 
+// What a staged output is told besides its place.
+struct StagingControl {
+  // The call's stop token (support/interrupt.hpp): once a stop is requested, commit() refuses
+  // and run_gnuplot, given stop(), ends its child.
+  StopToken stop;
+  // Test seam: called with the name of each step of commit() ("synced", "moved_aside",
+  // "swapped", "kept_unmanaged", "removed_old") after it is done. A hook that throws simulates
+  // a failure there; one that calls _exit simulates a kill.
+  std::function<void(std::string_view step)> commit_hook;
+  // Test seam: take the move-aside path of file systems without RENAME_EXCHANGE.
+  bool without_exchange = false;
+
+  StagingControl() = default;
+  explicit StagingControl(StopToken stop_token) : stop(std::move(stop_token)) {}
+};
+
 class StagedOutput {
  public:
   // The manifest a committed set keeps in the output folder:
@@ -60,7 +78,8 @@ class StagedOutput {
   // new set replaces them and the names the earlier set's manifest lists, and everything else
   // in the final folder is kept. Throws OutputError (user_error) when the place cannot hold
   // the results (above), when the folder is in use by another run or cannot be created.
-  StagedOutput(const std::filesystem::path& final_directory, std::vector<std::string> managed);
+  StagedOutput(const std::filesystem::path& final_directory, std::vector<std::string> managed,
+               StagingControl control = {});
   ~StagedOutput();
   StagedOutput(const StagedOutput&) = delete;
   StagedOutput& operator=(const StagedOutput&) = delete;
@@ -68,19 +87,13 @@ class StagedOutput {
   // Path of `relative` inside the staging folder (parent folders are created).
   std::filesystem::path path(const std::filesystem::path& relative) const;
   const std::filesystem::path& final_directory() const { return final_; }
+  // The stop token of the call this output belongs to (StagingControl::stop).
+  const StopToken& stop() const { return control_.stop; }
   // Syncs the staged files and replaces the managed names of the final folder with them.
   // Throws OutputError; the final folder then holds the earlier set or, where the failure
   // came after the swap, the new one. Throws Interrupted (support/interrupt.hpp), committing
-  // nothing, when a signal was recorded.
+  // nothing, when a stop was requested on stop().
   void commit();
-
-  // Test seam: `hook` is called with the name of each step of commit() ("synced",
-  // "moved_aside", "swapped", "kept_unmanaged", "removed_old") after it is done. A hook that
-  // throws simulates a failure there; one that calls _exit simulates a kill.
-  // `without_exchange`: take the move-aside path of file systems without RENAME_EXCHANGE.
-  // Not thread-safe: set it before any output is staged.
-  static void set_commit_hook(std::function<void(std::string_view step)> hook,
-                              bool without_exchange = false);
 
  private:
   // The checks of the place made before anything is created (above): the output folder's
@@ -97,6 +110,7 @@ class StagedOutput {
   void keep_aside(const std::filesystem::path& folder) const noexcept;
   std::filesystem::path final_, staging_, lock_file_;
   std::vector<std::string> managed_;
+  StagingControl control_;
   std::vector<std::filesystem::path> created_parents_;  // deepest first
   int lock_fd_ = -1;
   bool committed_ = false;
@@ -119,8 +133,8 @@ std::string gnuplot_string(std::string_view text);
 
 // Runs gnuplot on `script` in the script's folder, without a shell (posix_spawn with the
 // script's name as the only argument; stdin, stdout and stderr on /dev/null). Returns false
-// (and warns) when gnuplot is not on PATH, fails, or the run is interrupted (the child is
-// then terminated).
-bool run_gnuplot(const std::filesystem::path& script);
+// (and warns) when gnuplot is not on PATH or fails, and when a stop is requested on `stop`
+// (before it starts, or while it runs: the child is then terminated).
+bool run_gnuplot(const std::filesystem::path& script, const StopToken& stop);
 
 }  // namespace frichb::core
