@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <csignal>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -118,6 +119,25 @@ TEST(SimulateInTime, MatchesTheCommandLineSummaryAndRefusesCyclicScenes) {
   } catch (const SceneError& e) {
     EXPECT_EQ(e.key_path(), "cyclic");
   }
+}
+
+// A stop requested while the structure is integrated ends the integration after the period
+// under way: the outcome says interrupted (128 + the signal) and how many periods were done.
+TEST(SimulateInTime, AStopEndsTheIntegrationAfterItsPeriod) {
+  Scene scene =
+      load_scene(std::string(FRICHB_SOURCE_DIR) + "/configs/quickstart_friction_oscillator.yaml");
+  bind_plugins(scene, test::built_plugins());
+  const StopSource source;
+  TimesimOptions options;
+  options.frequency_hz = 348.0;
+  options.stop = source.token();
+  source.request_stop(SIGTERM);
+  const TimesimResult stopped = simulate_in_time(scene, options);
+  EXPECT_EQ(stopped.outcome.status, 128 + SIGTERM);
+  EXPECT_EQ(stopped.outcome.termination, "interrupted");
+  EXPECT_EQ(stopped.outcome.message, "interrupted by signal 15 after 0 periods");
+  EXPECT_EQ(stopped.periods, 0);
+  EXPECT_FALSE(stopped.periodic);
 }
 
 }  // namespace

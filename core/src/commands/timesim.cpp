@@ -176,6 +176,7 @@ TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options
 TimesimResult integrate_scene(const TimesimRequest& request) {
   const BoundScene bound = load_bound_scene(request.scene);
   TimesimResult result = simulate_in_time(bound.scene, request.integration);
+  if (result.outcome.status >= 128) return result;  // stopped: the adapter says so
   spdlog::info("{}: {} periods at {} Hz ({})", result.scene_file.string(), result.periods,
                request.integration.frequency_hz, result.periodic ? "periodic" : "NOT periodic yet");
   return result;
