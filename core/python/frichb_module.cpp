@@ -1,0 +1,332 @@
+// The Python module `frichb`: the verbs of the core as functions that return objects holding
+// numpy arrays, with the results `frichb` gives on the command line (the same functions run).
+//
+// Threading: each call releases the GIL while it computes, on a thread of its own; the calling
+// thread waits for it and, when it is Python's main thread, checks for signals every 50 ms: a
+// Ctrl-C stops the call through its stop token (support/interrupt.hpp) and raises
+// KeyboardInterrupt once the computation has returned (a continuation step, a Newton
+// iteration). Calls from several Python threads run at once, each with its own token.
+// Errors: a scene the core refuses raises frichb.SceneError (file, line, column, key), a plugin
+// frichb.PluginError, an output folder that cannot be written frichb.OutputError; a bad
+// override ValueError.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <csignal>
+#include <exception>
+#include <filesystem>
+#include <future>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/commands/validate.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/plugin_host/schema.hpp"
+#include "frichb/core/report/run_report.hpp"
+#include "frichb/core/support/interrupt.hpp"
+#include "frichb/core/support/output.hpp"
+#include "frichb/core/support/version.hpp"
+
+namespace py = pybind11;
+namespace core = frichb::core;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The module's exception classes (created at import, alive for the rest of the process).
+struct ErrorClasses {
+  py::handle base, scene, plugin, output;
+};
+ErrorClasses& error_classes() {
+  static ErrorClasses classes;
+  return classes;
+}
+
+// `compute()` on a thread of its own with the GIL released. From Python's main thread, a
+// signal whose Python handler raises (Ctrl-C: KeyboardInterrupt) stops the call through
+// `source` and is raised once the computation has returned.
+template <typename Compute>
+auto call_stoppable(const core::StopSource& source, Compute compute) -> decltype(compute()) {
+  using namespace std::chrono_literals;
+  py::gil_scoped_release released;
+  auto running = std::async(std::launch::async, std::move(compute));
+  while (running.wait_for(50ms) != std::future_status::ready) {
+    py::gil_scoped_acquire held;
+    if (PyErr_CheckSignals() != 0) {
+      source.request_stop(SIGINT);
+      {
+        py::gil_scoped_release waiting;
+        running.wait();
+      }
+      throw py::error_already_set();
+    }
+  }
+  return running.get();
+}
+
+// The scene input of a call: the file, `set` as overrides (each value written as YAML flow
+// text: JSON, which YAML reads), the plugin permission.
+core::SceneInput scene_input(const fs::path& scene, const py::dict& set, bool allow_scene_plugins) {
+  core::SceneInput input{scene, {}, allow_scene_plugins};
+  const py::object dumps = py::module_::import("json").attr("dumps");
+  for (const auto& [key, value] : set) {
+    std::string assignment = py::str(key);
+    assignment += "=";
+    assignment += py::str(dumps(value)).cast<std::string>();
+    input.overrides.push_back(core::parse_scene_override(assignment));
+  }
+  return input;
+}
+
+// Column `k` of a result table as a numpy array.
+py::array_t<double> column(const std::vector<std::vector<double>>& rows, std::size_t k) {
+  py::array_t<double> out(static_cast<py::ssize_t>(rows.size()));
+  auto view = out.mutable_unchecked<1>();
+  for (std::size_t i = 0; i < rows.size(); ++i) view(static_cast<py::ssize_t>(i)) = rows[i].at(k);
+  return out;
+}
+
+std::size_t column_index(const core::RunResult& r, const std::string& name) {
+  const auto& header = r.table.header;
+  for (std::size_t k = 0; k < header.size(); ++k)
+    if (header[k] == name) return k;
+  std::string known;
+  for (const auto& h : header) known += (known.empty() ? "" : ", ") + h;
+  throw py::key_error("no column '" + name + "' (columns: " + known + ")");
+}
+
+py::dict peak_dict(const core::NodePeak& p) {
+  py::dict d;
+  d["node"] = p.node;
+  d["amplitude_m"] = p.amplitude_m;
+  d["omega_rad_s"] = p.omega_rad_s;
+  d["frequency_hz"] = p.omega_rad_s / (2 * std::numbers::pi);
+  d["refined"] = p.refined;
+  return d;
+}
+
+// An exception class `name` of the module, derived from `bases`.
+py::handle make_error(py::module_& m, const char* name, py::handle bases, const char* doc) {
+  PyObject* cls =
+      PyErr_NewExceptionWithDoc((std::string("frichb.") + name).c_str(), doc, bases.ptr(), nullptr);
+  if (cls == nullptr) throw py::error_already_set();
+  m.add_object(name, py::handle(cls));
+  return cls;
+}
+
+void translate_errors(std::exception_ptr failure) {
+  const ErrorClasses& classes = error_classes();
+  try {
+    std::rethrow_exception(std::move(failure));
+  } catch (const core::SceneError& e) {
+    py::object error = py::reinterpret_borrow<py::object>(classes.scene)(e.what());
+    error.attr("file") = e.file();
+    error.attr("line") = e.line();
+    error.attr("column") = e.column();
+    error.attr("key") = e.key_path();
+    error.attr("reason") = e.message();
+    PyErr_SetObject(classes.scene.ptr(), error.ptr());
+  } catch (const core::PluginError& e) {
+    PyErr_SetString(classes.plugin.ptr(), e.what());
+  } catch (const core::OutputError& e) {
+    PyErr_SetString(classes.output.ptr(), e.what());
+  } catch (const core::Interrupted& e) {
+    PyErr_SetString(PyExc_KeyboardInterrupt, e.what());
+  }
+}
+
+}  // namespace
+
+PYBIND11_MODULE(frichb, m) {
+  m.doc() =
+      "FricHB: steady-state vibration of structures with dry-friction contacts (harmonic "
+      "balance). The verbs of the frichb program as functions returning result objects.";
+  m.attr("__version__") = core::version();
+
+  // Logging: warnings and errors on stderr, as the program's; set_log_level("info") shows
+  // progress.
+  if (!spdlog::get("frichb")) {
+    auto logger = spdlog::stderr_color_mt("frichb");
+    logger->set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
+    spdlog::set_default_logger(logger);
+    spdlog::set_level(spdlog::level::warn);
+  }
+  m.def(
+      "set_log_level",
+      [](const std::string& level) {
+        const auto parsed = spdlog::level::from_str(level);
+        if (parsed == spdlog::level::off && level != "off")
+          throw py::value_error(
+              "log level: trace, debug, info, warning, error, critical or off, "
+              "not '" +
+              level + "'");
+        spdlog::set_level(parsed);
+      },
+      py::arg("level"),
+      "The level of the core's log on stderr: 'debug', 'info' (progress), 'warning' (the "
+      "default), 'error' or 'off'.");
+
+  ErrorClasses& classes = error_classes();
+  classes.base = make_error(m, "Error", PyExc_RuntimeError, "Any error FricHB raises.");
+  const py::tuple scene_bases = py::make_tuple(classes.base, py::handle(PyExc_ValueError));
+  classes.scene = make_error(
+      m, "SceneError", scene_bases,
+      "A scene the core refuses: .file, .line, .column (1-based; 0 when unknown), .key (the "
+      "key path, e.g. contacts.damper.params.mu) and .reason.");
+  classes.plugin = make_error(m, "PluginError", classes.base,
+                              "A plugin that cannot be found, loaded or created.");
+  classes.output =
+      make_error(m, "OutputError", classes.base, "An output folder that cannot be written.");
+  py::register_exception_translator(translate_errors);
+
+  py::class_<core::RunResult, std::shared_ptr<core::RunResult>>(
+      m, "RunResult",
+      "The response curve of a scene (frichb.run): the rows of response.csv as numpy arrays, "
+      "the peaks, how the curve ended. write(folder) writes what `frichb run` writes.")
+      .def_property_readonly(
+          "status", [](const core::RunResult& r) { return r.outcome.status; },
+          "The exit code `frichb run` gives: 0 completed, 3 ended early (results all the same).")
+      .def_property_readonly(
+          "termination", [](const core::RunResult& r) { return r.outcome.termination; },
+          "How the verb ended: 'completed', or the continuation's reason ('max_points', ...).")
+      .def_property_readonly(
+          "message", [](const core::RunResult& r) { return r.outcome.message; },
+          "Why it ended early, with a suggestion; empty when completed.")
+      .def_property_readonly(
+          "warnings", [](const core::RunResult& r) { return r.outcome.warnings; },
+          "The warnings logged while it ran, in order.")
+      .def_property_readonly(
+          "columns", [](const core::RunResult& r) { return r.table.header; },
+          "The names of response.csv's columns, in order.")
+      .def_property_readonly(
+          "table",
+          [](const core::RunResult& r) {
+            const auto rows = static_cast<py::ssize_t>(r.table.rows.size());
+            const auto cols = static_cast<py::ssize_t>(r.table.header.size());
+            py::array_t<double> out({rows, cols});
+            auto view = out.mutable_unchecked<2>();
+            for (py::ssize_t i = 0; i < rows; ++i)
+              for (py::ssize_t k = 0; k < cols; ++k)
+                view(i, k) = r.table.rows[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)];
+            return out;
+          },
+          "response.csv's numbers, one row per point of the curve: an array [points, columns].")
+      .def(
+          "column",
+          [](const core::RunResult& r, const std::string& name) {
+            return column(r.table.rows, column_index(r, name));
+          },
+          py::arg("name"), "One column of response.csv by name, e.g. 'blade_amplitude_m'.")
+      .def_property_readonly(
+          "frequency_hz",
+          [](const core::RunResult& r) {
+            return column(r.table.rows, column_index(r, "frequency_hz"));
+          },
+          "The excitation frequency of each point, Hz.")
+      .def_property_readonly(
+          "omega_rad_s",
+          [](const core::RunResult& r) {
+            return column(r.table.rows, column_index(r, "omega_rad_s"));
+          },
+          "The excitation frequency of each point, rad/s.")
+      .def(
+          "amplitude",
+          [](const core::RunResult& r, const std::string& node) {
+            return column(r.table.rows, column_index(r, node + "_amplitude_m"));
+          },
+          py::arg("node"),
+          "The amplitude of a response node at each point, m (maximum over the period of the "
+          "displacement norm).")
+      .def_property_readonly(
+          "peaks",
+          [](const core::RunResult& r) {
+            py::list peaks;
+            for (const auto& p : r.peaks) peaks.append(peak_dict(p));
+            return peaks;
+          },
+          "One dict per response node with a peak: node, amplitude_m, omega_rad_s, "
+          "frequency_hz, refined.")
+      .def_property_readonly(
+          "points", [](const core::RunResult& r) { return r.summary.points.size(); },
+          "The points of the response curve.")
+      .def_property_readonly(
+          "unknowns",
+          [](const core::RunResult& r) {
+            return r.prepared.model ? r.prepared.model->equation_count() : 0;
+          },
+          "The harmonic-balance unknowns.")
+      .def_property_readonly(
+          "wall_seconds", [](const core::RunResult& r) { return r.wall_seconds; },
+          "The run's wall time, s.")
+      .def(
+          "write",
+          [](const core::RunResult& r, const fs::path& folder) {
+            py::gil_scoped_release released;
+            core::write_run_folder(r, folder);
+          },
+          py::arg("folder"),
+          "Writes what `frichb run` writes into `folder` (replaced as a whole: response.csv, "
+          "summary.json, the loops, the plots).")
+      .def("__repr__", [](const core::RunResult& r) {
+        return "<frichb.RunResult " + r.outcome.termination + ", " +
+               std::to_string(r.summary.points.size()) + " points>";
+      });
+
+  py::class_<core::ValidationResult>(m, "ValidationResult",
+                                     "What frichb.validate found: the scene as run would load it.")
+      .def_readonly("structure", &core::ValidationResult::structure)
+      .def_readonly("structure_version", &core::ValidationResult::structure_version)
+      .def_readonly("contacts", &core::ValidationResult::contacts)
+      .def_readonly("plugin_files", &core::ValidationResult::plugin_files)
+      .def_readonly("study_runs", &core::ValidationResult::study_runs)
+      .def_property_readonly("warnings",
+                             [](const core::ValidationResult& r) { return r.outcome.warnings; })
+      .def("__repr__", [](const core::ValidationResult& r) {
+        return "<frichb.ValidationResult " + r.scene_file.string() + ": " + r.structure + ", " +
+               std::to_string(r.contacts.size()) + " contact(s)>";
+      });
+
+  m.def(
+      "run",
+      [](const fs::path& scene, const py::dict& set, bool allow_scene_plugins, int contact_threads,
+         const py::object& plots) {
+        const core::StopSource source;
+        core::RunOptions options;
+        options.stop = source.token();
+        options.contact_threads = contact_threads;
+        if (!plots.is_none()) options.plots = plots.cast<bool>() ? 1 : 0;
+        const core::SceneInput input = scene_input(scene, set, allow_scene_plugins);
+        return std::make_shared<core::RunResult>(
+            call_stoppable(source, [&] { return core::run_scene(input, options); }));
+      },
+      py::arg("scene"), py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
+      py::arg("contact_threads") = 0, py::arg("plots") = py::none(),
+      "Traces the response curve of a scene, as `frichb run SCENE --set KEY=VALUE ...` does.\n\n"
+      "scene: the scene file. set: {key path: value} overrides, e.g.\n"
+      "{'contacts.damper.params.mu': 0.3}. allow_scene_plugins: load plugins from the\n"
+      "scene's plugin_paths. contact_threads: threads tracing the contacts (0: one per core).\n"
+      "plots: make the PNGs when written (None: the scene's output.plots).\n"
+      "Returns a RunResult (a curve that ends early is a result: its status is 3). Raises\n"
+      "SceneError or PluginError for input the core refuses, KeyboardInterrupt on Ctrl-C.");
+
+  m.def(
+      "validate",
+      [](const fs::path& scene, const py::dict& set, bool allow_scene_plugins) {
+        const core::StopSource source;
+        const core::SceneInput input = scene_input(scene, set, allow_scene_plugins);
+        return call_stoppable(source, [&] { return core::validate_scene({input}); });
+      },
+      py::arg("scene"), py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
+      "Checks a scene as `frichb validate` does (every check run makes before its first Newton\n"
+      "iteration, every run of its study: section). Returns a ValidationResult; raises\n"
+      "SceneError or PluginError.");
+}
