@@ -9,6 +9,7 @@
 // Errors: a scene the core refuses raises frichb.SceneError (file, line, column, key), a plugin
 // frichb.PluginError, an output folder that cannot be written frichb.OutputError; a bad
 // override ValueError.
+#include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -27,11 +28,18 @@
 #include <utility>
 #include <vector>
 
+#include "frichb/core/commands/loop.hpp"
+#include "frichb/core/commands/modes.hpp"
 #include "frichb/core/commands/run.hpp"
+#include "frichb/core/commands/timesim.hpp"
 #include "frichb/core/commands/validate.hpp"
+#include "frichb/core/numerics/harmonics.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
 #include "frichb/core/plugin_host/schema.hpp"
+#include "frichb/core/report/loop_report.hpp"
+#include "frichb/core/report/modes_report.hpp"
 #include "frichb/core/report/run_report.hpp"
+#include "frichb/core/report/timesim_report.hpp"
 #include "frichb/core/support/interrupt.hpp"
 #include "frichb/core/support/output.hpp"
 #include "frichb/core/support/version.hpp"
@@ -112,6 +120,52 @@ py::dict peak_dict(const core::NodePeak& p) {
   d["frequency_hz"] = p.omega_rad_s / (2 * std::numbers::pi);
   d["refined"] = p.refined;
   return d;
+}
+
+// Writes `result` into `folder` as the program does (staged, committed whole), GIL released.
+template <typename Result, typename Write>
+void write_folder(const Result& result, const fs::path& folder,
+                  const std::vector<std::string>& managed, const Write& write) {
+  py::gil_scoped_release released;
+  core::StagedOutput out(folder, managed);
+  write(result, out);
+  out.commit();
+}
+
+// A vector as a numpy array (copied).
+template <typename T>
+py::array_t<T> array(const std::vector<T>& values) {
+  return py::array_t<T>(static_cast<py::ssize_t>(values.size()), values.data());
+}
+
+// Rows of equal length as a 2-D numpy array [rows, columns] (copied).
+py::array_t<double> matrix(const std::vector<std::vector<double>>& rows) {
+  const auto n = static_cast<py::ssize_t>(rows.size());
+  const auto m = static_cast<py::ssize_t>(rows.empty() ? 0 : rows.front().size());
+  py::array_t<double> out({n, m});
+  auto view = out.mutable_unchecked<2>();
+  for (py::ssize_t i = 0; i < n; ++i)
+    for (py::ssize_t k = 0; k < m; ++k)
+      view(i, k) = rows[static_cast<std::size_t>(i)].at(static_cast<std::size_t>(k));
+  return out;
+}
+
+// The outcome's attributes every result has.
+template <typename Class>
+void outcome_attributes(Class& c) {
+  using Result = typename Class::type;
+  c.def_property_readonly(
+       "status", [](const Result& r) { return r.outcome.status; },
+       "The exit code the program gives: 0 completed, 3 ended before its aim (results kept).")
+      .def_property_readonly(
+          "termination", [](const Result& r) { return r.outcome.termination; },
+          "How the verb ended, a word: 'completed', 'not_periodic', 'max_points', ...")
+      .def_property_readonly(
+          "message", [](const Result& r) { return r.outcome.message; },
+          "Why it ended early; empty when completed.")
+      .def_property_readonly(
+          "warnings", [](const Result& r) { return r.outcome.warnings; },
+          "The warnings logged while it ran, in order.");
 }
 
 // An exception class `name` of the module, derived from `bases`.
@@ -294,6 +348,209 @@ PYBIND11_MODULE(frichb, m) {
         return "<frichb.ValidationResult " + r.scene_file.string() + ": " + r.structure + ", " +
                std::to_string(r.contacts.size()) + " contact(s)>";
       });
+
+  py::class_<core::TimesimResult> timesim_result(
+      m, "TimesimResult",
+      "The time-integration reference of a scene at one frequency (frichb.timesim): the last "
+      "period at the response nodes.");
+  outcome_attributes(timesim_result);
+  timesim_result
+      .def_property_readonly(
+          "frequency_hz", [](const core::TimesimResult& r) { return r.options.frequency_hz; },
+          "The excitation frequency, Hz.")
+      .def_readonly("periodic", &core::TimesimResult::periodic,
+                    "The response repeated (relative 1e-8, three periods in a row).")
+      .def_readonly("periods", &core::TimesimResult::periods, "Periods integrated.")
+      .def_readonly("harmonics", &core::TimesimResult::harmonics,
+                    "The scene's kept harmonics, the order of harmonic_amplitudes_m.")
+      .def_property_readonly(
+          "time_s", [](const core::TimesimResult& r) { return array(r.time_s); },
+          "Sample times of the last period, s, from the period's start.")
+      .def_property_readonly(
+          "nodes",
+          [](const core::TimesimResult& r) {
+            py::dict nodes;
+            for (const auto& n : r.nodes) {
+              py::dict node;
+              node["amplitude_m"] = n.amplitude_m;
+              node["half_peak_to_peak_m"] = n.half_peak_to_peak_m;
+              node["harmonic_amplitudes_m"] = array(n.harmonic_amplitudes_m);
+              node["samples_m"] = matrix(n.samples_m);
+              nodes[py::str(n.node)] = node;
+            }
+            return nodes;
+          },
+          "Per response node: amplitude_m (maximum of the displacement norm), "
+          "half_peak_to_peak_m, harmonic_amplitudes_m (per harmonic), samples_m [dof, sample].")
+      .def_readonly("wall_seconds", &core::TimesimResult::wall_seconds, "Wall time, s.")
+      .def(
+          "write",
+          [](const core::TimesimResult& r, const fs::path& folder) {
+            write_folder(r, folder, core::timesim_outputs(), core::write_timesim);
+          },
+          py::arg("folder"), "Writes what `frichb timesim -o folder` writes.");
+
+  py::class_<core::ModesResult> modes_result(
+      m, "ModesResult",
+      "The natural frequencies of the structure without contacts per harmonic index "
+      "(frichb.modes), with the engine-order excitation lines.");
+  outcome_attributes(modes_result);
+  modes_result.def_readonly("sectors", &core::ModesResult::sectors, "1: not cyclic.")
+      .def_readonly("engine_order", &core::ModesResult::engine_order, "0: none.")
+      .def_property_readonly(
+          "modes",
+          [](const core::ModesResult& r) {
+            std::vector<int> h, nd, wave, family;
+            std::vector<double> f;
+            for (const auto& mode : r.modes) {
+              h.push_back(mode.harmonic_index);
+              nd.push_back(mode.nodal_diameter);
+              wave.push_back(mode.wave);
+              family.push_back(mode.family);
+              f.push_back(mode.frequency_hz);
+            }
+            py::dict columns;
+            columns["harmonic_index"] = array(h);
+            columns["nodal_diameter"] = array(nd);
+            columns["wave"] = array(wave);
+            columns["family"] = array(family);
+            columns["frequency_hz"] = array(f);
+            return columns;
+          },
+          "modes.csv's columns as arrays: harmonic_index, nodal_diameter, wave (+1 forward, -1 "
+          "backward, 0), family, frequency_hz.")
+      .def_property_readonly(
+          "frequencies_hz",
+          [](const core::ModesResult& r) {
+            std::vector<std::vector<double>> rows;
+            for (const auto& by_nd : r.frequencies_hz)
+              rows.emplace_back(by_nd.begin(),
+                                by_nd.begin() + static_cast<std::ptrdiff_t>(r.families));
+            return matrix(rows);
+          },
+          "families.csv: [nodal diameter, family], Hz (the families every nodal diameter has).")
+      .def_property_readonly(
+          "excitation",
+          [](const core::ModesResult& r) {
+            py::list lines;
+            for (const auto& e : r.excitation) {
+              py::dict line;
+              line["rpm"] = e.rpm;
+              line["harmonic"] = e.harmonic;
+              line["harmonic_index"] = e.harmonic_index;
+              line["nodal_diameter"] = e.nodal_diameter;
+              line["frequency_hz"] = e.frequency_hz;
+              lines.append(line);
+            }
+            return lines;
+          },
+          "excitation.csv: a dict per speed and harmonic n of the engine order.")
+      .def(
+          "write",
+          [](const core::ModesResult& r, const fs::path& folder) {
+            write_folder(r, folder, core::modes_outputs(), core::write_modes);
+          },
+          py::arg("folder"), "Writes what `frichb modes -o folder` writes.");
+
+  py::class_<core::LoopResult> loop_result(
+      m, "LoopResult",
+      "One contact law traced over a prescribed periodic relative motion (frichb.loop).");
+  outcome_attributes(loop_result);
+  loop_result.def_readonly("name", &core::LoopResult::name)
+      .def_property_readonly(
+          "law", [](const core::LoopResult& r) { return r.law ? r.law->name() : std::string(); },
+          "The contact law's name.")
+      .def_property_readonly(
+          "law_params",
+          [](const core::LoopResult& r) {
+            return py::module_::import("json").attr("loads")(r.law_params.dump());
+          },
+          "The law's validated parameters, defaults filled in.")
+      .def_property_readonly(
+          "components",
+          [](const core::LoopResult& r) {
+            std::vector<std::string> names;
+            for (const int c : r.components) names.emplace_back(core::kContactAxisNames[c]);
+            return names;
+          },
+          "The local axes of the columns of displacement_m and force_N ('t1', 't2', 'n').")
+      .def_readonly("displacement_m", &core::LoopResult::displacement_m,
+                    "The prescribed relative motion, [sample, component], m.")
+      .def_readonly("force_N", &core::LoopResult::force_N,
+                    "The law's force, [sample, component], N.")
+      .def_property_readonly(
+          "stick_slip_status", [](const core::LoopResult& r) { return array(r.status); },
+          "Per sample: 0 stuck, 1 slipping, 2 open.")
+      .def_readonly("energy_per_cycle_J", &core::LoopResult::energy_per_cycle_J,
+                    "The energy dissipated per cycle, J (the closed integral of f . du).")
+      .def_readonly("passes", &core::LoopResult::passes)
+      .def_readonly("periodic", &core::LoopResult::periodic)
+      .def_readonly("fraction_slipping", &core::LoopResult::fraction_slipping)
+      .def_readonly("fraction_open", &core::LoopResult::fraction_open)
+      .def(
+          "write",
+          [](const core::LoopResult& r, const fs::path& folder) {
+            write_folder(r, folder, core::loop_outputs(), core::write_loop);
+          },
+          py::arg("folder"), "Writes what `frichb loop -o folder` writes.");
+
+  m.def(
+      "timesim",
+      [](const fs::path& scene, double frequency_hz, const py::dict& set, bool allow_scene_plugins,
+         int steps_per_period, int max_periods) {
+        const core::StopSource source;
+        core::TimesimRequest request;
+        request.scene = scene_input(scene, set, allow_scene_plugins);
+        request.integration.frequency_hz = frequency_hz;
+        request.integration.steps_per_period = steps_per_period;
+        request.integration.max_periods = max_periods;
+        request.integration.stop = source.token();
+        return call_stoppable(source, [&] { return core::integrate_scene(request); });
+      },
+      py::arg("scene"), py::arg("frequency_hz"), py::arg("set") = py::dict(),
+      py::arg("allow_scene_plugins") = false, py::arg("steps_per_period") = 4000,
+      py::arg("max_periods") = 3000,
+      "Integrates a scene without cyclic symmetry in time at one excitation frequency until\n"
+      "its response repeats, as `frichb timesim SCENE --at-hz F` does. Returns a\n"
+      "TimesimResult; raises SceneError (a cyclic scene too), ValueError for options out of\n"
+      "range, KeyboardInterrupt on Ctrl-C.");
+
+  m.def(
+      "modes",
+      [](const fs::path& scene, const py::object& rpm, const py::dict& set,
+         bool allow_scene_plugins) {
+        const core::StopSource source;
+        core::ModesOptions options{scene_input(scene, set, allow_scene_plugins), 0.0, 0.0};
+        if (!rpm.is_none()) {
+          if (py::isinstance<py::tuple>(rpm) || py::isinstance<py::list>(rpm)) {
+            const auto range = rpm.cast<std::vector<double>>();
+            if (range.size() != 2) throw py::value_error("rpm: one speed, or (low, high)");
+            options.rpm_low = range[0];
+            options.rpm_high = range[1];
+          } else {
+            options.rpm_low = options.rpm_high = rpm.cast<double>();
+          }
+          if (!(options.rpm_low > 0 && options.rpm_high >= options.rpm_low))
+            throw py::value_error("rpm: a positive speed, or (low, high) with 0 < low <= high");
+        }
+        return call_stoppable(source, [&] { return core::compute_modes(options); });
+      },
+      py::arg("scene"), py::arg("rpm") = py::none(), py::arg("set") = py::dict(),
+      py::arg("allow_scene_plugins") = false,
+      "The natural frequencies of the structure without contacts per harmonic index, as\n"
+      "`frichb modes SCENE --rpm A:B` does; rpm: one speed or (low, high), for the\n"
+      "engine-order excitation lines. Returns a ModesResult.");
+
+  m.def(
+      "loop",
+      [](const fs::path& input, bool allow_scene_plugins) {
+        const core::StopSource source;
+        const core::LoopRequest request{input, allow_scene_plugins};
+        return call_stoppable(source, [&] { return core::trace_loop(request); });
+      },
+      py::arg("input"), py::arg("allow_scene_plugins") = false,
+      "Traces one contact law under the periodic relative motion a loop input prescribes, as\n"
+      "`frichb loop INPUT` does. Returns a LoopResult; raises SceneError or PluginError.");
 
   m.def(
       "run",

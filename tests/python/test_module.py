@@ -132,3 +132,77 @@ def test_two_threads_run_at_once_and_give_their_runs_in_turn():
         t.join()
     for k in range(2):
         np.testing.assert_array_equal(together[k], in_turn[k])
+
+
+def test_timesim_gives_the_programs_summary_and_files(tmp_path):
+    result = frichb.timesim(QUICKSTART, 348.0)
+    assert result.status == 0 and result.periodic, result.message
+    cli = frichb_cli("timesim", str(QUICKSTART), "--at-hz", "348", "-o", str(tmp_path / "cli"))
+    assert cli.returncode == 0, cli.stderr
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert result.periods == summary["periods"]
+    blade = result.nodes["blade"]
+    expected = summary["response"]["blade"]
+    assert blade["amplitude_m"] == expected["amplitude_m"]
+    assert blade["half_peak_to_peak_m"] == expected["half_peak_to_peak_m"]
+    assert list(blade["harmonic_amplitudes_m"]) == \
+        [expected["harmonic_amplitudes_m"][str(h)] for h in result.harmonics]
+    assert blade["samples_m"].shape == (1, 4000) and result.time_s.shape == (4000,)
+    # The amplitude is the largest sample of the period (one DOF).
+    assert np.max(np.abs(blade["samples_m"])) == blade["amplitude_m"]
+    result.write(tmp_path / "py")
+    assert (tmp_path / "py" / "timesim.csv").read_bytes() == \
+        (tmp_path / "cli" / "timesim.csv").read_bytes()
+    with pytest.raises(frichb.SceneError) as cyclic:
+        frichb.timesim(SOURCE / "configs" / "bladed_disk_lumped_eo3.yaml", 300.0)
+    assert cyclic.value.key == "cyclic"
+
+
+def test_modes_give_the_programs_tables(tmp_path):
+    scene = SOURCE / "configs" / "bladed_disk_lumped_eo3.yaml"
+    result = frichb.modes(scene, rpm=(4000, 8000))
+    assert result.status == 0
+    cli = frichb_cli("modes", str(scene), "--rpm", "4000:8000", "-o", str(tmp_path / "cli"))
+    assert cli.returncode == 0, cli.stderr
+    header, rows = read_csv(tmp_path / "cli" / "modes.csv")
+    for k, name in enumerate(header):
+        np.testing.assert_allclose(result.modes[name], rows[:, k], rtol=5e-12, atol=0)
+    _, families = read_csv(tmp_path / "cli" / "families.csv")
+    np.testing.assert_allclose(result.frequencies_hz, families[:, 1:], rtol=5e-12, atol=0)
+    _, lines = read_csv(tmp_path / "cli" / "excitation.csv")
+    assert [[e["rpm"], e["harmonic"], e["harmonic_index"], e["nodal_diameter"],
+             e["frequency_hz"]] for e in result.excitation] == lines.tolist()
+    assert result.sectors > 1 and result.engine_order == 3
+    result.write(tmp_path / "py")
+    for name in ("modes.csv", "families.csv", "excitation.csv"):
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes()
+    with pytest.raises(ValueError):
+        frichb.modes(scene, rpm=(8000, 4000))
+
+
+def test_loop_gives_the_programs_energy_and_files(tmp_path):
+    loop_input = SOURCE / "configs" / "friction_loops" / "fig3_4_2d_variable_normal_load.yaml"
+    result = frichb.loop(loop_input)
+    cli = frichb_cli("loop", str(loop_input), "-o", str(tmp_path / "cli"))
+    assert cli.returncode == 0, cli.stderr
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert result.energy_per_cycle_J == summary["dissipated_energy_per_cycle_J"]
+    assert result.fraction_slipping == summary["fraction_slipping"]
+    assert result.law == summary["law"]["name"]
+    assert result.law_params == summary["law"]["params"]
+    assert result.components == ["t1", "t2", "n"]
+    header, rows = read_csv(tmp_path / "cli" / "loop.csv")
+    # loop.csv closes the loop: its last row repeats the first sample.
+    np.testing.assert_array_equal(rows[-1, 1:7], rows[0, 1:7])
+    np.testing.assert_allclose(result.force_N, rows[:-1, 4:7], rtol=5e-12, atol=1e-15)
+    np.testing.assert_allclose(result.displacement_m, rows[:-1, 1:4], rtol=5e-12, atol=1e-15)
+    np.testing.assert_array_equal(result.stick_slip_status, rows[:-1, 7])
+    # The energy is the closed integral of f . du, which the core takes over the force's and
+    # motion's harmonics; the trapezoid rule over the 2048 samples of this loop (its force has
+    # corners at stick-slip changes) agrees to 5e-6.
+    du = np.roll(result.displacement_m, -1, axis=0) - result.displacement_m
+    f_mid = 0.5 * (np.roll(result.force_N, -1, axis=0) + result.force_N)
+    assert np.sum(f_mid * du) == pytest.approx(result.energy_per_cycle_J, rel=2e-5)
+    result.write(tmp_path / "py")
+    assert (tmp_path / "py" / "loop.csv").read_bytes() == \
+        (tmp_path / "cli" / "loop.csv").read_bytes()
