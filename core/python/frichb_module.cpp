@@ -18,6 +18,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <complex>
 #include <csignal>
 #include <exception>
 #include <filesystem>
@@ -100,6 +101,36 @@ py::array_t<double> column(const std::vector<std::vector<double>>& rows, std::si
   py::array_t<double> out(static_cast<py::ssize_t>(rows.size()));
   auto view = out.mutable_unchecked<1>();
   for (std::size_t i = 0; i < rows.size(); ++i) view(static_cast<py::ssize_t>(i)) = rows[i].at(k);
+  return out;
+}
+
+// The index of the response node `name` of a run (output.response).
+std::size_t response_node(const core::RunResult& r, const std::string& name) {
+  std::string known;
+  for (std::size_t j = 0; j < r.table.nodes.size(); ++j) {
+    if (r.table.nodes[j].name == name) return j;
+    known += (known.empty() ? "" : ", ") + r.table.nodes[j].name;
+  }
+  throw py::key_error("'" + name +
+                      "' is not a response node of the scene (output.response: " + known + ")");
+}
+
+// The complex harmonic amplitudes of a response node at every point: [point, component,
+// harmonic], m (node_harmonics).
+py::array_t<std::complex<double>> response_harmonics(const core::RunResult& r,
+                                                     const std::string& name) {
+  const std::size_t j = response_node(r, name);
+  const auto& table = r.table.harmonics;
+  const auto harmonics = static_cast<py::ssize_t>(r.prepared.model->layout().harmonics().size());
+  py::array_t<std::complex<double>> out({static_cast<py::ssize_t>(table.size()),
+                                         static_cast<py::ssize_t>(r.table.nodes[j].kept.size()),
+                                         harmonics});
+  auto view = out.mutable_unchecked<3>();
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    const Eigen::MatrixXcd& x = table[i][j];
+    for (Eigen::Index d = 0; d < x.rows(); ++d)
+      for (Eigen::Index k = 0; k < x.cols(); ++k) view(static_cast<py::ssize_t>(i), d, k) = x(d, k);
+  }
   return out;
 }
 
@@ -300,6 +331,54 @@ PYBIND11_MODULE(frichb, m) {
           py::arg("node"),
           "The amplitude of a response node at each point, m (maximum over the period of the "
           "displacement norm).")
+      .def_property_readonly(
+          "harmonics",
+          [](const core::RunResult& r) {
+            return r.prepared.model ? r.prepared.model->layout().harmonics() : std::vector<int>();
+          },
+          "The kept harmonics n, in the order of the last axis of response_harmonics.")
+      .def("response_harmonics", &response_harmonics, py::arg("node"),
+           "The complex harmonic amplitudes X of a response node's DOFs at every point: an array "
+           "[point, component, harmonic], m, component in the order of the node's DOFs in "
+           "structure.dofs, harmonic in the order of `harmonics`. Component d moves as "
+           "x(t) = sum over k of Re(X[point, d, k] exp(i n_k omega t)) (response_harmonics.csv "
+           "holds Re X as cos_m and -Im X as sin_m).")
+      .def(
+          "time_signal",
+          [](const core::RunResult& r, const std::string& name, std::size_t point, int samples) {
+            if (point >= r.summary.points.size())
+              throw py::index_error("point " + std::to_string(point) + " of a curve of " +
+                                    std::to_string(r.summary.points.size()) + " points");
+            if (samples < 1) throw py::value_error("samples: at least 1");
+            const std::size_t node = response_node(r, name);
+            const auto& model = *r.prepared.model;
+            const double omega = r.summary.points[point].y(model.equation_count());
+            const Eigen::MatrixXcd& x = r.table.harmonics.at(point).at(node);
+            const auto& harmonics = model.layout().harmonics();
+            py::array_t<double> t(samples);
+            py::array_t<double> signal(
+                {static_cast<py::ssize_t>(x.rows()), static_cast<py::ssize_t>(samples)});
+            auto tv = t.mutable_unchecked<1>();
+            auto sv = signal.mutable_unchecked<2>();
+            for (int s = 0; s < samples; ++s) {
+              const double phase = 2 * std::numbers::pi * s / samples;  // omega t
+              tv(s) = phase / omega;
+              for (Eigen::Index d = 0; d < x.rows(); ++d) {
+                double value = 0.0;
+                for (Eigen::Index k = 0; k < x.cols(); ++k)
+                  value +=
+                      (x(d, k) * std::polar(1.0, harmonics[static_cast<std::size_t>(k)] * phase))
+                          .real();
+                sv(d, s) = value;
+              }
+            }
+            return py::make_tuple(t, signal);
+          },
+          py::arg("node"), py::arg("point"), py::arg("samples") = 256,
+          "The time signal of a response node over one period at a point of the curve, rebuilt "
+          "from its harmonics: (t, x) with t the sample times, s (t = 0 where the excitation's "
+          "phase is 0; samples equally spaced over the period), and x an array [component, "
+          "sample], m.")
       .def_property_readonly(
           "peaks",
           [](const core::RunResult& r) {

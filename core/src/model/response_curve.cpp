@@ -207,6 +207,15 @@ ContinuationSummary trace_response(const Scene& scene, const HarmonicBalanceMode
   return summary;
 }
 
+Eigen::MatrixXcd node_harmonics(const std::vector<Eigen::VectorXcd>& x, const ResponseNode& node) {
+  Eigen::MatrixXcd out(static_cast<Eigen::Index>(node.kept.size()),
+                       static_cast<Eigen::Index>(x.size()));
+  for (std::size_t d = 0; d < node.kept.size(); ++d)
+    for (std::size_t k = 0; k < x.size(); ++k)
+      out(static_cast<Eigen::Index>(d), static_cast<Eigen::Index>(k)) = x[k](node.kept[d]);
+  return out;
+}
+
 ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& model,
                                 const ContinuationOptions& options,
                                 const ContinuationSummary& summary) {
@@ -233,7 +242,9 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
     const double w = p.y(n);
     const auto x = model.kept_response(p.y);
     std::vector<double> row = {static_cast<double>(i), w / (2 * std::numbers::pi), w};
+    auto& at_point = table.harmonics.emplace_back();
     for (std::size_t k = 0; k < nodes.size(); ++k) {
+      at_point.push_back(node_harmonics(x, nodes[k]));
       const double amp = sampler.peak_amplitude(x, nodes[k].kept);
       row.push_back(amp);
       if (amp > peak_amp[k]) {

@@ -5,8 +5,11 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <array>
+#include <charconv>
 #include <chrono>
 #include <cmath>
+#include <complex>
 #include <numbers>
 #include <sstream>
 
@@ -272,8 +275,56 @@ std::string face_plot_script(const std::string& csv, const std::string& png,
 
 }  // namespace
 
+namespace {
+
+// `value` in the fewest digits that read back as the same double. Throws for NaN and Inf (an
+// output file never holds them).
+std::string round_trip(double value) {
+  if (!std::isfinite(value)) throw std::runtime_error("a result is not finite (NaN or Inf)");
+  std::array<char, 32> text{};
+  const auto end = std::to_chars(text.data(), text.data() + text.size(), value).ptr;
+  return {text.data(), end};
+}
+
+// A CSV field: quoted (quotes doubled) when it holds a comma, a quote or a line break.
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+// response_harmonics.csv: every response node's complex harmonic amplitudes at every point.
+void write_response_harmonics(const fs::path& file, const RunRecord& run) {
+  const Eigen::Index n = run.model.equation_count();
+  const auto& harmonics = run.model.layout().harmonics();
+  std::string csv = "point,frequency_hz,node,component,dof,harmonic,cos_m,sin_m\n";
+  for (std::size_t i = 0; i < run.summary.points.size(); ++i) {
+    const auto& y = run.summary.points[i].y;
+    const std::string point = std::to_string(i) + "," + round_trip(y(n) / (2 * std::numbers::pi));
+    for (std::size_t j = 0; j < run.table.nodes.size(); ++j) {
+      const ResponseNode& node = run.table.nodes[j];
+      const Eigen::MatrixXcd& x = run.table.harmonics.at(i).at(j);
+      const auto& dofs = run.scene.structure.find(node.name)->dofs;
+      for (Eigen::Index d = 0; d < x.rows(); ++d)
+        for (Eigen::Index k = 0; k < x.cols(); ++k) {
+          const std::complex<double> c = x(d, k);
+          csv += point + "," + csv_field(node.name) + "," + std::to_string(d) + "," +
+                 std::to_string(dofs[static_cast<std::size_t>(d)]) + "," +
+                 std::to_string(harmonics[static_cast<std::size_t>(k)]) + "," +
+                 round_trip(c.real()) + "," +
+                 round_trip(harmonics[static_cast<std::size_t>(k)] == 0 ? 0.0 : -c.imag()) + "\n";
+        }
+    }
+  }
+  write_text(file, csv);
+}
+
+}  // namespace
+
 nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool plots) {
   write_csv(out.path("response.csv"), run.table.header, run.table.rows);
+  write_response_harmonics(out.path("response_harmonics.csv"), run);
   nlohmann::json loops = nlohmann::json::array();
   for (const FrictionLoop& loop : run.loops) loops.push_back(write_loop(out, run, loop, plots));
   if (plots && !run.table.rows.empty()) {  // no points: no empty plot
@@ -415,7 +466,8 @@ nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_
 }
 
 std::vector<std::string> run_outputs() {
-  return {"response.csv", "response.gp", "response.png", "summary.json", "loops"};
+  return {"response.csv", "response_harmonics.csv", "response.gp",
+          "response.png", "summary.json",           "loops"};
 }
 
 void write_run(const RunResult& result, StagedOutput& out) {

@@ -50,6 +50,14 @@ struct ResponseNode {
   std::vector<Eigen::Index> kept;
 };
 
+// The complex harmonic amplitudes of a node's DOFs, picked from the kept DOFs' amplitudes
+// (HarmonicBalanceModel::kept_response): entry (d, k) is X of the node's DOF d (the order of its
+// structure.dofs entry) and the layout's harmonic k (model.layout().harmonics()[k]), m, such
+// that the DOF moves as x_d(t) = sum_k Re(X(d, k) exp(i n_k omega t)), that is
+// sum_k Re X cos(n_k omega t) - Im X sin(n_k omega t).
+Eigen::MatrixXcd node_harmonics(const std::vector<Eigen::VectorXcd>& kept,
+                                const ResponseNode& node);
+
 // The peak amplitude of one response node. The highest point of the traced curve is refined
 // by a golden-section search over the frequency between its two neighbours, to 1e-10
 // relative in frequency (each probe a fixed-frequency Newton solve, all on one
@@ -96,6 +104,8 @@ struct ResponseTable {
   std::vector<ResponseNode> nodes;
   std::vector<std::string> header;
   std::vector<std::vector<double>> rows;
+  // node_harmonics of every node at every point: harmonics[point][node], nodes in order.
+  std::vector<std::vector<Eigen::MatrixXcd>> harmonics;
   std::vector<std::optional<NodePeak>> peaks;
   TurningPoints turning_points;
   std::optional<HarmonicTruncation> truncation;
