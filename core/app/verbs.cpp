@@ -38,15 +38,15 @@ namespace fs = std::filesystem;
 using core::kExitUsage;
 
 // The one way a verb runs on the command line (core/include/frichb/core/commands/verb.hpp):
-// `compute` returns the verb's result; unless a signal stopped it, `write` turns it into the
-// verb's files (or its printout); the outcome's status is the exit code. Whatever either
+// `compute` returns the verb's result; unless a stop (SIGINT, SIGTERM) ended it, `write` turns it
+// into the verb's files (or its printout); the outcome's status is the exit code. Whatever either
 // throws is mapped by report_failure, naming `subject` (the input file, or the output folder of
 // a verb without one). The verb logs how its computation ended.
 template <typename Compute, typename Write>
 int conclude(const std::string& subject, const Compute& compute, const Write& write) {
   try {
     const auto result = compute();
-    if (result.outcome.status >= 128) {  // a signal stopped it: nothing is written
+    if (result.outcome.status >= 128) {  // stopped: nothing is written
       spdlog::error("{}: {}; no output written", subject, result.outcome.message);
       return result.outcome.status;
     }

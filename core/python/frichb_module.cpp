@@ -153,14 +153,17 @@ py::dict peak_dict(const core::NodePeak& p) {
   return d;
 }
 
-// Writes `result` into `folder` as the program does (staged, committed whole), GIL released.
+// Writes `result` into `folder` as the program does (staged, committed whole) with the GIL
+// released; Ctrl-C ends gnuplot, commits nothing and raises KeyboardInterrupt.
 template <typename Result, typename Write>
 void write_folder(const Result& result, const fs::path& folder,
                   const std::vector<std::string>& managed, const Write& write) {
-  py::gil_scoped_release released;
-  core::StagedOutput out(folder, managed);
-  write(result, out);
-  out.commit();
+  const core::StopSource source;
+  call_stoppable(source, [&] {
+    core::StagedOutput out(folder, managed, core::StagingControl(source.token()));
+    write(result, out);
+    out.commit();
+  });
 }
 
 // A vector as a numpy array (copied).
@@ -266,7 +269,7 @@ PYBIND11_MODULE(frichb, m) {
   classes.scene = make_error(
       m, "SceneError", scene_bases,
       "A scene the core refuses: .file, .line, .column (1-based; 0 when unknown), .key (the "
-      "key path, e.g. contacts.damper.params.mu) and .reason.");
+      "key path, e.g. contacts[0].params.mu) and .reason.");
   classes.plugin = make_error(m, "PluginError", classes.base,
                               "A plugin that cannot be found, loaded or created.");
   classes.output =
@@ -403,8 +406,7 @@ PYBIND11_MODULE(frichb, m) {
       .def(
           "write",
           [](const core::RunResult& r, const fs::path& folder) {
-            py::gil_scoped_release released;
-            core::write_run_folder(r, folder);
+            write_folder(r, folder, core::run_outputs(), core::write_run);
           },
           py::arg("folder"),
           "Writes what `frichb run` writes into `folder` (replaced as a whole: response.csv, "

@@ -117,6 +117,26 @@ def test_ctrl_c_stops_a_run_promptly():
     assert frichb.run(QUICKSTART, plots=False).status == 0
 
 
+def test_python_runs_while_a_call_computes():
+    # The slow run of the Ctrl-C test (about 5 s) in a thread: the main thread keeps running
+    # Python meanwhile, which it could not if the call held the GIL.
+    slow = {"continuation.step.initial": 0.13, "continuation.step.max": 0.13,
+            "continuation.max_points": 100000, "harmonic_balance.max_harmonic": 15,
+            "harmonic_balance.samples_per_period": 512}
+    finished = []
+    worker = threading.Thread(target=lambda: finished.append(frichb.run(QUICKSTART, set=slow)))
+    worker.start()
+    ticks = 0
+    while worker.is_alive() and ticks < 50:
+        time.sleep(0.01)
+        ticks += 1
+    busy = worker.is_alive()
+    worker.join()
+    assert busy, "the run ended within 0.5 s: too short to show anything"
+    assert ticks == 50
+    assert finished[0].status == 0
+
+
 def test_two_threads_run_at_once_and_give_their_runs_in_turn():
     scenes = [QUICKSTART, TWO_DOF]
     in_turn = [frichb.run(s, plots=False, contact_threads=1).table for s in scenes]

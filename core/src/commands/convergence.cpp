@@ -115,7 +115,7 @@ Row run_setting(const Scene& base, const Registry& registry, const Setting& s,
   return row;
 }
 
-// Runs every setting serially, in order, until a signal stops the study (then fewer rows).
+// Runs every setting serially, in order, until a stop on `stop` (then fewer rows).
 std::vector<Row> run_settings(const Scene& base, const Registry& registry,
                               const std::vector<Setting>& settings, const std::string& node,
                               const RunWriter& write_run, const fs::path& runs_folder,
@@ -151,6 +151,7 @@ ConvergenceTimesim timesim_reference(const ConvergenceRequest& request, const Sc
     options.steps_per_period = request.timesim_steps_per_period;
     options.stop = request.stop;
     const TimesimResult result = simulate_in_time(base, options);
+    if (result.outcome.status >= 128) return timesim;  // stopped: the caller says so
     timesim.run = true;
     timesim.frequency_hz = reference.frequency_hz;
     for (const auto& n : result.nodes)

@@ -238,6 +238,7 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
   auto& rows = table.rows;
   std::vector<double> peak_amp(nodes.size(), -1.0), peak_w(nodes.size(), 0.0);
   for (std::size_t i = 0; i < summary.points.size(); ++i) {
+    if (options.newton.stop.stop_requested()) break;  // the caller reports it
     const auto& p = summary.points[i];
     const double w = p.y(n);
     const auto x = model.kept_response(p.y);

@@ -312,8 +312,9 @@ void write_response_harmonics(const fs::path& file, const RunRecord& run) {
           csv += point + "," + csv_field(node.name) + "," + std::to_string(d) + "," +
                  std::to_string(dofs[static_cast<std::size_t>(d)]) + "," +
                  std::to_string(harmonics[static_cast<std::size_t>(k)]) + "," +
-                 round_trip(c.real()) + "," +
-                 round_trip(harmonics[static_cast<std::size_t>(k)] == 0 ? 0.0 : -c.imag()) + "\n";
+                 round_trip(c.real() + 0.0) + "," +  // + 0.0, 0.0 - x: no negative zeros
+                 round_trip(harmonics[static_cast<std::size_t>(k)] == 0 ? 0.0 : 0.0 - c.imag()) +
+                 "\n";
         }
     }
   }

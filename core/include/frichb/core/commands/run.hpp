@@ -82,7 +82,7 @@ struct RunResult {
   // completed when the curve reached the end of the sweep; kExitIncomplete with the
   // continuation's termination ("max_points", "step_too_small", ...) and message when it
   // ended early (its results are written all the same); 128 + signal, termination
-  // "interrupted", when a signal stopped it (nothing to write).
+  // "interrupted", when a stop on options.stop ended it (nothing to write).
   Outcome outcome;
   // The scene and its plugins when run_scene read them (null when the caller's scene was
   // traced: the caller keeps it alive while the result lives).
@@ -115,7 +115,7 @@ RunResult run_scene(const SceneInput& scene, const RunOptions& options = {});
 using RunWriter = std::function<void(const RunResult& result, const std::filesystem::path& folder)>;
 
 // One member of a study or a convergence study: trace_scene, then `write` into `folder`
-// unless a signal stopped it. Never throws: a scene prepare_run refuses is termination
+// unless a stop ended it. Never throws: a scene prepare_run refuses is termination
 // "invalid_input" (exit code 2), a folder that cannot be written "output_error" (2 or 5), any
 // other failure "internal_error" (4), each logged at error level.
 RunOutcome run_member(const Scene& scene, const std::filesystem::path& folder,
