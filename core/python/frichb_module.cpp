@@ -25,21 +25,26 @@
 #include <future>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "frichb/core/commands/convergence.hpp"
 #include "frichb/core/commands/loop.hpp"
 #include "frichb/core/commands/modes.hpp"
 #include "frichb/core/commands/run.hpp"
+#include "frichb/core/commands/study.hpp"
 #include "frichb/core/commands/timesim.hpp"
 #include "frichb/core/commands/validate.hpp"
 #include "frichb/core/numerics/harmonics.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
 #include "frichb/core/plugin_host/schema.hpp"
+#include "frichb/core/report/convergence_report.hpp"
 #include "frichb/core/report/loop_report.hpp"
 #include "frichb/core/report/modes_report.hpp"
 #include "frichb/core/report/run_report.hpp"
+#include "frichb/core/report/study_report.hpp"
 #include "frichb/core/report/timesim_report.hpp"
 #include "frichb/core/support/interrupt.hpp"
 #include "frichb/core/support/output.hpp"
@@ -182,6 +187,44 @@ py::array_t<double> matrix(const std::vector<std::vector<double>>& rows) {
     for (py::ssize_t k = 0; k < m; ++k)
       view(i, k) = rows[static_cast<std::size_t>(i)].at(static_cast<std::size_t>(k));
   return out;
+}
+
+// A run's outcome in a study or convergence row.
+py::dict run_outcome_dict(const core::RunOutcome& o) {
+  py::dict d;
+  d["exit_code"] = o.exit_code;
+  d["termination"] = o.termination;
+  d["message"] = o.message;
+  d["points"] = o.points;
+  d["unknowns"] = o.unknowns;
+  py::list peaks;
+  for (const auto& p : o.peaks) peaks.append(peak_dict(p));
+  d["peaks"] = peaks;
+  d["wall_seconds"] = o.wall_seconds;
+  return d;
+}
+
+// A verb whose members are written as they end: the folder is staged when `compute` asks for
+// it (`stage(managed)` returns the staged output), and the result written into it and
+// committed when its status is 0 or 3, all on the call's thread with the GIL released.
+template <typename Compute, typename Write>
+auto compute_into_folder(const core::StopSource& source, const fs::path& folder,
+                         const std::vector<std::string>& managed, const Compute& compute,
+                         const Write& write) {
+  return call_stoppable(source, [&] {
+    std::optional<core::StagedOutput> out;
+    const auto stage = [&]() -> core::StagedOutput& {
+      if (!out) out.emplace(folder, managed, core::StagingControl(source.token()));
+      return *out;
+    };
+    auto result = compute(stage);
+    const int status = result.outcome.status;
+    if (status == core::kExitOk || status == core::kExitIncomplete) {
+      write(result, stage());
+      stage().commit();
+    }
+    return result;
+  });
 }
 
 // The outcome's attributes every result has.
@@ -574,6 +617,149 @@ PYBIND11_MODULE(frichb, m) {
             write_folder(r, folder, core::loop_outputs(), core::write_loop);
           },
           py::arg("folder"), "Writes what `frichb loop -o folder` writes.");
+
+  py::class_<core::StudyResult> study_result(
+      m, "StudyResult",
+      "A study: the scene run once for every value of the keys its study: section sweeps "
+      "(frichb.study), one row per run.");
+  outcome_attributes(study_result);
+  study_result
+      .def_property_readonly(
+          "sweeps",
+          [](const core::StudyResult& r) {
+            std::vector<std::string> paths;
+            for (const auto& s : r.study.sweeps) paths.push_back(s.path);
+            return paths;
+          },
+          "The swept key paths, in the order of each row's values.")
+      .def_property_readonly(
+          "node", [](const core::StudyResult& r) { return r.study.node; },
+          "The node whose peaks the study compares (study.node).")
+      .def_property_readonly(
+          "runs",
+          [](const core::StudyResult& r) {
+            py::list rows;
+            for (const auto& run : r.runs) {
+              py::dict row = run_outcome_dict(run.outcome);
+              row["id"] = run.id;
+              row["values"] = run.values;
+              rows.append(row);
+            }
+            return rows;
+          },
+          "A dict per run: id (its folder under runs/), values (one per sweep), exit_code, "
+          "termination, message, points, unknowns, peaks, wall_seconds.")
+      .def_property_readonly(
+          "optimum",
+          [](const core::StudyResult& r) -> py::object {
+            if (r.optimum >= r.runs.size()) return py::none();
+            return py::int_(r.optimum);
+          },
+          "The index of the run with the lowest peak of `node` among those that reached the end "
+          "of their sweep (None when none did).")
+      .def_readonly("optimum_amplitude_m", &core::StudyResult::optimum_amplitude_m)
+      .def_readonly("failed_runs", &core::StudyResult::failed_runs)
+      .def_readonly("threads", &core::StudyResult::threads)
+      .def_readonly("wall_seconds", &core::StudyResult::wall_seconds);
+
+  py::class_<core::ConvergenceResult> convergence_result(
+      m, "ConvergenceResult",
+      "The peak of a scene against harmonics, samples and oversampling (frichb.convergence), "
+      "coarse to fine, the finest the reference.");
+  outcome_attributes(convergence_result);
+  convergence_result.def_readonly("node", &core::ConvergenceResult::node)
+      .def_property_readonly(
+          "rows",
+          [](const core::ConvergenceResult& r) {
+            py::list rows;
+            for (const auto& row : r.rows) {
+              py::dict d = run_outcome_dict(row.outcome);
+              d["setting"] = row.setting.id;
+              d["max_harmonic"] = row.setting.max_harmonic;
+              d["samples"] = row.setting.samples;
+              d["oversampling"] = row.setting.oversampling;
+              d["amplitude_m"] = row.amplitude_m;
+              d["frequency_hz"] = row.frequency_hz;
+              d["amplitude_error"] = row.amplitude_error;
+              d["frequency_error"] = row.frequency_error;
+              d["amplitude_error_vs_timesim"] = row.amplitude_error_vs_timesim;
+              rows.append(d);
+            }
+            return rows;
+          },
+          "A dict per setting (convergence.csv's rows): setting, max_harmonic, samples, "
+          "oversampling, amplitude_m, frequency_hz, the relative errors against the reference "
+          "and the time integration (NaN where there is none), and the run's outcome.")
+      .def_property_readonly(
+          "timesim",
+          [](const core::ConvergenceResult& r) -> py::object {
+            if (!r.timesim.run) return py::none();
+            py::dict d;
+            d["frequency_hz"] = r.timesim.frequency_hz;
+            d["amplitude_m"] = r.timesim.amplitude_m;
+            d["periodic"] = r.timesim.periodic;
+            d["periods"] = r.timesim.periods;
+            d["wall_seconds"] = r.timesim.wall_seconds;
+            return d;
+          },
+          "The time-integration reference at the reference's peak frequency, or None.");
+
+  m.def(
+      "study",
+      [](const fs::path& scene, const fs::path& folder, const py::dict& set,
+         bool allow_scene_plugins, int threads) {
+        const core::StopSource source;
+        core::StudyRequest request;
+        request.scene = scene_input(scene, set, allow_scene_plugins);
+        request.threads = threads;
+        request.stop = source.token();
+        request.write_run = core::write_run_folder;
+        return compute_into_folder(
+            source, folder, core::study_outputs(),
+            [&](const auto& stage) {
+              request.stage_runs = [&] { return stage().path("runs"); };
+              core::StudyCommunicator serial;
+              return core::run_study(request, serial);
+            },
+            core::write_study);
+      },
+      py::arg("scene"), py::arg("folder"), py::arg("set") = py::dict(),
+      py::arg("allow_scene_plugins") = false, py::arg("threads") = -1,
+      "Runs the scene's study: section, as `frichb study SCENE -o folder` does, into `folder`\n"
+      "(study.csv, study.json, the plots, runs/NNNN). threads: runs at once (-1: the scene's\n"
+      "study.parallel; 0: one per core). Returns a StudyResult; a study that does not validate\n"
+      "has status 2 and no rows (the log says why); KeyboardInterrupt on Ctrl-C.");
+
+  m.def(
+      "convergence",
+      [](const fs::path& scene, const fs::path& folder, const std::vector<int>& harmonics,
+         const std::vector<int>& samples, const std::vector<int>& oversampling,
+         bool time_integration, const py::dict& set, bool allow_scene_plugins) {
+        const core::StopSource source;
+        core::ConvergenceRequest request;
+        request.scene = scene_input(scene, set, allow_scene_plugins);
+        request.harmonics = harmonics;
+        request.samples = samples;
+        request.oversampling = oversampling;
+        request.time_integration = time_integration;
+        request.stop = source.token();
+        request.write_run = core::write_run_folder;
+        return compute_into_folder(
+            source, folder, core::convergence_outputs(),
+            [&](const auto& stage) {
+              request.stage_runs = [&] { return stage().path("runs"); };
+              return core::study_convergence(request);
+            },
+            core::write_convergence);
+      },
+      py::arg("scene"), py::arg("folder"),
+      py::arg("harmonics") = std::vector<int>{1, 3, 5, 7, 10, 15},
+      py::arg("samples") = std::vector<int>{64, 128, 256, 512, 1024, 2048},
+      py::arg("oversampling") = std::vector<int>{1, 4}, py::arg("time_integration") = true,
+      py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
+      "Runs the scene at every setting of harmonics, samples and oversampling, as `frichb\n"
+      "convergence SCENE -o folder` does, into `folder`. Returns a ConvergenceResult; raises\n"
+      "SceneError for a scene or settings it refuses; KeyboardInterrupt on Ctrl-C.");
 
   m.def(
       "timesim",

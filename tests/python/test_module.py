@@ -285,3 +285,63 @@ def test_rebuilt_signal_follows_time_integration():
         rebuilt = sum((x[k] * np.exp(1j * n * 2 * np.pi * f * t)).real
                       for k, n in enumerate(result.harmonics))
         assert np.max(np.abs(rebuilt - samples)) < 1e-3 * np.max(np.abs(samples))
+
+
+def test_study_gives_the_programs_rows_and_folder(tmp_path):
+    scene = SOURCE / "configs" / "studies" / "damper_normal_load_sweep.yaml"
+    result = frichb.study(scene, tmp_path / "py", threads=2)
+    assert result.status == 0, result.message
+    cli = frichb_cli("study", str(scene), "-o", str(tmp_path / "cli"), "--threads", "2")
+    assert cli.returncode == 0, cli.stderr
+    def study_rows(folder):
+        with open(folder / "study.csv", newline="") as f:
+            return list(csv.DictReader(f))
+
+    rows = study_rows(tmp_path / "cli")
+    sweep = "contacts.platform_friction.params.normal_load"
+    assert result.sweeps == [sweep]
+    assert len(result.runs) == len(rows) == 13
+    for run, row in zip(result.runs, rows):
+        assert run["id"] == row["run"]
+        assert run["values"][0] == pytest.approx(float(row[sweep]), rel=5e-12)
+        assert run["termination"] == row["termination"]
+        assert run["points"] == int(row["points"])
+        blade = next(p for p in run["peaks"] if p["node"] == "blade")
+        assert blade["amplitude_m"] == pytest.approx(float(row["blade_peak_amplitude_m"]),
+                                                     rel=5e-12)
+    # The folder is the program's, but for the wall times.
+    for py_row, row in zip(study_rows(tmp_path / "py"), rows):
+        del py_row["wall_s"], row["wall_s"]
+        assert py_row == row
+    assert sorted(p.name for p in (tmp_path / "py" / "runs").iterdir()) == \
+        [run["id"] for run in result.runs]
+    amplitudes = [next(p for p in run["peaks"] if p["node"] == result.node)["amplitude_m"]
+                  for run in result.runs]
+    assert result.optimum == int(np.argmin(amplitudes))
+    assert result.optimum_amplitude_m == min(amplitudes)
+
+
+def test_convergence_gives_the_programs_table(tmp_path):
+    settings = {"harmonics": [1, 3], "samples": [64, 128], "oversampling": [1]}
+    result = frichb.convergence(QUICKSTART, tmp_path / "py", time_integration=False, **settings)
+    assert result.status == 0, result.message
+    cli = frichb_cli("convergence", str(QUICKSTART), "-o", str(tmp_path / "cli"),
+                     "--harmonics", "1,3", "--samples", "64,128", "--oversampling", "1",
+                     "--no-timesim")
+    assert cli.returncode == 0, cli.stderr
+    expected = json.loads((tmp_path / "cli" / "convergence.json").read_text())
+    assert result.timesim is None
+    assert [r["setting"] for r in result.rows] == ["H1_N64_o1", "H1_N128_o1", "H3_N64_o1",
+                                                    "H3_N128_o1"]
+    assert result.rows[-1]["amplitude_error"] == 0.0
+    assert [s["setting"] for s in expected["settings"]] == [r["setting"] for r in result.rows]
+    for row, setting in zip(result.rows, expected["settings"]):
+        assert row["amplitude_m"] == setting["peak_amplitude_m"]
+        assert row["frequency_hz"] == setting["peak_frequency_hz"]
+        assert row["amplitude_error"] == setting["amplitude_error"]
+        assert row["unknowns"] == setting["unknowns"]
+    assert (tmp_path / "py" / "convergence.csv").exists()
+    assert (tmp_path / "py" / "runs" / "H3_N128_o1" / "response.csv").exists()
+    with pytest.raises(frichb.SceneError):
+        frichb.convergence(tmp_path / "missing.yaml", tmp_path / "never")
+    assert not (tmp_path / "never").exists()
