@@ -822,23 +822,42 @@ PYBIND11_MODULE(frichb, m) {
   m.def(
       "run",
       [](const fs::path& scene, const py::dict& set, bool allow_scene_plugins, int contact_threads,
-         const py::object& plots) {
+         const py::object& plots, const py::object& progress) {
         const core::StopSource source;
         core::RunOptions options;
         options.stop = source.token();
         options.contact_threads = contact_threads;
         if (!plots.is_none()) options.plots = plots.cast<bool>() ? 1 : 0;
+        // The callback runs on the computing thread, holding the GIL while it runs; what it
+        // raises stops the run and is raised here.
+        std::exception_ptr raised;
+        if (!progress.is_none())
+          options.on_point = [&](std::size_t point, double frequency_hz) {
+            py::gil_scoped_acquire held;
+            if (raised) return;
+            try {
+              progress(point, frequency_hz);
+            } catch (const py::error_already_set&) {
+              raised = std::current_exception();
+              source.request_stop(SIGINT);
+            }
+          };
         const core::SceneInput input = scene_input(scene, set, allow_scene_plugins);
-        return std::make_shared<core::RunResult>(
+        auto result = std::make_shared<core::RunResult>(
             call_stoppable(source, [&] { return core::run_scene(input, options); }));
+        if (raised) std::rethrow_exception(raised);
+        return result;
       },
       py::arg("scene"), py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
       py::arg("contact_threads") = 0, py::arg("plots") = py::none(),
+      py::arg("progress") = py::none(),
       "Traces the response curve of a scene, as `frichb run SCENE --set KEY=VALUE ...` does.\n\n"
       "scene: the scene file. set: {key path: value} overrides, e.g.\n"
       "{'contacts.damper.params.mu': 0.3}. allow_scene_plugins: load plugins from the\n"
       "scene's plugin_paths. contact_threads: threads tracing the contacts (0: one per core).\n"
       "plots: make the PNGs when written (None: the scene's output.plots).\n"
+      "progress: called as progress(point, frequency_hz) after each point of the curve (on\n"
+      "another thread; what it raises stops the run and is raised).\n"
       "Returns a RunResult (a curve that ends early is a result: its status is 3). Raises\n"
       "SceneError or PluginError for input the core refuses, KeyboardInterrupt on Ctrl-C.");
 

@@ -345,3 +345,20 @@ def test_convergence_gives_the_programs_table(tmp_path):
     with pytest.raises(frichb.SceneError):
         frichb.convergence(tmp_path / "missing.yaml", tmp_path / "never")
     assert not (tmp_path / "never").exists()
+
+
+def test_progress_is_called_at_every_point_and_can_stop_the_run():
+    seen = []
+    result = frichb.run(QUICKSTART, plots=False, progress=lambda i, f: seen.append((i, f)))
+    assert [i for i, _ in seen] == list(range(result.points))
+    np.testing.assert_array_equal([f for _, f in seen], result.frequency_hz)
+
+    class Enough(Exception):
+        pass
+
+    def stop_at_five(point, _frequency):
+        if point == 5:
+            raise Enough(point)
+
+    with pytest.raises(Enough):
+        frichb.run(QUICKSTART, plots=False, progress=stop_at_five)

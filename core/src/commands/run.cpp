@@ -39,9 +39,11 @@ double physical_memory_bytes() {
 // Progress of the trace in the log: every 5 % of the sweep, and the start point.
 class TraceProgress {
  public:
-  TraceProgress(const Scene& scene, Eigen::Index n, spdlog::level::level_enum level, StopToken stop)
-      : scene_(scene), n_(n), level_(level), stop_(std::move(stop)) {}
+  TraceProgress(const Scene& scene, Eigen::Index n, spdlog::level::level_enum level,
+                const RunOptions& options)
+      : scene_(scene), n_(n), level_(level), stop_(options.stop), on_point_(options.on_point) {}
   bool operator()(const ContinuationPoint& p, std::size_t index) {
+    if (on_point_) on_point_(index, p.y(n_) / (2 * std::numbers::pi));
     if (stop_.stop_requested()) return false;
     const auto& C = scene_.continuation;
     const double f = p.y(n_) / C.to_rad_per_s();
@@ -59,6 +61,7 @@ class TraceProgress {
   Eigen::Index n_;
   spdlog::level::level_enum level_;
   StopToken stop_;
+  std::function<void(std::size_t, double)> on_point_;
   double last_report_ = -1.0;
 };
 
@@ -333,7 +336,7 @@ RunResult trace_stages(const Scene& scene, const RunOptions& run_options) {
   const Eigen::VectorXd y0 = find_start_point(model, options, routine);
   const auto t_cont = Clock::now();
   result.summary =
-      trace_response(scene, model, options, y0, TraceProgress(scene, n, routine, run_options.stop));
+      trace_response(scene, model, options, y0, TraceProgress(scene, n, routine, run_options));
   const ContinuationSummary& summary = result.summary;
   result.continuation_seconds = seconds_since(t_cont);
   if (run_options.stop.stop_requested())

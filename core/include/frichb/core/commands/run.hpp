@@ -37,6 +37,10 @@ struct RunOptions {
   // its next step and the result's outcome says so (128 + the signal); write_run_folder then
   // refuses to commit.
   StopToken stop;
+  // Called on the computing thread after each accepted point of the curve, with its index and
+  // frequency in Hz (empty: not called). Must not throw; a caller that wants to end the run
+  // requests a stop.
+  std::function<void(std::size_t point, double frequency_hz)> on_point;
 };
 
 // What a run produced, in brief: one row of a study or a convergence study.
