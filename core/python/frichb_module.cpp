@@ -275,14 +275,8 @@ void translate_errors(std::exception_ptr failure) {
   }
 }
 
-}  // namespace
-
-PYBIND11_MODULE(frichb, m) {
-  m.doc() =
-      "FricHB: steady-state vibration of structures with dry-friction contacts (harmonic "
-      "balance). The verbs of the frichb program as functions returning result objects.";
-  m.attr("__version__") = core::version();
-
+// The log: spdlog's default logger on stderr, and set_log_level.
+void bind_logging(py::module_& m) {
   // Logging: warnings and errors on stderr, as the program's; set_log_level("info") shows
   // progress.
   if (!spdlog::get("frichb")) {
@@ -305,7 +299,10 @@ PYBIND11_MODULE(frichb, m) {
       py::arg("level"),
       "The level of the core's log on stderr: 'debug', 'info' (progress), 'warning' (the "
       "default), 'error' or 'off'.");
+}
 
+// The exception classes and the translation of the core's exceptions.
+void bind_errors(py::module_& m) {
   ErrorClasses& classes = error_classes();
   classes.base = make_error(m, "Error", PyExc_RuntimeError, "Any error FricHB raises.");
   const py::tuple scene_bases = py::make_tuple(classes.base, py::handle(PyExc_ValueError));
@@ -318,7 +315,10 @@ PYBIND11_MODULE(frichb, m) {
   classes.output =
       make_error(m, "OutputError", classes.base, "An output folder that cannot be written.");
   py::register_exception_translator(translate_errors);
+}
 
+// RunResult.
+void bind_run_result(py::module_& m) {
   py::class_<core::RunResult, std::shared_ptr<core::RunResult>>(
       m, "RunResult",
       "The response curve of a scene (frichb.run): the rows of response.csv as numpy arrays, "
@@ -458,7 +458,55 @@ PYBIND11_MODULE(frichb, m) {
         return "<frichb.RunResult " + r.outcome.termination + ", " +
                std::to_string(r.summary.points.size()) + " points>";
       });
+}
 
+// frichb.run.
+void bind_run(py::module_& m) {
+  m.def(
+      "run",
+      [](const fs::path& scene, const py::dict& set, bool allow_scene_plugins, int contact_threads,
+         const py::object& plots, const py::object& progress) {
+        const core::StopSource source;
+        core::RunOptions options;
+        options.stop = source.token();
+        options.contact_threads = contact_threads;
+        if (!plots.is_none()) options.plots = plots.cast<bool>() ? 1 : 0;
+        // The callback runs on the computing thread, holding the GIL while it runs; what it
+        // raises stops the run and is raised here.
+        std::exception_ptr raised;
+        if (!progress.is_none())
+          options.on_point = [&](std::size_t point, double frequency_hz) {
+            py::gil_scoped_acquire held;
+            if (raised) return;
+            try {
+              progress(point, frequency_hz);
+            } catch (const py::error_already_set&) {
+              raised = std::current_exception();
+              source.request_stop(SIGINT);
+            }
+          };
+        const core::SceneInput input = scene_input(scene, set, allow_scene_plugins);
+        auto result = std::make_shared<core::RunResult>(
+            call_stoppable(source, [&] { return core::run_scene(input, options); }));
+        if (raised) std::rethrow_exception(raised);
+        return result;
+      },
+      py::arg("scene"), py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
+      py::arg("contact_threads") = 0, py::arg("plots") = py::none(),
+      py::arg("progress") = py::none(),
+      "Traces the response curve of a scene, as `frichb run SCENE --set KEY=VALUE ...` does.\n\n"
+      "scene: the scene file. set: {key path: value} overrides, e.g.\n"
+      "{'contacts.damper.params.mu': 0.3}. allow_scene_plugins: load plugins from the\n"
+      "scene's plugin_paths. contact_threads: threads tracing the contacts (0: one per core).\n"
+      "plots: make the PNGs when written (None: the scene's output.plots).\n"
+      "progress: called as progress(point, frequency_hz) after each point of the curve (on\n"
+      "another thread; what it raises stops the run and is raised).\n"
+      "Returns a RunResult (a curve that ends early is a result: its status is 3). Raises\n"
+      "SceneError or PluginError for input the core refuses, KeyboardInterrupt on Ctrl-C.");
+}
+
+// frichb.validate and ValidationResult.
+void bind_validate(py::module_& m) {
   py::class_<core::ValidationResult>(m, "ValidationResult",
                                      "What frichb.validate found: the scene as run would load it.")
       .def_readonly("structure", &core::ValidationResult::structure)
@@ -473,6 +521,21 @@ PYBIND11_MODULE(frichb, m) {
                std::to_string(r.contacts.size()) + " contact(s)>";
       });
 
+  m.def(
+      "validate",
+      [](const fs::path& scene, const py::dict& set, bool allow_scene_plugins) {
+        const core::StopSource source;
+        const core::SceneInput input = scene_input(scene, set, allow_scene_plugins);
+        return call_stoppable(source, [&] { return core::validate_scene({input}); });
+      },
+      py::arg("scene"), py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
+      "Checks a scene as `frichb validate` does (every check run makes before its first Newton\n"
+      "iteration, every run of its study: section). Returns a ValidationResult; raises\n"
+      "SceneError or PluginError.");
+}
+
+// frichb.timesim and TimesimResult.
+void bind_timesim(py::module_& m) {
   py::class_<core::TimesimResult> timesim_result(
       m, "TimesimResult",
       "The time-integration reference of a scene at one frequency (frichb.timesim): the last "
@@ -514,6 +577,30 @@ PYBIND11_MODULE(frichb, m) {
           },
           py::arg("folder"), "Writes what `frichb timesim -o folder` writes.");
 
+  m.def(
+      "timesim",
+      [](const fs::path& scene, double frequency_hz, const py::dict& set, bool allow_scene_plugins,
+         int steps_per_period, int max_periods) {
+        const core::StopSource source;
+        core::TimesimRequest request;
+        request.scene = scene_input(scene, set, allow_scene_plugins);
+        request.integration.frequency_hz = frequency_hz;
+        request.integration.steps_per_period = steps_per_period;
+        request.integration.max_periods = max_periods;
+        request.integration.stop = source.token();
+        return call_stoppable(source, [&] { return core::integrate_scene(request); });
+      },
+      py::arg("scene"), py::arg("frequency_hz"), py::arg("set") = py::dict(),
+      py::arg("allow_scene_plugins") = false, py::arg("steps_per_period") = 4000,
+      py::arg("max_periods") = 3000,
+      "Integrates a scene without cyclic symmetry in time at one excitation frequency until\n"
+      "its response repeats, as `frichb timesim SCENE --at-hz F` does. Returns a\n"
+      "TimesimResult; raises SceneError (a cyclic scene too), ValueError for options out of\n"
+      "range, KeyboardInterrupt on Ctrl-C.");
+}
+
+// frichb.modes and ModesResult.
+void bind_modes(py::module_& m) {
   py::class_<core::ModesResult> modes_result(
       m, "ModesResult",
       "The natural frequencies of the structure without contacts per harmonic index "
@@ -576,6 +663,35 @@ PYBIND11_MODULE(frichb, m) {
           },
           py::arg("folder"), "Writes what `frichb modes -o folder` writes.");
 
+  m.def(
+      "modes",
+      [](const fs::path& scene, const py::object& rpm, const py::dict& set,
+         bool allow_scene_plugins) {
+        const core::StopSource source;
+        core::ModesOptions options{scene_input(scene, set, allow_scene_plugins), 0.0, 0.0};
+        if (!rpm.is_none()) {
+          if (py::isinstance<py::tuple>(rpm) || py::isinstance<py::list>(rpm)) {
+            const auto range = rpm.cast<std::vector<double>>();
+            if (range.size() != 2) throw py::value_error("rpm: one speed, or (low, high)");
+            options.rpm_low = range[0];
+            options.rpm_high = range[1];
+          } else {
+            options.rpm_low = options.rpm_high = rpm.cast<double>();
+          }
+          if (!(options.rpm_low > 0 && options.rpm_high >= options.rpm_low))
+            throw py::value_error("rpm: a positive speed, or (low, high) with 0 < low <= high");
+        }
+        return call_stoppable(source, [&] { return core::compute_modes(options); });
+      },
+      py::arg("scene"), py::arg("rpm") = py::none(), py::arg("set") = py::dict(),
+      py::arg("allow_scene_plugins") = false,
+      "The natural frequencies of the structure without contacts per harmonic index, as\n"
+      "`frichb modes SCENE --rpm A:B` does; rpm: one speed or (low, high), for the\n"
+      "engine-order excitation lines. Returns a ModesResult.");
+}
+
+// frichb.loop and LoopResult.
+void bind_loop(py::module_& m) {
   py::class_<core::LoopResult> loop_result(
       m, "LoopResult",
       "One contact law traced over a prescribed periodic relative motion (frichb.loop).");
@@ -618,6 +734,20 @@ PYBIND11_MODULE(frichb, m) {
           },
           py::arg("folder"), "Writes what `frichb loop -o folder` writes.");
 
+  m.def(
+      "loop",
+      [](const fs::path& input, bool allow_scene_plugins) {
+        const core::StopSource source;
+        const core::LoopRequest request{input, allow_scene_plugins};
+        return call_stoppable(source, [&] { return core::trace_loop(request); });
+      },
+      py::arg("input"), py::arg("allow_scene_plugins") = false,
+      "Traces one contact law under the periodic relative motion a loop input prescribes, as\n"
+      "`frichb loop INPUT` does. Returns a LoopResult; raises SceneError or PluginError.");
+}
+
+// frichb.study and StudyResult.
+void bind_study(py::module_& m) {
   py::class_<core::StudyResult> study_result(
       m, "StudyResult",
       "A study: the scene run once for every value of the keys its study: section sweeps "
@@ -662,6 +792,35 @@ PYBIND11_MODULE(frichb, m) {
       .def_readonly("threads", &core::StudyResult::threads)
       .def_readonly("wall_seconds", &core::StudyResult::wall_seconds);
 
+  m.def(
+      "study",
+      [](const fs::path& scene, const fs::path& folder, const py::dict& set,
+         bool allow_scene_plugins, int threads) {
+        const core::StopSource source;
+        core::StudyRequest request;
+        request.scene = scene_input(scene, set, allow_scene_plugins);
+        request.threads = threads;
+        request.stop = source.token();
+        request.write_run = core::write_run_folder;
+        return compute_into_folder(
+            source, folder, core::study_outputs(),
+            [&](const auto& stage) {
+              request.stage_runs = [&] { return stage().path("runs"); };
+              core::StudyCommunicator serial;
+              return core::run_study(request, serial);
+            },
+            core::write_study);
+      },
+      py::arg("scene"), py::arg("folder"), py::arg("set") = py::dict(),
+      py::arg("allow_scene_plugins") = false, py::arg("threads") = -1,
+      "Runs the scene's study: section, as `frichb study SCENE -o folder` does, into `folder`\n"
+      "(study.csv, study.json, the plots, runs/NNNN). threads: runs at once (-1: the scene's\n"
+      "study.parallel; 0: one per core). Returns a StudyResult; a study that does not validate\n"
+      "has status 2 and no rows (the log says why); KeyboardInterrupt on Ctrl-C.");
+}
+
+// frichb.convergence and ConvergenceResult.
+void bind_convergence(py::module_& m) {
   py::class_<core::ConvergenceResult> convergence_result(
       m, "ConvergenceResult",
       "The peak of a scene against harmonics, samples and oversampling (frichb.convergence), "
@@ -705,32 +864,6 @@ PYBIND11_MODULE(frichb, m) {
           "The time-integration reference at the reference's peak frequency, or None.");
 
   m.def(
-      "study",
-      [](const fs::path& scene, const fs::path& folder, const py::dict& set,
-         bool allow_scene_plugins, int threads) {
-        const core::StopSource source;
-        core::StudyRequest request;
-        request.scene = scene_input(scene, set, allow_scene_plugins);
-        request.threads = threads;
-        request.stop = source.token();
-        request.write_run = core::write_run_folder;
-        return compute_into_folder(
-            source, folder, core::study_outputs(),
-            [&](const auto& stage) {
-              request.stage_runs = [&] { return stage().path("runs"); };
-              core::StudyCommunicator serial;
-              return core::run_study(request, serial);
-            },
-            core::write_study);
-      },
-      py::arg("scene"), py::arg("folder"), py::arg("set") = py::dict(),
-      py::arg("allow_scene_plugins") = false, py::arg("threads") = -1,
-      "Runs the scene's study: section, as `frichb study SCENE -o folder` does, into `folder`\n"
-      "(study.csv, study.json, the plots, runs/NNNN). threads: runs at once (-1: the scene's\n"
-      "study.parallel; 0: one per core). Returns a StudyResult; a study that does not validate\n"
-      "has status 2 and no rows (the log says why); KeyboardInterrupt on Ctrl-C.");
-
-  m.def(
       "convergence",
       [](const fs::path& scene, const fs::path& folder, const std::vector<int>& harmonics,
          const std::vector<int>& samples, const std::vector<int>& oversampling,
@@ -760,116 +893,24 @@ PYBIND11_MODULE(frichb, m) {
       "Runs the scene at every setting of harmonics, samples and oversampling, as `frichb\n"
       "convergence SCENE -o folder` does, into `folder`. Returns a ConvergenceResult; raises\n"
       "SceneError for a scene or settings it refuses; KeyboardInterrupt on Ctrl-C.");
+}
 
-  m.def(
-      "timesim",
-      [](const fs::path& scene, double frequency_hz, const py::dict& set, bool allow_scene_plugins,
-         int steps_per_period, int max_periods) {
-        const core::StopSource source;
-        core::TimesimRequest request;
-        request.scene = scene_input(scene, set, allow_scene_plugins);
-        request.integration.frequency_hz = frequency_hz;
-        request.integration.steps_per_period = steps_per_period;
-        request.integration.max_periods = max_periods;
-        request.integration.stop = source.token();
-        return call_stoppable(source, [&] { return core::integrate_scene(request); });
-      },
-      py::arg("scene"), py::arg("frequency_hz"), py::arg("set") = py::dict(),
-      py::arg("allow_scene_plugins") = false, py::arg("steps_per_period") = 4000,
-      py::arg("max_periods") = 3000,
-      "Integrates a scene without cyclic symmetry in time at one excitation frequency until\n"
-      "its response repeats, as `frichb timesim SCENE --at-hz F` does. Returns a\n"
-      "TimesimResult; raises SceneError (a cyclic scene too), ValueError for options out of\n"
-      "range, KeyboardInterrupt on Ctrl-C.");
+}  // namespace
 
-  m.def(
-      "modes",
-      [](const fs::path& scene, const py::object& rpm, const py::dict& set,
-         bool allow_scene_plugins) {
-        const core::StopSource source;
-        core::ModesOptions options{scene_input(scene, set, allow_scene_plugins), 0.0, 0.0};
-        if (!rpm.is_none()) {
-          if (py::isinstance<py::tuple>(rpm) || py::isinstance<py::list>(rpm)) {
-            const auto range = rpm.cast<std::vector<double>>();
-            if (range.size() != 2) throw py::value_error("rpm: one speed, or (low, high)");
-            options.rpm_low = range[0];
-            options.rpm_high = range[1];
-          } else {
-            options.rpm_low = options.rpm_high = rpm.cast<double>();
-          }
-          if (!(options.rpm_low > 0 && options.rpm_high >= options.rpm_low))
-            throw py::value_error("rpm: a positive speed, or (low, high) with 0 < low <= high");
-        }
-        return call_stoppable(source, [&] { return core::compute_modes(options); });
-      },
-      py::arg("scene"), py::arg("rpm") = py::none(), py::arg("set") = py::dict(),
-      py::arg("allow_scene_plugins") = false,
-      "The natural frequencies of the structure without contacts per harmonic index, as\n"
-      "`frichb modes SCENE --rpm A:B` does; rpm: one speed or (low, high), for the\n"
-      "engine-order excitation lines. Returns a ModesResult.");
+PYBIND11_MODULE(frichb, m) {
+  m.doc() =
+      "FricHB: steady-state vibration of structures with dry-friction contacts (harmonic "
+      "balance). The verbs of the frichb program as functions returning result objects.";
+  m.attr("__version__") = core::version();
 
-  m.def(
-      "loop",
-      [](const fs::path& input, bool allow_scene_plugins) {
-        const core::StopSource source;
-        const core::LoopRequest request{input, allow_scene_plugins};
-        return call_stoppable(source, [&] { return core::trace_loop(request); });
-      },
-      py::arg("input"), py::arg("allow_scene_plugins") = false,
-      "Traces one contact law under the periodic relative motion a loop input prescribes, as\n"
-      "`frichb loop INPUT` does. Returns a LoopResult; raises SceneError or PluginError.");
-
-  m.def(
-      "run",
-      [](const fs::path& scene, const py::dict& set, bool allow_scene_plugins, int contact_threads,
-         const py::object& plots, const py::object& progress) {
-        const core::StopSource source;
-        core::RunOptions options;
-        options.stop = source.token();
-        options.contact_threads = contact_threads;
-        if (!plots.is_none()) options.plots = plots.cast<bool>() ? 1 : 0;
-        // The callback runs on the computing thread, holding the GIL while it runs; what it
-        // raises stops the run and is raised here.
-        std::exception_ptr raised;
-        if (!progress.is_none())
-          options.on_point = [&](std::size_t point, double frequency_hz) {
-            py::gil_scoped_acquire held;
-            if (raised) return;
-            try {
-              progress(point, frequency_hz);
-            } catch (const py::error_already_set&) {
-              raised = std::current_exception();
-              source.request_stop(SIGINT);
-            }
-          };
-        const core::SceneInput input = scene_input(scene, set, allow_scene_plugins);
-        auto result = std::make_shared<core::RunResult>(
-            call_stoppable(source, [&] { return core::run_scene(input, options); }));
-        if (raised) std::rethrow_exception(raised);
-        return result;
-      },
-      py::arg("scene"), py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
-      py::arg("contact_threads") = 0, py::arg("plots") = py::none(),
-      py::arg("progress") = py::none(),
-      "Traces the response curve of a scene, as `frichb run SCENE --set KEY=VALUE ...` does.\n\n"
-      "scene: the scene file. set: {key path: value} overrides, e.g.\n"
-      "{'contacts.damper.params.mu': 0.3}. allow_scene_plugins: load plugins from the\n"
-      "scene's plugin_paths. contact_threads: threads tracing the contacts (0: one per core).\n"
-      "plots: make the PNGs when written (None: the scene's output.plots).\n"
-      "progress: called as progress(point, frequency_hz) after each point of the curve (on\n"
-      "another thread; what it raises stops the run and is raised).\n"
-      "Returns a RunResult (a curve that ends early is a result: its status is 3). Raises\n"
-      "SceneError or PluginError for input the core refuses, KeyboardInterrupt on Ctrl-C.");
-
-  m.def(
-      "validate",
-      [](const fs::path& scene, const py::dict& set, bool allow_scene_plugins) {
-        const core::StopSource source;
-        const core::SceneInput input = scene_input(scene, set, allow_scene_plugins);
-        return call_stoppable(source, [&] { return core::validate_scene({input}); });
-      },
-      py::arg("scene"), py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
-      "Checks a scene as `frichb validate` does (every check run makes before its first Newton\n"
-      "iteration, every run of its study: section). Returns a ValidationResult; raises\n"
-      "SceneError or PluginError.");
+  bind_logging(m);
+  bind_errors(m);
+  bind_run_result(m);
+  bind_run(m);
+  bind_validate(m);
+  bind_timesim(m);
+  bind_modes(m);
+  bind_loop(m);
+  bind_study(m);
+  bind_convergence(m);
 }

@@ -15,6 +15,42 @@ namespace frichb::core {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// A response node over the last integrated period (`period`: [step, kept DOF], sample s at
+// (s + 1) T / steps): its samples, amplitude, half peak-to-peak and harmonic amplitudes.
+TimesimNodeResult node_over_period(const Scene& scene, const HarmonicBalanceModel& model,
+                                   const std::string& name, const Eigen::MatrixXd& period,
+                                   const std::vector<int>& harmonics) {
+  const auto* node = scene.structure.find(name);
+  if (!node)
+    throw SceneError(scene.file.string(), 0, 0, "output.response",
+                     "'" + name + "' is not a key of structure.dofs");
+  const auto n_steps = static_cast<int>(period.rows());
+  TimesimNodeResult r;
+  r.node = name;
+  Eigen::VectorXd norm2 = Eigen::VectorXd::Zero(n_steps);
+  r.harmonic_amplitudes_m.assign(harmonics.size(), 0.0);
+  for (std::size_t d = 0; d < node->dofs.size(); ++d) {
+    const Eigen::Index col = model.kept_index(node->dofs[d]);
+    const auto x = period.col(col);
+    r.samples_m.emplace_back(x.begin(), x.end());
+    norm2 += x.cwiseAbs2();
+    r.half_peak_to_peak_m = std::max(r.half_peak_to_peak_m, 0.5 * (x.maxCoeff() - x.minCoeff()));
+    for (std::size_t k = 0; k < harmonics.size(); ++k) {
+      std::complex<double> sum = 0;
+      for (int s = 0; s < n_steps; ++s)
+        sum += x(s) * std::polar(1.0, -2 * std::numbers::pi * harmonics[k] * (s + 1) / n_steps);
+      const double amp = std::abs(sum) / n_steps * (harmonics[k] == 0 ? 1.0 : 2.0);
+      r.harmonic_amplitudes_m[k] = std::hypot(r.harmonic_amplitudes_m[k], amp);
+    }
+  }
+  r.amplitude_m = std::sqrt(norm2.maxCoeff());
+  return r;
+}
+
+}  // namespace
+
 TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options) {
   const auto started = std::chrono::steady_clock::now();
   const std::string file = scene.file.string();
@@ -134,32 +170,8 @@ TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options
   result.harmonics = harmonics;
   result.time_s.resize(static_cast<std::size_t>(n_steps));
   for (int s = 0; s < n_steps; ++s) result.time_s[static_cast<std::size_t>(s)] = (s + 1) * dt;
-  for (const auto& name : scene.output.response) {
-    const auto* node = scene.structure.find(name);
-    if (!node)
-      throw SceneError(file, 0, 0, "output.response",
-                       "'" + name + "' is not a key of structure.dofs");
-    TimesimNodeResult r;
-    r.node = name;
-    Eigen::VectorXd norm2 = Eigen::VectorXd::Zero(n_steps);
-    r.harmonic_amplitudes_m.assign(harmonics.size(), 0.0);
-    for (std::size_t d = 0; d < node->dofs.size(); ++d) {
-      const Eigen::Index col = model.kept_index(node->dofs[d]);
-      const auto x = period.col(col);
-      r.samples_m.emplace_back(x.begin(), x.end());
-      norm2 += x.cwiseAbs2();
-      r.half_peak_to_peak_m = std::max(r.half_peak_to_peak_m, 0.5 * (x.maxCoeff() - x.minCoeff()));
-      for (std::size_t k = 0; k < harmonics.size(); ++k) {
-        std::complex<double> sum = 0;
-        for (int s = 0; s < n_steps; ++s)
-          sum += x(s) * std::polar(1.0, -2 * std::numbers::pi * harmonics[k] * (s + 1) / n_steps);
-        const double amp = std::abs(sum) / n_steps * (harmonics[k] == 0 ? 1.0 : 2.0);
-        r.harmonic_amplitudes_m[k] = std::hypot(r.harmonic_amplitudes_m[k], amp);
-      }
-    }
-    r.amplitude_m = std::sqrt(norm2.maxCoeff());
-    result.nodes.push_back(std::move(r));
-  }
+  for (const auto& name : scene.output.response)
+    result.nodes.push_back(node_over_period(scene, model, name, period, harmonics));
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   result.scene_file = scene.file;
