@@ -8,8 +8,10 @@ namespace {
 static_assert(std::atomic<int>::is_always_lock_free);
 static_assert(std::atomic<std::atomic<int>*>::is_always_lock_free);
 
-// The state the handlers stop.
+// The state the handlers stop, and the source that owns it (kept for the rest of the process,
+// and reachable from here: it is not a leak).
 std::atomic<std::atomic<int>*> g_handled{nullptr};
+const StopSource* g_handled_source = nullptr;
 
 void record(std::atomic<int>& state, int signal) noexcept {
   int none = 0;
@@ -46,8 +48,8 @@ void StopToken::throw_if_stopped() const {
 
 void install_interrupt_handlers(const StopSource& source) {
   // The state is kept for the rest of the process: a handler may run at any time after this.
-  const auto* kept = new StopSource(source);  // NOLINT(cppcoreguidelines-owning-memory)
-  g_handled.store(kept->state_.get());
+  g_handled_source = new StopSource(source);  // NOLINT(cppcoreguidelines-owning-memory)
+  g_handled.store(g_handled_source->state_.get());
   struct sigaction action {};
   action.sa_handler = record_signal;
   sigemptyset(&action.sa_mask);
