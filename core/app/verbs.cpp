@@ -329,8 +329,9 @@ Verb run_spec() {
   v.description =
       "Traces the steady-state response of the scene over its frequency sweep (harmonic\n"
       "balance, arclength continuation through folds) and writes DIR/response.csv,\n"
-      "summary.json (peaks, termination, resonance bands, timings), response.png and the\n"
-      "friction loops of output.friction_loops_at. The folder is replaced as a whole when\n"
+      "response_harmonics.csv (each response DOF's harmonics at every point), summary.json\n"
+      "(peaks, termination, resonance bands, timings), response.png and the friction\n"
+      "loops of output.friction_loops_at. The folder is replaced as a whole when\n"
       "the run succeeds and keeps its earlier results when it does not.";
   v.examples = {"frichb run configs/quickstart_friction_oscillator.yaml -o out/quickstart",
                 "frichb run configs/two_dof_blade_damper.yaml --set "
