@@ -388,8 +388,14 @@ std::string describe_type(const frichb_param_spec& spec) {
 }
 
 std::string describe_range(const frichb_param_spec& spec) {
-  if (spec.type == FRICHB_PARAM_STRING)
-    return spec.choices ? "one of " + std::string(spec.choices) : "any";
+  if (spec.type == FRICHB_PARAM_STRING) {
+    if (!spec.choices) return "any";
+    // Listed with commas: a '|' would split a Markdown table's cell.
+    std::string list = spec.choices;
+    for (std::size_t at = list.find('|'); at != std::string::npos; at = list.find('|', at))
+      list.replace(at, 1, ", ");
+    return "one of " + list;
+  }
   std::string out;
   const bool has_lo = std::isfinite(spec.min_value), has_hi = std::isfinite(spec.max_value);
   if (spec.type == FRICHB_PARAM_REAL || spec.type == FRICHB_PARAM_INTEGER ||

@@ -242,6 +242,15 @@ const std::vector<frichb_param_spec>& output_schema() {
           .greater_than(0)
           .optional(),
       Param::boolean("plots", "write gnuplot scripts and PNG plots").defaults_to(1),
+      Param::text("amplitude_axis",
+                  "amplitude axis of the response and study plots: log, linear, or auto (log "
+                  "where the plotted amplitudes span more than a decade)")
+          .defaults_to_text("auto")
+          .choices("auto|linear|log"),
+      Param::boolean("contact_forces",
+                     "write contact_harmonics.csv: every contact's force and relative "
+                     "displacement harmonics at every point of the curve")
+          .defaults_to(0),
   };
   return s;
 }
@@ -1033,6 +1042,11 @@ void read_output(Scene& scene, YAML::Node root, const YamlContext& ctx) {
   scene.output.friction_loops_at = o.reals("friction_loops_at");
   scene.output.contact_states_at = o.reals("contact_states_at");
   scene.output.plots = o.boolean("plots");
+  const std::string axis = o.text("amplitude_axis");
+  scene.output.amplitude_axis = axis == "log"      ? AmplitudeAxis::log
+                                : axis == "linear" ? AmplitudeAxis::linear
+                                                   : AmplitudeAxis::automatic;
+  scene.output.contact_forces = o.boolean("contact_forces");
   scene.core_values["output"] = ov.to_json(output_schema());
 }
 

@@ -153,11 +153,19 @@ struct SceneInput {
   bool allow_scene_plugins = false;
 };
 
+// How the plots scale amplitudes: automatic is log where the plotted values span more than a
+// decade, linear otherwise.
+enum class AmplitudeAxis { automatic, linear, log };
+
 struct OutputSpec {
   std::vector<std::string> response;      // node names
   std::vector<double> friction_loops_at;  // in the continuation unit
   std::vector<double> contact_states_at;  // in the continuation unit
   bool plots = true;
+  AmplitudeAxis amplitude_axis = AmplitudeAxis::automatic;
+  // contact_harmonics.csv: each contact's force and relative displacement harmonics at every
+  // point (one extra contact evaluation per point).
+  bool contact_forces = false;
 };
 
 struct Scene {
