@@ -6,9 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <complex>
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <latch>
 #include <map>
 #include <numbers>
@@ -171,6 +173,54 @@ TEST(RunStages, StagesGiveTheFilesOfTheComposedRun) {
   ASSERT_GT(half_range, kLimit / kKt);
   const double closed_form = 4 * kLimit * (half_range - kLimit / kKt);
   EXPECT_NEAR(slipping.energy_per_cycle, closed_form, kKt * step * step);
+}
+
+// The contact harmonics of the quick start (output.contact_forces) against the blade's own
+// equation of motion, m x'' + c x' + k x = F cos(w t) - f(t), f the Jenkins element's force
+// on u = x_blade - x_ground: harmonic by harmonic, with X = cos - i sin,
+//   (k - n^2 w^2 m + i n w c) X_n + F_n = F delta_{n1},   c = 2 zeta sqrt(k m),
+// at every point of the curve, to the Newton tolerance (a relative residual of 1e-9 of the
+// contact displacement, times the dynamic stiffness: about 1e-8 N against F = 2 N). The
+// contact's displacement is the blade's (one component, the ground fixed): the unknowns U
+// against the blade's motion recovered from the forces, x = R (F_ext - F), to the same
+// tolerance.
+TEST(RunStages, ContactHarmonicsBalanceTheBladesEquationOfMotion) {
+  constexpr double kMass = 0.1, kStiffness = 4e5, kZeta = 0.005, kForce = 2.0;
+  const fs::path file = fs::path(FRICHB_SOURCE_DIR) / "configs/quickstart_friction_oscillator.yaml";
+  const Registry registry(Registry::default_search_path({FRICHB_PLUGIN_DIR}));
+  Scene scene = load_scene(file, {parse_scene_override("output.contact_forces=true")});
+  bind_plugins(scene, registry);
+  const PreparedRun run = prepare_run(scene, 1);
+  const auto& options = run.setup.options;
+  const Eigen::VectorXd start = find_start_point(*run.model, options, spdlog::level::debug);
+  const ContinuationSummary summary = trace_response(scene, *run.model, options, start);
+  ASSERT_TRUE(summary.reached_end()) << summary.message;
+  const ResponseTable table = tabulate_response(scene, *run.model, options, summary);
+  ASSERT_EQ(table.contacts.size(), summary.points.size());
+  ASSERT_EQ(table.contact_components, (std::vector<std::vector<int>>{{0}}));
+  const auto& harmonics = run.model->layout().harmonics();
+  const double damping = 2 * kZeta * std::sqrt(kStiffness * kMass);
+  const Eigen::Index n = run.model->equation_count();
+  double worst = 0.0;
+  for (std::size_t i = 0; i < summary.points.size(); ++i) {
+    ASSERT_EQ(table.contacts[i].size(), 1u);
+    const ContactHarmonics& h = table.contacts[i][0];
+    EXPECT_TRUE(h.periodic);
+    const Eigen::MatrixXcd& x = table.harmonics[i][0];
+    const double w = summary.points[i].y(n);
+    for (std::size_t k = 0; k < harmonics.size(); ++k) {
+      const auto kk = static_cast<Eigen::Index>(k);
+      EXPECT_LE(std::abs(h.displacement(0, kk) - x(0, kk)), 1e-8 * x.cwiseAbs().maxCoeff())
+          << "point " << i << " harmonic " << harmonics[k];
+      const double nw = harmonics[k] * w;
+      const std::complex<double> dynamic(kStiffness - nw * nw * kMass, nw * damping);
+      const double excitation = harmonics[k] == 1 ? kForce : 0.0;
+      worst =
+          std::max(worst, std::abs(dynamic * h.displacement(0, kk) + h.force(0, kk) - excitation));
+    }
+  }
+  EXPECT_LT(worst, 1e-8 * kForce);
+  std::cout << "largest imbalance of the equation of motion: " << worst << " N\n";
 }
 
 // prepare_run locates an error that needs the structure's instance at the scene's key.

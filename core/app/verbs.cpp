@@ -331,8 +331,9 @@ Verb run_spec() {
       "balance, arclength continuation through folds) and writes DIR/response.csv,\n"
       "response_harmonics.csv (each response DOF's harmonics at every point), summary.json\n"
       "(peaks, termination, resonance bands, timings), response.png and the friction\n"
-      "loops of output.friction_loops_at. The folder is replaced as a whole when\n"
-      "the run succeeds and keeps its earlier results when it does not.";
+      "loops of output.friction_loops_at; with output.contact_forces, contact_harmonics.csv\n"
+      "(each contact's displacement and force harmonics at every point). The folder is\n"
+      "replaced as a whole when the run succeeds and keeps its earlier results when it does not.";
   v.examples = {"frichb run configs/quickstart_friction_oscillator.yaml -o out/quickstart",
                 "frichb run configs/two_dof_blade_damper.yaml --set "
                 "contacts.platform_friction.params.mu=0.3 -v"};

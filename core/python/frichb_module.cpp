@@ -17,6 +17,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <array>
 #include <chrono>
 #include <complex>
 #include <csignal>
@@ -136,6 +137,82 @@ py::array_t<std::complex<double>> response_harmonics(const core::RunResult& r,
     for (Eigen::Index d = 0; d < x.rows(); ++d)
       for (Eigen::Index k = 0; k < x.cols(); ++k) view(static_cast<py::ssize_t>(i), d, k) = x(d, k);
   }
+  return out;
+}
+
+void check_point(const core::RunResult& r, std::size_t point) {
+  if (point >= r.summary.points.size())
+    throw py::index_error("point " + std::to_string(point) + " of a curve of " +
+                          std::to_string(r.summary.points.size()) + " points");
+}
+
+// Complex amplitudes x [component, harmonic] (the layout's harmonics) at a point as a time
+// signal over one period: (t, x(t) [component, sample]).
+std::pair<py::array_t<double>, py::array_t<double>> rebuild_signal(const core::RunResult& r,
+                                                                   const Eigen::MatrixXcd& x,
+                                                                   std::size_t point, int samples) {
+  if (samples < 1) throw py::value_error("samples: at least 1");
+  const auto& model = *r.prepared.model;
+  const double omega = r.summary.points[point].y(model.equation_count());
+  const auto& harmonics = model.layout().harmonics();
+  py::array_t<double> t(samples);
+  py::array_t<double> signal(
+      {static_cast<py::ssize_t>(x.rows()), static_cast<py::ssize_t>(samples)});
+  auto tv = t.mutable_unchecked<1>();
+  auto sv = signal.mutable_unchecked<2>();
+  for (int s = 0; s < samples; ++s) {
+    const double phase = 2 * std::numbers::pi * s / samples;  // omega t
+    tv(s) = phase / omega;
+    for (Eigen::Index d = 0; d < x.rows(); ++d) {
+      double value = 0.0;
+      for (Eigen::Index k = 0; k < x.cols(); ++k)
+        value += (x(d, k) * std::polar(1.0, harmonics[static_cast<std::size_t>(k)] * phase)).real();
+      sv(d, s) = value;
+    }
+  }
+  return {t, signal};
+}
+
+// The index of contact `name` among the model's contacts.
+std::size_t contact_index(const core::RunResult& r, const std::string& name) {
+  std::string known;
+  if (r.prepared.model)
+    for (std::size_t c = 0; c < r.prepared.model->contacts().size(); ++c) {
+      if (r.prepared.model->contacts()[c].name == name) return c;
+      known += (known.empty() ? "" : ", ") + r.prepared.model->contacts()[c].name;
+    }
+  throw py::key_error("'" + name + "' is not a contact of the scene (contacts: " + known + ")");
+}
+
+const char* component_name(int component) {
+  static constexpr std::array<const char*, 3> kNames = {"t1", "t2", "n"};
+  return kNames.at(static_cast<std::size_t>(component));
+}
+
+// One member (displacement or force) of a contact's harmonics at every point: [point,
+// component, harmonic].
+py::array_t<std::complex<double>> contact_array(const core::RunResult& r, std::size_t c,
+                                                Eigen::MatrixXcd core::ContactHarmonics::*member) {
+  const auto points = static_cast<py::ssize_t>(r.table.contacts.size());
+  const auto components =
+      static_cast<py::ssize_t>(r.prepared.model->contacts()[c].tracer->components().size());
+  const auto harmonics = static_cast<py::ssize_t>(r.prepared.model->layout().harmonics().size());
+  py::array_t<std::complex<double>> out({points, components, harmonics});
+  auto view = out.mutable_unchecked<3>();
+  for (py::ssize_t i = 0; i < points; ++i) {
+    const Eigen::MatrixXcd& x = r.table.contacts[static_cast<std::size_t>(i)][c].*member;
+    for (py::ssize_t a = 0; a < components; ++a)
+      for (py::ssize_t k = 0; k < harmonics; ++k) view(i, a, k) = x(a, k);
+  }
+  return out;
+}
+
+// A dense matrix as a 2-D numpy array (copied).
+py::array_t<double> eigen_matrix(const Eigen::MatrixXd& m) {
+  py::array_t<double> out({static_cast<py::ssize_t>(m.rows()), static_cast<py::ssize_t>(m.cols())});
+  auto view = out.mutable_unchecked<2>();
+  for (Eigen::Index i = 0; i < m.rows(); ++i)
+    for (Eigen::Index j = 0; j < m.cols(); ++j) view(i, j) = m(i, j);
   return out;
 }
 
@@ -392,39 +469,96 @@ void bind_run_result(py::module_& m) {
       .def(
           "time_signal",
           [](const core::RunResult& r, const std::string& name, std::size_t point, int samples) {
-            if (point >= r.summary.points.size())
-              throw py::index_error("point " + std::to_string(point) + " of a curve of " +
-                                    std::to_string(r.summary.points.size()) + " points");
-            if (samples < 1) throw py::value_error("samples: at least 1");
-            const std::size_t node = response_node(r, name);
-            const auto& model = *r.prepared.model;
-            const double omega = r.summary.points[point].y(model.equation_count());
-            const Eigen::MatrixXcd& x = r.table.harmonics.at(point).at(node);
-            const auto& harmonics = model.layout().harmonics();
-            py::array_t<double> t(samples);
-            py::array_t<double> signal(
-                {static_cast<py::ssize_t>(x.rows()), static_cast<py::ssize_t>(samples)});
-            auto tv = t.mutable_unchecked<1>();
-            auto sv = signal.mutable_unchecked<2>();
-            for (int s = 0; s < samples; ++s) {
-              const double phase = 2 * std::numbers::pi * s / samples;  // omega t
-              tv(s) = phase / omega;
-              for (Eigen::Index d = 0; d < x.rows(); ++d) {
-                double value = 0.0;
-                for (Eigen::Index k = 0; k < x.cols(); ++k)
-                  value +=
-                      (x(d, k) * std::polar(1.0, harmonics[static_cast<std::size_t>(k)] * phase))
-                          .real();
-                sv(d, s) = value;
-              }
-            }
-            return py::make_tuple(t, signal);
+            check_point(r, point);
+            const Eigen::MatrixXcd& x = r.table.harmonics.at(point).at(response_node(r, name));
+            return rebuild_signal(r, x, point, samples);
           },
           py::arg("node"), py::arg("point"), py::arg("samples") = 256,
           "The time signal of a response node over one period at a point of the curve, rebuilt "
           "from its harmonics: (t, x) with t the sample times, s (t = 0 where the excitation's "
           "phase is 0; samples equally spaced over the period), and x an array [component, "
           "sample], m.")
+      .def_property_readonly(
+          "contacts",
+          [](const core::RunResult& r) {
+            std::vector<std::string> names;
+            if (r.prepared.model)
+              for (const auto& c : r.prepared.model->contacts()) names.push_back(c.name);
+            return names;
+          },
+          "The contacts' names (a patch's pairs each by its own name), in the order of "
+          "contact_harmonics.csv.")
+      .def(
+          "contact_components",
+          [](const core::RunResult& r, const std::string& name) {
+            std::vector<std::string> names;
+            for (const int a :
+                 r.prepared.model->contacts()[contact_index(r, name)].tracer->components())
+              names.emplace_back(component_name(a));
+            return names;
+          },
+          py::arg("contact"),
+          "The local components a contact's law uses, in the order of the component axis of "
+          "contact_harmonics: a subset of 't1', 't2', 'n'.")
+      .def(
+          "contact_harmonics",
+          [](const core::RunResult& r, const std::string& name) {
+            const std::size_t c = contact_index(r, name);
+            if (r.table.contacts.empty() && !r.summary.points.empty())
+              throw py::value_error(
+                  "the run kept no contact harmonics: run it with "
+                  "set={'output.contact_forces': True}");
+            return py::make_tuple(contact_array(r, c, &core::ContactHarmonics::displacement),
+                                  contact_array(r, c, &core::ContactHarmonics::force));
+          },
+          py::arg("contact"),
+          "A contact's harmonics at every point (the run needs output.contact_forces): "
+          "(U, F), arrays [point, component, harmonic] of complex amplitudes, U the relative "
+          "displacement (m) and F the law's force on it (N, the preload in the static term), "
+          "components as contact_components, harmonics as `harmonics`; u(t) = sum over k of "
+          "Re(U[point, a, k] exp(i n_k omega t)). contact_harmonics.csv holds the same numbers "
+          "(cos = Re, sin = -Im).")
+      .def(
+          "contact_signal",
+          [](const core::RunResult& r, const std::string& name, std::size_t point, int samples) {
+            check_point(r, point);
+            const std::size_t c = contact_index(r, name);
+            if (r.table.contacts.empty())
+              throw py::value_error(
+                  "the run kept no contact harmonics: run it with "
+                  "set={'output.contact_forces': True}");
+            const core::ContactHarmonics& h = r.table.contacts.at(point).at(c);
+            auto [t, u] = rebuild_signal(r, h.displacement, point, samples);
+            auto [t2, f] = rebuild_signal(r, h.force, point, samples);
+            return py::make_tuple(t, u, f);
+          },
+          py::arg("contact"), py::arg("point"), py::arg("samples") = 256,
+          "A contact's relative displacement and force over one period at a point, rebuilt from "
+          "their kept harmonics: (t, u, f), t in s, u [component, sample] in m, f [component, "
+          "sample] in N. The force's series stops at the kept harmonics; contact_trace gives the "
+          "force the law computes.")
+      .def(
+          "contact_trace",
+          [](const core::RunResult& r, const std::string& name, std::size_t point) {
+            check_point(r, point);
+            const std::size_t c = contact_index(r, name);
+            core::ContactTrace trace;
+            std::string error;
+            if (!r.prepared.model->trace_contact(c, r.summary.points[point].y, trace, &error))
+              throw std::runtime_error("contact '" + name + "' failed at point " +
+                                       std::to_string(point) + ": " + error);
+            py::dict d;
+            d["displacement"] = eigen_matrix(trace.displacement.transpose());
+            d["force"] = eigen_matrix(trace.force.transpose());
+            d["periodic"] = trace.periodic;
+            d["energy_per_cycle_j"] = trace.energy_per_cycle;
+            return d;
+          },
+          py::arg("contact"), py::arg("point"),
+          "The contact traced again over one period at a point, on the run's own samples "
+          "(harmonic_balance.samples_per_period, the first at phase 0): a dict with "
+          "'displacement' [component, sample] (m) and 'force' [component, sample] (N, the law's "
+          "force, preload included), 'periodic' and 'energy_per_cycle_j'.")
       .def_property_readonly(
           "peaks",
           [](const core::RunResult& r) {
@@ -446,6 +580,28 @@ void bind_run_result(py::module_& m) {
       .def_property_readonly(
           "wall_seconds", [](const core::RunResult& r) { return r.wall_seconds; },
           "The run's wall time, s.")
+      .def_property_readonly(
+          "summary",
+          [](const core::RunResult& r) {
+            const core::RunRecord record{*r.scene,  *r.prepared.model, r.prepared.setup,
+                                         r.summary, r.table,           r.loops};
+            nlohmann::json loops = nlohmann::json::array();
+            for (const core::FrictionLoop& loop : r.loops)
+              loops.push_back({{"contact", r.prepared.model->contacts()[loop.contact].name},
+                               {"frequency", loop.frequency},
+                               {"crossing", loop.crossing}});
+            const nlohmann::json timing = {{"setup_s", r.setup_seconds},
+                                           {"continuation_s", r.continuation_seconds},
+                                           {"post_and_output_s", r.post_seconds},
+                                           {"total_s", r.wall_seconds}};
+            const nlohmann::json doc =
+                core::run_summary(record, loops, timing, r.options.study_context);
+            return py::module_::import("json").attr("loads")(doc.dump());
+          },
+          "summary.json's content as a dict (termination, peaks, turning points, harmonic "
+          "truncation, the profile, the validated scene, ...), without what only write() "
+          "produces: the friction loops are listed without their files, the contact states "
+          "not at all, and the times leave out the writing.")
       .def(
           "write",
           [](const core::RunResult& r, const fs::path& folder) {

@@ -362,3 +362,61 @@ def test_progress_is_called_at_every_point_and_can_stop_the_run():
 
     with pytest.raises(Enough):
         frichb.run(QUICKSTART, plots=False, progress=stop_at_five)
+
+
+def test_contact_harmonics_rebuild_the_runs_own_trace_samples(tmp_path):
+    result = frichb.run(TWO_DOF, set={"output.contact_forces": True}, plots=False)
+    assert result.status == 0, result.message
+    (contact,) = result.contacts
+    assert result.contact_components(contact) == ["t1"]
+    u_h, f_h = result.contact_harmonics(contact)
+    harmonics = result.harmonics
+    assert u_h.shape == f_h.shape == (result.points, 1, len(harmonics))
+    for point in (0, result.points // 3, result.points // 2, result.points - 1):
+        trace = result.contact_trace(contact, point)
+        samples = trace["displacement"].shape[1]
+        # The displacement's series at the run's own samples is what the law was traced on.
+        _, u, f = result.contact_signal(contact, point, samples)
+        scale = np.abs(trace["displacement"]).max()
+        assert np.abs(u - trace["displacement"]).max() <= 1e-12 * scale
+        # jenkins_1d steps on the samples alone: the force harmonics are the discrete Fourier
+        # transform of its force samples (cos - i sin: twice the DFT's coefficient for n > 0).
+        dft = np.fft.rfft(trace["force"][0]) / samples
+        expected = np.array([dft[n].real if n == 0 else 2 * dft[n] for n in harmonics])
+        assert np.abs(f_h[point, 0] - expected).max() <= 1e-12 * np.abs(trace["force"]).max()
+        assert f.shape == u.shape
+    # The program writes the same numbers (shortest round-trip text) into contact_harmonics.csv.
+    cli = frichb_cli("run", str(TWO_DOF), "-o", str(tmp_path / "cli"), "--set",
+                     "output.plots=false", "--set", "output.contact_forces=true")
+    assert cli.returncode == 0, cli.stderr
+    with open(tmp_path / "cli" / "contact_harmonics.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == result.points * len(harmonics)
+    for row in rows:
+        point, k = int(row["point"]), harmonics.index(int(row["harmonic"]))
+        assert row["contact"] == contact and row["component"] == "t1"
+        assert float(row["displacement_cos_m"]) == u_h[point, 0, k].real
+        assert float(row["displacement_sin_m"]) == -u_h[point, 0, k].imag + 0.0
+        assert float(row["force_cos_n"]) == f_h[point, 0, k].real
+        assert float(row["force_sin_n"]) == -f_h[point, 0, k].imag + 0.0
+    # Without the switch the run keeps none and says how to get them.
+    with pytest.raises(ValueError, match="output.contact_forces"):
+        frichb.run(TWO_DOF, plots=False).contact_harmonics(contact)
+    with pytest.raises(KeyError, match="not a contact"):
+        result.contact_harmonics("nothing")
+
+
+def test_summary_is_the_programs_summary_json(tmp_path):
+    result = frichb.run(QUICKSTART, set={"output.plots": False})
+    cli = frichb_cli("run", str(QUICKSTART), "-o", str(tmp_path / "cli"), "--set",
+                     "output.plots=false")
+    assert cli.returncode == 0, cli.stderr
+    written = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    summary = result.summary
+    for key in ("termination", "points", "peak", "turning_point_frequencies",
+                "harmonic_truncation", "unknowns", "validated_scene", "resonance_bands",
+                "command_line_overrides", "plugins"):
+        assert summary[key] == written[key], key
+    assert set(written) - set(summary) == {"contact_states"}
+    assert [(e["contact"], e["frequency"]) for e in summary["friction_loops"]] == \
+        [(e["contact"], e["frequency"]) for e in written["friction_loops"]]

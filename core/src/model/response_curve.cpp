@@ -216,10 +216,55 @@ Eigen::MatrixXcd node_harmonics(const std::vector<Eigen::VectorXcd>& x, const Re
   return out;
 }
 
+std::vector<ContactHarmonics> contact_harmonics(const HarmonicBalanceModel& model,
+                                                const Eigen::VectorXd& y) {
+  const HarmonicLayout& layout = model.layout();
+  const Eigen::Index kept = static_cast<Eigen::Index>(layout.harmonics().size());
+  const int c = layout.coefficient_count();
+  // The complex amplitude of kept harmonic k from a signal's coefficients: cos - i sin.
+  const auto amplitude = [&](const Eigen::VectorXd& coefficients, Eigen::Index first,
+                             std::size_t k) {
+    const int s = layout.sin_index(k);
+    return std::complex<double>(coefficients(first + layout.cos_index(k)),
+                                s < 0 ? 0.0 : -coefficients(first + s));
+  };
+  std::vector<ContactHarmonics> out(model.contacts().size());
+  ContactTrace trace;
+  for (std::size_t i = 0; i < model.contacts().size(); ++i) {
+    const ContactModel& contact = model.contacts()[i];
+    std::string error;
+    if (!model.trace_contact(i, y, trace, &error))
+      throw std::runtime_error("contact '" + contact.name +
+                               "' failed on a point of the curve: " + error);
+    const auto& components = contact.tracer->components();
+    const Eigen::Index d = static_cast<Eigen::Index>(components.size());
+    const Eigen::VectorXd u = y.segment(static_cast<Eigen::Index>(contact.offset) * c, d * c);
+    ContactHarmonics& h = out[i];
+    h.displacement.resize(d, kept);
+    h.force.resize(d, kept);
+    h.periodic = trace.periodic;
+    for (Eigen::Index a = 0; a < d; ++a)
+      for (Eigen::Index k = 0; k < kept; ++k) {
+        const auto kk = static_cast<std::size_t>(k);
+        h.displacement(a, k) = amplitude(u, a * c, kk);
+        h.force(a, k) = amplitude(trace.force_coefficients, a * c, kk);
+        // The trace's coefficients are of the force less the law's force at u = 0 (the
+        // preload the static equilibrium balances): added back to the static term.
+        if (layout.harmonics()[kk] == 0)
+          h.force(a, k) +=
+              contact.tracer->reference_force()(components[static_cast<std::size_t>(a)]);
+      }
+  }
+  return out;
+}
+
 ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& model,
                                 const ContinuationOptions& options,
                                 const ContinuationSummary& summary) {
   ResponseTable table;
+  if (scene.output.contact_forces)
+    for (const ContactModel& contact : model.contacts())
+      table.contact_components.push_back(contact.tracer->components());
   const Eigen::Index n = model.equation_count();
   for (const auto& name : scene.output.response) {
     ResponseNode node{name, {}};
@@ -244,6 +289,7 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
     const auto x = model.kept_response(p.y);
     std::vector<double> row = {static_cast<double>(i), w / (2 * std::numbers::pi), w};
     auto& at_point = table.harmonics.emplace_back();
+    if (scene.output.contact_forces) table.contacts.push_back(contact_harmonics(model, p.y));
     for (std::size_t k = 0; k < nodes.size(); ++k) {
       at_point.push_back(node_harmonics(x, nodes[k]));
       const double amp = sampler.peak_amplitude(x, nodes[k].kept);

@@ -321,11 +321,47 @@ void write_response_harmonics(const fs::path& file, const RunRecord& run) {
   write_text(file, csv);
 }
 
+// contact_harmonics.csv (output.contact_forces): every contact's relative displacement and
+// force harmonics at every point, in the convention of response_harmonics.csv.
+void write_contact_harmonics(const fs::path& file, const RunRecord& run) {
+  static constexpr std::array<const char*, 3> kComponentNames = {"t1", "t2", "n"};
+  const Eigen::Index n = run.model.equation_count();
+  const auto& harmonics = run.model.layout().harmonics();
+  std::string csv =
+      "point,frequency_hz,contact,component,harmonic,displacement_cos_m,displacement_sin_m,"
+      "force_cos_n,force_sin_n\n";
+  const auto sine = [&](std::complex<double> x, std::size_t k) {
+    return round_trip(harmonics[k] == 0 ? 0.0 : 0.0 - x.imag());  // 0.0 - x: no negative zeros
+  };
+  for (std::size_t i = 0; i < run.table.contacts.size(); ++i) {
+    const std::string point =
+        std::to_string(i) + "," + round_trip(run.summary.points[i].y(n) / (2 * std::numbers::pi));
+    for (std::size_t j = 0; j < run.table.contacts[i].size(); ++j) {
+      const ContactHarmonics& h = run.table.contacts[i][j];
+      const auto& components = run.table.contact_components.at(j);
+      for (Eigen::Index a = 0; a < h.displacement.rows(); ++a)
+        for (Eigen::Index k = 0; k < h.displacement.cols(); ++k) {
+          const auto kk = static_cast<std::size_t>(k);
+          csv += point + "," + csv_field(run.model.contacts()[j].name) + "," +
+                 kComponentNames.at(
+                     static_cast<std::size_t>(components[static_cast<std::size_t>(a)])) +
+                 "," + std::to_string(harmonics[kk]) + "," +
+                 round_trip(h.displacement(a, k).real() + 0.0) + "," +
+                 sine(h.displacement(a, k), kk) + "," + round_trip(h.force(a, k).real() + 0.0) +
+                 "," + sine(h.force(a, k), kk) + "\n";
+        }
+    }
+  }
+  write_text(file, csv);
+}
+
 }  // namespace
 
 nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool plots) {
   write_csv(out.path("response.csv"), run.table.header, run.table.rows);
   write_response_harmonics(out.path("response_harmonics.csv"), run);
+  if (run.scene.output.contact_forces)
+    write_contact_harmonics(out.path("contact_harmonics.csv"), run);
   nlohmann::json loops = nlohmann::json::array();
   for (const FrictionLoop& loop : run.loops) loops.push_back(write_loop(out, run, loop, plots));
   if (plots && !run.table.rows.empty()) {  // no points: no empty plot
@@ -467,8 +503,9 @@ nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_
 }
 
 std::vector<std::string> run_outputs() {
-  return {"response.csv", "response_harmonics.csv", "response.gp",
-          "response.png", "summary.json",           "loops"};
+  return {"response.csv", "response_harmonics.csv", "contact_harmonics.csv",
+          "response.gp",  "response.png",           "summary.json",
+          "loops"};
 }
 
 void write_run(const RunResult& result, StagedOutput& out) {

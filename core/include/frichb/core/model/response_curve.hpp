@@ -58,6 +58,28 @@ struct ResponseNode {
 Eigen::MatrixXcd node_harmonics(const std::vector<Eigen::VectorXcd>& kept,
                                 const ResponseNode& node);
 
+// One contact's harmonics at one point of the curve, in the convention of node_harmonics: entry
+// (a, k) is the complex amplitude of the contact's used local component a (t1, t2, n in that
+// order, as many as the law uses: ResponseTable::contact_components) and the layout's harmonic
+// k, so that the component moves as u_a(t) = sum_k Re(U(a, k) exp(i n_k omega t)).
+//   displacement: the relative displacement u = frame . (x_B - x_A) (m), the unknowns of the
+//                 harmonic balance;
+//   force:        the law's force on u (N), the preload included in the static term (the force
+//                 the trace's samples hold, with the trace's Fourier coefficients).
+// The force's harmonics are its exact projection on the kept harmonics (AFT, with the kink
+// corrections of laws that step along the motion); the force itself has harmonics beyond them.
+struct ContactHarmonics {
+  Eigen::MatrixXcd displacement;
+  Eigen::MatrixXcd force;
+  bool periodic = true;  // false: the trace did not settle (its force is that of the last pass)
+};
+
+// Every contact's harmonics at the solution y, contacts in the order of model.contacts().
+// Traces each contact once (not thread-safe: uses the contacts' tracers). Throws
+// std::runtime_error naming the contact when a law fails.
+std::vector<ContactHarmonics> contact_harmonics(const HarmonicBalanceModel& model,
+                                                const Eigen::VectorXd& y);
+
 // The peak amplitude of one response node. The highest point of the traced curve is refined
 // by a golden-section search over the frequency between its two neighbours, to 1e-10
 // relative in frequency (each probe a fixed-frequency Newton solve, all on one
@@ -106,6 +128,10 @@ struct ResponseTable {
   std::vector<std::vector<double>> rows;
   // node_harmonics of every node at every point: harmonics[point][node], nodes in order.
   std::vector<std::vector<Eigen::MatrixXcd>> harmonics;
+  // With output.contact_forces: contact_harmonics at every point, contacts[point][contact], and
+  // each contact's used components (0: t1, 1: t2, 2: n); empty otherwise.
+  std::vector<std::vector<ContactHarmonics>> contacts;
+  std::vector<std::vector<int>> contact_components;
   std::vector<std::optional<NodePeak>> peaks;
   TurningPoints turning_points;
   std::optional<HarmonicTruncation> truncation;
