@@ -16,7 +16,7 @@ packages=(
   clang-format clang-tidy
   clang libclang-rt-dev llvm
   gmsh calculix-ccx
-  python3-dev pybind11-dev python3-numpy python3-pytest
+  python3-dev pybind11-dev python3-numpy python3-pytest python3-scipy python3-matplotlib
 )
 
 missing=()
