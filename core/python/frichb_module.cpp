@@ -88,11 +88,21 @@ auto call_stoppable(const core::StopSource& source, Compute compute) -> decltype
   return running.get();
 }
 
-// The scene input of a call: the file, `set` as overrides (each value written as YAML flow
-// text: JSON, which YAML reads), the plugin permission.
-core::SceneInput scene_input(const fs::path& scene, const py::dict& set, bool allow_scene_plugins) {
-  core::SceneInput input{scene, {}, allow_scene_plugins};
+// The scene input of a call: a scene file (str or os.PathLike) or a scene as a dict (written
+// as JSON text, which YAML reads, one key per line so that errors give useful lines; named
+// "<dict>" in the current folder, which its relative paths are taken from), `set` as
+// overrides (each value written as YAML flow text: JSON), the plugin permission.
+core::SceneInput scene_input(const py::object& scene, const py::dict& set,
+                             bool allow_scene_plugins) {
   const py::object dumps = py::module_::import("json").attr("dumps");
+  core::SceneInput input;
+  input.allow_scene_plugins = allow_scene_plugins;
+  if (py::isinstance<py::dict>(scene)) {
+    input.file = fs::current_path() / "<dict>";
+    input.text = py::str(dumps(scene, py::arg("indent") = 1)).cast<std::string>();
+  } else {
+    input.file = scene.cast<fs::path>();
+  }
   for (const auto& [key, value] : set) {
     std::string assignment = py::str(key);
     assignment += "=";
@@ -620,8 +630,8 @@ void bind_run_result(py::module_& m) {
 void bind_run(py::module_& m) {
   m.def(
       "run",
-      [](const fs::path& scene, const py::dict& set, bool allow_scene_plugins, int contact_threads,
-         const py::object& plots, const py::object& progress) {
+      [](const py::object& scene, const py::dict& set, bool allow_scene_plugins,
+         int contact_threads, const py::object& plots, const py::object& progress) {
         const core::StopSource source;
         core::RunOptions options;
         options.stop = source.token();
@@ -651,7 +661,8 @@ void bind_run(py::module_& m) {
       py::arg("contact_threads") = 0, py::arg("plots") = py::none(),
       py::arg("progress") = py::none(),
       "Traces the response curve of a scene, as `frichb run SCENE --set KEY=VALUE ...` does.\n\n"
-      "scene: the scene file. set: {key path: value} overrides, e.g.\n"
+      "scene: the scene file, or the scene as a dict (its relative paths from the current\n"
+      "folder). set: {key path: value} overrides, e.g.\n"
       "{'contacts.damper.params.mu': 0.3}. allow_scene_plugins: load plugins from the\n"
       "scene's plugin_paths. contact_threads: threads tracing the contacts (0: one per core).\n"
       "plots: make the PNGs when written (None: the scene's output.plots).\n"
@@ -679,7 +690,7 @@ void bind_validate(py::module_& m) {
 
   m.def(
       "validate",
-      [](const fs::path& scene, const py::dict& set, bool allow_scene_plugins) {
+      [](const py::object& scene, const py::dict& set, bool allow_scene_plugins) {
         const core::StopSource source;
         const core::SceneInput input = scene_input(scene, set, allow_scene_plugins);
         return call_stoppable(source, [&] { return core::validate_scene({input}); });
@@ -735,8 +746,8 @@ void bind_timesim(py::module_& m) {
 
   m.def(
       "timesim",
-      [](const fs::path& scene, double frequency_hz, const py::dict& set, bool allow_scene_plugins,
-         int steps_per_period, int max_periods) {
+      [](const py::object& scene, double frequency_hz, const py::dict& set,
+         bool allow_scene_plugins, int steps_per_period, int max_periods) {
         const core::StopSource source;
         core::TimesimRequest request;
         request.scene = scene_input(scene, set, allow_scene_plugins);
@@ -821,7 +832,7 @@ void bind_modes(py::module_& m) {
 
   m.def(
       "modes",
-      [](const fs::path& scene, const py::object& rpm, const py::dict& set,
+      [](const py::object& scene, const py::object& rpm, const py::dict& set,
          bool allow_scene_plugins) {
         const core::StopSource source;
         core::ModesOptions options{scene_input(scene, set, allow_scene_plugins), 0.0, 0.0};
@@ -950,7 +961,7 @@ void bind_study(py::module_& m) {
 
   m.def(
       "study",
-      [](const fs::path& scene, const fs::path& folder, const py::dict& set,
+      [](const py::object& scene, const fs::path& folder, const py::dict& set,
          bool allow_scene_plugins, int threads) {
         const core::StopSource source;
         core::StudyRequest request;
@@ -1021,7 +1032,7 @@ void bind_convergence(py::module_& m) {
 
   m.def(
       "convergence",
-      [](const fs::path& scene, const fs::path& folder, const std::vector<int>& harmonics,
+      [](const py::object& scene, const fs::path& folder, const std::vector<int>& harmonics,
          const std::vector<int>& samples, const std::vector<int>& oversampling,
          bool time_integration, const py::dict& set, bool allow_scene_plugins) {
         const core::StopSource source;

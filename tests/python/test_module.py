@@ -420,3 +420,50 @@ def test_summary_is_the_programs_summary_json(tmp_path):
     assert set(written) - set(summary) == {"contact_states"}
     assert [(e["contact"], e["frequency"]) for e in summary["friction_loops"]] == \
         [(e["contact"], e["frequency"]) for e in written["friction_loops"]]
+
+
+# The quick start written as a dict (configs/quickstart_friction_oscillator.yaml).
+def quickstart_dict():
+    return {
+        "name": "friction_oscillator",
+        "structure": {"provider": "lumped",
+                      "params": {"masses": [0.1], "springs": [{"between": ["ground", 0],
+                                                               "k": 4.0e5}],
+                                 "modal_damping": [0.005]},
+                      "dofs": {"blade": 0}},
+        "excitation": [{"dof": "blade", "amplitude": 2.0, "harmonic": 1}],
+        "contacts": [{"name": "root_friction", "law": "jenkins_1d",
+                      "between": ["ground", "blade"], "frame": {"tangent1": [1.0]},
+                      "params": {"kt": 2.0e5, "mu": 0.5, "normal_load": 5.0}}],
+        "harmonic_balance": {"max_harmonic": 7, "samples_per_period": 128,
+                             "jacobian": "analytic"},
+        "continuation": {"frequency": {"from": 250, "to": 450, "unit": "Hz"},
+                         "step": {"initial": 1.0, "min": 1.0e-5, "max": 2.0},
+                         "target_newton_iterations": 4, "max_points": 2000},
+        "output": {"response": ["blade"], "friction_loops_at": [330.0, 400.0]},
+    }
+
+
+def test_a_scene_as_a_dict_gives_the_files_run(tmp_path):
+    from_file = frichb.run(QUICKSTART, plots=False)
+    from_dict = frichb.run(quickstart_dict(), plots=False)
+    np.testing.assert_array_equal(from_dict.table, from_file.table)
+    assert from_dict.peaks == from_file.peaks
+    assert from_dict.summary["scene"]["file"] == str(Path.cwd() / "<dict>")
+    # Overrides apply to it as to a file; errors name "<dict>", the line and the key.
+    scene = quickstart_dict()
+    scene["contacts"][0]["params"]["mu"] = "much"
+    with pytest.raises(frichb.SceneError) as refused:
+        frichb.validate(scene)
+    assert refused.value.file.endswith("<dict>") and refused.value.line > 0
+    assert refused.value.key == "contacts[0].params.mu"
+    # A study re-reads its scene for every run: from the dict's text, not from a file.
+    scene = quickstart_dict()
+    scene["study"] = {"sweep": [{"path": "contacts.root_friction.params.normal_load",
+                                 "values": [2.0, 8.0]}], "parallel": 1}
+    study = frichb.study(scene, tmp_path / "study", set={"output.plots": False})
+    assert study.status == 0, study.message
+    for run, load in zip(study.runs, (2.0, 8.0)):
+        alone = frichb.run(QUICKSTART, set={"contacts.root_friction.params.normal_load": load},
+                           plots=False)
+        assert run["peaks"][0]["amplitude_m"] == alone.peaks[0]["amplitude_m"]

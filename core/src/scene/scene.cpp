@@ -462,6 +462,14 @@ YAML::Node load_scene_yaml(const fs::path& file) {
     buffer << in.rdbuf();
     text = buffer.str();
   }
+  return parse_scene_yaml(text, file);
+}
+
+YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
+  if (text.size() > kMaxSceneBytes)
+    throw SceneError(file.string(), 0, 0, "",
+                     "is larger than " + std::to_string(kMaxSceneBytes >> 20U) +
+                         " MiB: not a scene (meshes and tables belong in files it names)");
   std::vector<YAML::Node> documents;
   try {
     documents = YAML::LoadAll(text);
@@ -503,8 +511,12 @@ YAML::Node load_scene_yaml(const fs::path& file) {
   return root;
 }
 
-YAML::Node load_scene_document(const fs::path& file, const std::vector<SceneOverride>& overrides) {
-  YAML::Node document = load_scene_yaml(file);
+namespace {
+
+// The scene document of `file`, or of `text` when given, with `overrides` applied.
+YAML::Node scene_document(const fs::path& file, const std::string* text,
+                          const std::vector<SceneOverride>& overrides) {
+  YAML::Node document = text ? parse_scene_yaml(*text, file) : load_scene_yaml(file);
   for (const auto& o : overrides) {
     try {
       set_scene_override(document, o);
@@ -515,13 +527,20 @@ YAML::Node load_scene_document(const fs::path& file, const std::vector<SceneOver
   return document;
 }
 
+}  // namespace
+
+YAML::Node load_scene_document(const fs::path& file, const std::vector<SceneOverride>& overrides) {
+  return scene_document(file, nullptr, overrides);
+}
+
 YAML::Node reread_scene_document(const Scene& base) {
-  return load_scene_document(base.file, base.overrides);
+  return scene_document(base.file, base.text.get(), base.overrides);
 }
 
 Scene load_scene_variant(const YAML::Node& document, const Scene& base) {
   Scene scene = load_scene(document, base.file);
   scene.overrides = base.overrides;
+  scene.text = base.text;
   scene.allow_scene_plugins = base.allow_scene_plugins;
   return scene;
 }
@@ -1135,7 +1154,14 @@ void bind_plugins(Scene& scene, const Registry& registry) {
 BoundScene load_bound_scene(const SceneInput& input) {
   BoundScene bound;
   try {
-    bound.scene = load_scene(input.file, input.overrides);
+    if (input.text) {
+      auto text = std::make_shared<const std::string>(*input.text);
+      bound.scene = load_scene(scene_document(input.file, text.get(), input.overrides), input.file);
+      bound.scene.overrides = input.overrides;
+      bound.scene.text = std::move(text);
+    } else {
+      bound.scene = load_scene(input.file, input.overrides);
+    }
     bound.scene.allow_scene_plugins = input.allow_scene_plugins;
     bound.registry =
         std::make_unique<Registry>(Registry::default_search_path(bound.scene.plugin_paths));

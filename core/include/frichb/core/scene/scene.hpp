@@ -151,6 +151,10 @@ struct SceneInput {
   // code: off unless the user allows it, `--allow-scene-plugins`). Folders of the default
   // search path and FRICHB_PLUGIN_PATH are always allowed.
   bool allow_scene_plugins = false;
+  // The scene's YAML (or JSON) text, when it does not come from a file (a Python dict): `file`
+  // then only names it in messages and outputs, and its folder is the one the relative paths
+  // the scene holds are taken from. Nothing is read from `file`.
+  std::optional<std::string> text = std::nullopt;
 };
 
 // How the plots scale amplitudes: automatic is log where the plotted values span more than a
@@ -174,6 +178,8 @@ struct Scene {
   // overrides and every binding the same plugin permission.
   std::vector<SceneOverride> overrides;
   bool allow_scene_plugins = false;
+  // SceneInput::text, kept for every re-reading (null: the scene was read from `file`).
+  std::shared_ptr<const std::string> text;
   std::string name, description;
   std::vector<std::filesystem::path> plugin_paths;  // resolved against the scene's folder
   StructureSpec structure;
@@ -196,6 +202,9 @@ Scene load_scene(const std::filesystem::path& file,
 Scene load_scene(const YAML::Node& document, const std::filesystem::path& file);
 // Parses `file` as YAML. Throws SceneError (missing file, a folder, malformed YAML).
 YAML::Node load_scene_yaml(const std::filesystem::path& file);
+// Parses `text` as a scene's YAML, `file` naming it in errors. Throws SceneError (malformed
+// YAML, more than one document, duplicate keys).
+YAML::Node parse_scene_yaml(const std::string& text, const std::filesystem::path& file);
 // The plugin_paths of an input file (a scene, a loop input), each relative one taken from the
 // file's folder. `kind` names the file in the error ("scene", "input"). Throws SceneError at
 // plugin_paths[i] for a folder that does not exist.
