@@ -476,6 +476,39 @@ void bind_run_result(py::module_& m) {
            "structure.dofs, harmonic in the order of `harmonics`. Component d moves as "
            "x(t) = sum over k of Re(X[point, d, k] exp(i n_k omega t)) (response_harmonics.csv "
            "holds Re X as cos_m and -Im X as sin_m).")
+      .def_property_readonly(
+          "response_dofs",
+          [](const core::RunResult& r) {
+            std::vector<std::pair<std::string, int>> dofs;
+            for (const auto& node : r.table.nodes)
+              for (std::size_t d = 0; d < node.kept.size(); ++d)
+                dofs.emplace_back(node.name, static_cast<int>(d));
+            return dofs;
+          },
+          "(node, component) of every response DOF, nodes in the order of output.response: the "
+          "axis of all_response_harmonics.")
+      .def(
+          "all_response_harmonics",
+          [](const core::RunResult& r) {
+            std::size_t dofs = 0;
+            for (const auto& node : r.table.nodes) dofs += node.kept.size();
+            const auto points = static_cast<py::ssize_t>(r.table.harmonics.size());
+            const auto harmonics =
+                static_cast<py::ssize_t>(r.prepared.model->layout().harmonics().size());
+            py::array_t<std::complex<double>> out(
+                {points, static_cast<py::ssize_t>(dofs), harmonics});
+            auto view = out.mutable_unchecked<3>();
+            for (py::ssize_t i = 0; i < points; ++i) {
+              py::ssize_t row = 0;
+              for (const Eigen::MatrixXcd& x : r.table.harmonics[static_cast<std::size_t>(i)])
+                for (Eigen::Index d = 0; d < x.rows(); ++d, ++row)
+                  for (py::ssize_t k = 0; k < harmonics; ++k) view(i, row, k) = x(d, k);
+            }
+            return out;
+          },
+          "Every response DOF's complex harmonic amplitudes at every point in one array [point, "
+          "DOF, harmonic], m, the DOFs as response_dofs lists them (each node's as "
+          "response_harmonics(node) gives them).")
       .def(
           "time_signal",
           [](const core::RunResult& r, const std::string& name, std::size_t point, int samples) {

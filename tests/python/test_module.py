@@ -467,3 +467,12 @@ def test_a_scene_as_a_dict_gives_the_files_run(tmp_path):
         alone = frichb.run(QUICKSTART, set={"contacts.root_friction.params.normal_load": load},
                            plots=False)
         assert run["peaks"][0]["amplitude_m"] == alone.peaks[0]["amplitude_m"]
+
+
+def test_all_response_harmonics_stack_every_nodes_harmonics():
+    result = frichb.run(TWO_DOF, plots=False)
+    assert result.response_dofs == [("blade", 0), ("damper", 0)]
+    every = result.all_response_harmonics()
+    assert every.shape == (result.points, 2, len(result.harmonics))
+    np.testing.assert_array_equal(every[:, 0:1, :], result.response_harmonics("blade"))
+    np.testing.assert_array_equal(every[:, 1:2, :], result.response_harmonics("damper"))
