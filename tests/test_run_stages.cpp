@@ -187,20 +187,18 @@ TEST(RunStages, StagesGiveTheFilesOfTheComposedRun) {
 TEST(RunStages, ContactHarmonicsBalanceTheBladesEquationOfMotion) {
   constexpr double kMass = 0.1, kStiffness = 4e5, kZeta = 0.005, kForce = 2.0;
   const fs::path file = fs::path(FRICHB_SOURCE_DIR) / "configs/quickstart_friction_oscillator.yaml";
-  const Registry registry(Registry::default_search_path({FRICHB_PLUGIN_DIR}));
-  Scene scene = load_scene(file, {parse_scene_override("output.contact_forces=true")});
-  bind_plugins(scene, registry);
-  const PreparedRun run = prepare_run(scene, 1);
-  const auto& options = run.setup.options;
-  const Eigen::VectorXd start = find_start_point(*run.model, options, spdlog::level::debug);
-  const ContinuationSummary summary = trace_response(scene, *run.model, options, start);
-  ASSERT_TRUE(summary.reached_end()) << summary.message;
-  const ResponseTable table = tabulate_response(scene, *run.model, options, summary);
+  SceneInput input;
+  input.file = file;
+  input.overrides = {parse_scene_override("output.contact_forces=true")};
+  const RunResult run = run_scene(input);
+  ASSERT_EQ(run.outcome.status, kExitOk) << run.outcome.message;
+  const ContinuationSummary& summary = run.summary;
+  const ResponseTable& table = run.table;
   ASSERT_EQ(table.contacts.size(), summary.points.size());
   ASSERT_EQ(table.contact_components, (std::vector<std::vector<int>>{{0}}));
-  const auto& harmonics = run.model->layout().harmonics();
+  const auto& harmonics = run.prepared.model->layout().harmonics();
   const double damping = 2 * kZeta * std::sqrt(kStiffness * kMass);
-  const Eigen::Index n = run.model->equation_count();
+  const Eigen::Index n = run.prepared.model->equation_count();
   double worst = 0.0;
   for (std::size_t i = 0; i < summary.points.size(); ++i) {
     ASSERT_EQ(table.contacts[i].size(), 1u);
