@@ -99,14 +99,20 @@ core::SceneInput scene_input(const py::object& scene, const py::dict& set,
   input.allow_scene_plugins = allow_scene_plugins;
   if (py::isinstance<py::dict>(scene)) {
     input.file = fs::current_path() / "<dict>";
-    input.text = py::str(dumps(scene, py::arg("indent") = 1)).cast<std::string>();
-  } else {
+    // NaN and infinities refused here: JSON has no text for them that YAML reads as a number.
+    input.text = py::str(dumps(scene, py::arg("indent") = 1, py::arg("allow_nan") = false))
+                     .cast<std::string>();
+  } else if (py::isinstance<py::str>(scene) || py::isinstance<py::bytes>(scene) ||
+             py::hasattr(scene, "__fspath__")) {
     input.file = scene.cast<fs::path>();
+  } else {
+    throw py::type_error("scene: a path (str or os.PathLike) or a dict, not " +
+                         py::str(py::type::of(scene).attr("__name__")).cast<std::string>());
   }
   for (const auto& [key, value] : set) {
     std::string assignment = py::str(key);
     assignment += "=";
-    assignment += py::str(dumps(value)).cast<std::string>();
+    assignment += py::str(dumps(value, py::arg("allow_nan") = false)).cast<std::string>();
     input.overrides.push_back(core::parse_scene_override(assignment));
   }
   return input;
@@ -183,14 +189,22 @@ std::pair<py::array_t<double>, py::array_t<double>> rebuild_signal(const core::R
   return {t, signal};
 }
 
+// Raises ValueError when the run kept no contact harmonics (output.contact_forces off).
+void require_contact_harmonics(const core::RunResult& r) {
+  if (r.table.contacts.empty() && !r.summary.points.empty())
+    throw py::value_error(
+        "the run kept no contact harmonics: run it with set={'output.contact_forces': True}");
+}
+
 // The index of contact `name` among the model's contacts.
 std::size_t contact_index(const core::RunResult& r, const std::string& name) {
+  const auto& contacts = r.prepared.model->contacts();
+  for (std::size_t c = 0; c < contacts.size(); ++c)
+    if (contacts[c].name == name) return c;
   std::string known;
-  if (r.prepared.model)
-    for (std::size_t c = 0; c < r.prepared.model->contacts().size(); ++c) {
-      if (r.prepared.model->contacts()[c].name == name) return c;
-      known += (known.empty() ? "" : ", ") + r.prepared.model->contacts()[c].name;
-    }
+  for (std::size_t c = 0; c < std::min<std::size_t>(contacts.size(), 8); ++c)
+    known += (known.empty() ? "" : ", ") + contacts[c].name;
+  if (contacts.size() > 8) known += ", ... (" + std::to_string(contacts.size()) + " in all)";
   throw py::key_error("'" + name + "' is not a contact of the scene (contacts: " + known + ")");
 }
 
@@ -547,29 +561,35 @@ void bind_run_result(py::module_& m) {
           "contact_harmonics",
           [](const core::RunResult& r, const std::string& name) {
             const std::size_t c = contact_index(r, name);
-            if (r.table.contacts.empty() && !r.summary.points.empty())
-              throw py::value_error(
-                  "the run kept no contact harmonics: run it with "
-                  "set={'output.contact_forces': True}");
+            require_contact_harmonics(r);
             return py::make_tuple(contact_array(r, c, &core::ContactHarmonics::displacement),
                                   contact_array(r, c, &core::ContactHarmonics::force));
           },
           py::arg("contact"),
           "A contact's harmonics at every point (the run needs output.contact_forces): "
           "(U, F), arrays [point, component, harmonic] of complex amplitudes, U the relative "
-          "displacement (m) and F the law's force on it (N, the preload in the static term), "
-          "components as contact_components, harmonics as `harmonics`; u(t) = sum over k of "
-          "Re(U[point, a, k] exp(i n_k omega t)). contact_harmonics.csv holds the same numbers "
-          "(cos = Re, sin = -Im).")
+          "displacement (m) and F the law's force on it (N, the preload in the static term when "
+          "harmonic 0 is kept), components as contact_components, harmonics as `harmonics`; "
+          "u(t) = sum over k of Re(U[point, a, k] exp(i n_k omega t)). contact_harmonics.csv "
+          "holds the same numbers (cos = Re, sin = -Im).")
+      .def(
+          "contact_periodic",
+          [](const core::RunResult& r, const std::string& name) {
+            const std::size_t c = contact_index(r, name);
+            require_contact_harmonics(r);
+            std::vector<bool> periodic;
+            for (const auto& at_point : r.table.contacts) periodic.push_back(at_point[c].periodic);
+            return periodic;
+          },
+          py::arg("contact"),
+          "Whether the contact's trace settled to a periodic state at each point (False: its "
+          "force is that of the last pass; contact_harmonics.csv's `periodic` column).")
       .def(
           "contact_signal",
           [](const core::RunResult& r, const std::string& name, std::size_t point, int samples) {
             check_point(r, point);
             const std::size_t c = contact_index(r, name);
-            if (r.table.contacts.empty())
-              throw py::value_error(
-                  "the run kept no contact harmonics: run it with "
-                  "set={'output.contact_forces': True}");
+            require_contact_harmonics(r);
             const core::ContactHarmonics& h = r.table.contacts.at(point).at(c);
             auto [t, u] = rebuild_signal(r, h.displacement, point, samples);
             auto [t2, f] = rebuild_signal(r, h.force, point, samples);
@@ -585,6 +605,8 @@ void bind_run_result(py::module_& m) {
           [](const core::RunResult& r, const std::string& name, std::size_t point) {
             check_point(r, point);
             const std::size_t c = contact_index(r, name);
+            // The model's tracer of the contact is shared by every call on this result: the
+            // trace runs holding the GIL, so that two Python threads never trace at once.
             core::ContactTrace trace;
             std::string error;
             if (!r.prepared.model->trace_contact(c, r.summary.points[point].y, trace, &error))
@@ -599,7 +621,8 @@ void bind_run_result(py::module_& m) {
           },
           py::arg("contact"), py::arg("point"),
           "The contact traced again over one period at a point, on the run's own samples "
-          "(harmonic_balance.samples_per_period, the first at phase 0): a dict with "
+          "(harmonic_balance.samples_per_period times trace_oversampling, the first at phase "
+          "0): a dict with "
           "'displacement' [component, sample] (m) and 'force' [component, sample] (N, the law's "
           "force, preload included), 'periodic' and 'energy_per_cycle_j'.")
       .def_property_readonly(
@@ -630,9 +653,7 @@ void bind_run_result(py::module_& m) {
                                          r.summary, r.table,           r.loops};
             nlohmann::json loops = nlohmann::json::array();
             for (const core::FrictionLoop& loop : r.loops)
-              loops.push_back({{"contact", r.prepared.model->contacts()[loop.contact].name},
-                               {"frequency", loop.frequency},
-                               {"crossing", loop.crossing}});
+              loops.push_back(core::friction_loop_entry(record, loop));
             const nlohmann::json timing = {{"setup_s", r.setup_seconds},
                                            {"continuation_s", r.continuation_seconds},
                                            {"post_and_output_s", r.post_seconds},
@@ -643,8 +664,8 @@ void bind_run_result(py::module_& m) {
           },
           "summary.json's content as a dict (termination, peaks, turning points, harmonic "
           "truncation, the profile, the validated scene, ...), without what only write() "
-          "produces: the friction loops are listed without their files, the contact states "
-          "not at all, and the times leave out the writing.")
+          "produces: the friction loops are listed without their file names, the contact "
+          "states not at all, and the times leave out the writing.")
       .def(
           "write",
           [](const core::RunResult& r, const fs::path& folder) {

@@ -56,8 +56,11 @@ def main():
     # The shipped study's grid, as `frichb study` computes it.
     with tempfile.TemporaryDirectory() as folder:
         study = frichb.study(SCENE, Path(folder) / "study")
-    grid = [(run["values"][0], blade_peak_of(run["peaks"])) for run in study.runs
-            if run["exit_code"] == 0]
+    failed = [run["id"] for run in study.runs if run["exit_code"] != 0]
+    if study.status != 0 or failed:
+        print(f"the study did not complete: status {study.status}, failed runs {failed}")
+        return 1
+    grid = sorted((run["values"][0], blade_peak_of(run["peaks"])) for run in study.runs)
     best = min(range(len(grid)), key=lambda i: grid[i][1])
     print(f"grid: lowest peak {grid[best][1] * 1e6:.3f} um at N0 = {grid[best][0]:.4g} N "
           f"({len(grid)} runs)")

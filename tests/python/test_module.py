@@ -394,7 +394,7 @@ def test_contact_harmonics_rebuild_the_runs_own_trace_samples(tmp_path):
     assert len(rows) == result.points * len(harmonics)
     for row in rows:
         point, k = int(row["point"]), harmonics.index(int(row["harmonic"]))
-        assert row["contact"] == contact and row["component"] == "t1"
+        assert row["contact"] == contact and row["component"] == "t1" and row["periodic"] == "1"
         assert float(row["displacement_cos_m"]) == u_h[point, 0, k].real
         assert float(row["displacement_sin_m"]) == -u_h[point, 0, k].imag + 0.0
         assert float(row["force_cos_n"]) == f_h[point, 0, k].real
@@ -418,8 +418,10 @@ def test_summary_is_the_programs_summary_json(tmp_path):
                 "command_line_overrides", "plugins"):
         assert summary[key] == written[key], key
     assert set(written) - set(summary) == {"contact_states"}
-    assert [(e["contact"], e["frequency"]) for e in summary["friction_loops"]] == \
-        [(e["contact"], e["frequency"]) for e in written["friction_loops"]]
+    files = {"file", "harmonics_file"}
+    assert summary["friction_loops"] == \
+        [{k: v for k, v in e.items() if k not in files} for e in written["friction_loops"]]
+    assert len(summary["friction_loops"]) == 2
 
 
 # The quick start written as a dict (configs/quickstart_friction_oscillator.yaml).
@@ -457,6 +459,12 @@ def test_a_scene_as_a_dict_gives_the_files_run(tmp_path):
         frichb.validate(scene)
     assert refused.value.file.endswith("<dict>") and refused.value.line > 0
     assert refused.value.key == "contacts[0].params.mu"
+    with pytest.raises(TypeError, match="a path .* or a dict, not int"):
+        frichb.validate(123)
+    scene = quickstart_dict()
+    scene["contacts"][0]["params"]["mu"] = float("nan")
+    with pytest.raises(ValueError):
+        frichb.validate(scene)
     # A study re-reads its scene for every run: from the dict's text, not from a file.
     scene = quickstart_dict()
     scene["study"] = {"sweep": [{"path": "contacts.root_friction.params.normal_load",
@@ -476,3 +484,26 @@ def test_all_response_harmonics_stack_every_nodes_harmonics():
     assert every.shape == (result.points, 2, len(result.harmonics))
     np.testing.assert_array_equal(every[:, 0:1, :], result.response_harmonics("blade"))
     np.testing.assert_array_equal(every[:, 1:2, :], result.response_harmonics("damper"))
+
+
+def test_contact_harmonics_of_a_stuck_3d_contact_carry_its_preload_and_stiffnesses():
+    # The bladed disk's shroud (coupled_3d: kt = 2e5 N/m, kn = 1e5 N/m, N0 = 5 N) sticks far
+    # below resonance: its force is linear in the motion, T = kt u_t and N = N0 + kn u_n
+    # (the slider at its initial place), harmonic by harmonic, the preload in the static term.
+    scene = SOURCE / "configs" / "bladed_disk_lumped_eo3.yaml"
+    result = frichb.run(scene, set={"continuation.frequency.to": 250.0,
+                                    "output.contact_forces": True}, plots=False)
+    assert result.status == 0, result.message
+    assert result.contact_components("shroud") == ["t1", "t2", "n"]
+    assert all(result.contact_periodic("shroud"))
+    u_h, f_h = result.contact_harmonics("shroud")
+    stiffness = np.array([2e5, 2e5, 1e5])[:, None]
+    preload = np.zeros((3, len(result.harmonics)), dtype=complex)
+    preload[2, result.harmonics.index(0)] = 5.0
+    for point in (0, result.points - 1):
+        expected = stiffness * u_h[point] + preload
+        assert np.abs(f_h[point] - expected).max() <= 1e-9 * np.abs(f_h[point]).max()
+        # The static term is the mean of the force the law computes on the run's samples.
+        trace = result.contact_trace("shroud", point)
+        np.testing.assert_allclose(f_h[point, :, 0].real, trace["force"].mean(axis=1),
+                                   rtol=0, atol=1e-12 * np.abs(trace["force"]).max())

@@ -200,6 +200,16 @@ std::string loop_plot_script(const std::string& csv, const std::string& title, i
   return gp.str();
 }
 
+// Harmonics of a loop's contact force (thesis Fig. 5.6): at least up to 10, and up to the
+// highest kept harmonic, as far as the samples resolve them.
+ForceHarmonics loop_force_harmonics(const Scene& scene, const FrictionLoop& loop,
+                                    const std::vector<int>& components) {
+  const int samples = static_cast<int>(loop.trace.force.rows());
+  const int shown =
+      std::min((samples - 1) / 2, std::max(10, scene.harmonic_balance.harmonics.back()));
+  return force_harmonics(loop.trace.force, components, shown);
+}
+
 // One friction loop's files: the closed loop (phase, u per axis, f per axis), its force
 // harmonics and, when `plots`, its plot. Returns its summary.json entry.
 nlohmann::json write_loop(StagedOutput& out, const RunRecord& run, const FrictionLoop& loop,
@@ -226,15 +236,8 @@ nlohmann::json write_loop(StagedOutput& out, const RunRecord& run, const Frictio
                            unit.substr(0, 2) + "_" + std::to_string(loop.crossing);
   const fs::path csv = out.path(base + ".csv");
   write_csv(csv, header, rows);
-  // Harmonics of the contact force (thesis Fig. 5.6): at least up to 10, and up to the highest
-  // kept harmonic, as far as the samples resolve them.
-  const int shown =
-      std::min((samples - 1) / 2, std::max(10, scene.harmonic_balance.harmonics.back()));
-  const ForceHarmonics force_table = force_harmonics(trace.force, comps, shown);
+  const ForceHarmonics force_table = loop_force_harmonics(scene, loop, comps);
   write_csv(out.path(base + "_harmonics.csv"), force_table.header, force_table.rows);
-  nlohmann::json force_amplitudes = nlohmann::json::object();
-  for (std::size_t a = 0; a < comps.size(); ++a)
-    force_amplitudes[kContactAxisNames[comps[a]]] = force_table.amplitude[a];
   if (plots) {
     const fs::path gp = out.path(base + ".gp");
     write_text(gp,
@@ -243,14 +246,10 @@ nlohmann::json write_loop(StagedOutput& out, const RunRecord& run, const Frictio
                                 static_cast<int>(comps.size())));
     run_gnuplot(gp, out.stop());
   }
-  return {{"contact", contact.name},
-          {"frequency", loop.frequency},
-          {"crossing", loop.crossing},
-          {"file", base + ".csv"},
-          {"harmonics_file", base + "_harmonics.csv"},
-          {"force_harmonic_amplitudes_N", force_amplitudes},
-          {"dissipated_energy_per_cycle_J", trace.energy_per_cycle},
-          {"trace_passes", trace.passes}};
+  nlohmann::json entry = friction_loop_entry(run, loop);
+  entry["file"] = base + ".csv";
+  entry["harmonics_file"] = base + "_harmonics.csv";
+  return entry;
 }
 
 // The plot of a patch's face at one frequency: each pair at its place on face A, coloured by
@@ -329,7 +328,7 @@ void write_contact_harmonics(const fs::path& file, const RunRecord& run) {
   const auto& harmonics = run.model.layout().harmonics();
   std::string csv =
       "point,frequency_hz,contact,component,harmonic,displacement_cos_m,displacement_sin_m,"
-      "force_cos_n,force_sin_n\n";
+      "force_cos_n,force_sin_n,periodic\n";
   const auto sine = [&](std::complex<double> x, std::size_t k) {
     return round_trip(harmonics[k] == 0 ? 0.0 : 0.0 - x.imag());  // 0.0 - x: no negative zeros
   };
@@ -348,7 +347,7 @@ void write_contact_harmonics(const fs::path& file, const RunRecord& run) {
                  "," + std::to_string(harmonics[kk]) + "," +
                  round_trip(h.displacement(a, k).real() + 0.0) + "," +
                  sine(h.displacement(a, k), kk) + "," + round_trip(h.force(a, k).real() + 0.0) +
-                 "," + sine(h.force(a, k), kk) + "\n";
+                 "," + sine(h.force(a, k), kk) + "," + (h.periodic ? "1" : "0") + "\n";
         }
     }
   }
@@ -356,6 +355,21 @@ void write_contact_harmonics(const fs::path& file, const RunRecord& run) {
 }
 
 }  // namespace
+
+nlohmann::json friction_loop_entry(const RunRecord& run, const FrictionLoop& loop) {
+  const auto& contact = run.model.contacts()[loop.contact];
+  const auto& comps = contact.tracer->components();
+  const ForceHarmonics force_table = loop_force_harmonics(run.scene, loop, comps);
+  nlohmann::json force_amplitudes = nlohmann::json::object();
+  for (std::size_t a = 0; a < comps.size(); ++a)
+    force_amplitudes[kContactAxisNames[comps[a]]] = force_table.amplitude[a];
+  return {{"contact", contact.name},
+          {"frequency", loop.frequency},
+          {"crossing", loop.crossing},
+          {"force_harmonic_amplitudes_N", force_amplitudes},
+          {"dissipated_energy_per_cycle_J", loop.trace.energy_per_cycle},
+          {"trace_passes", loop.trace.passes}};
+}
 
 nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool plots) {
   write_csv(out.path("response.csv"), run.table.header, run.table.rows);

@@ -49,6 +49,11 @@ struct RunRecord {
 // output folder, energy per cycle, force harmonic amplitudes).
 nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool plots);
 
+// A friction loop's summary.json entry without its files: contact, frequency, crossing, force
+// harmonic amplitudes per axis, dissipated energy per cycle, trace passes (write_curve_files
+// adds `file` and `harmonics_file`).
+nlohmann::json friction_loop_entry(const RunRecord& run, const FrictionLoop& loop);
+
 // Writes, for each crossing of each output.contact_states_at frequency (the traces of
 // solve_contact_traces, every contact of a crossing in a row), contact_states/<frequency><unit>_
 // <crossing>.csv: per contact its scene entry, name, sides, the place of a patch pair on its
