@@ -114,6 +114,27 @@ TEST(PlotStyle, LineTypesCycleColoursThenDashes) {
   EXPECT_EQ(line_types(0), "");
 }
 
+TEST(PlotStyle, LegendDigitsKeepTheValuesApart) {
+  // 0.2, 0.356, 0.632 in three digits.
+  EXPECT_EQ(distinguishing_digits(std::vector<double>{0.2, 0.355656, 0.632456}), 3);
+  // 1.0001 and 1.0002 read "1" up to four digits, apart from five on.
+  EXPECT_EQ(distinguishing_digits(std::vector<double>{1.0001, 1.0002}), 5);
+  // Repeated values are one value.
+  EXPECT_EQ(distinguishing_digits(std::vector<double>{7, 7, 7}), 3);
+}
+
+TEST(PlotStyle, LogAxesFitTheData) {
+  EXPECT_EQ(log_axes(false, false), "");
+  const std::string y = log_axes(false, true);
+  EXPECT_NE(y.find("set logscale y\n"), std::string::npos);
+  EXPECT_EQ(y.find("set logscale x"), std::string::npos);
+  EXPECT_NE(y.find("set offsets 0, 0, graph 0.05, graph 0.05\n"), std::string::npos);
+  const std::string xy = log_axes(true, true);
+  EXPECT_NE(xy.find("set logscale x\n"), std::string::npos);
+  EXPECT_NE(xy.find("set offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n"),
+            std::string::npos);
+}
+
 TEST(PlotStyle, AxisLabels) {
   EXPECT_EQ(axis_label("amplitude", "µm"), "amplitude [µm]");
   EXPECT_EQ(axis_label("max_harmonic", ""), "max_harmonic");

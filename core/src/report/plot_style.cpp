@@ -8,6 +8,7 @@
 #include <sstream>
 #include <vector>
 
+#include "frichb/core/support/format.hpp"
 #include "frichb/core/support/output.hpp"
 
 namespace frichb::core {
@@ -68,6 +69,39 @@ bool log_spaced(std::span<const double> values) {
   return hi <= 1.5 * lo;
 }
 
+std::string log_axes(bool x, bool y) {
+  if (!x && !y) return "";
+  std::ostringstream gp;
+  // Labels at 2 and 5 times each power of ten too (those outside the range are not drawn):
+  // an axis of one or two decades otherwise shows only one or two numbers.
+  std::string fine = "(";
+  for (int e = -3; e <= 4; ++e)
+    for (const char* m : {"2", "5"})
+      fine += (fine.size() > 1 ? ", " : "") + std::string(m) + "e" + std::to_string(e);
+  fine += ")";
+  if (x)
+    gp << "set logscale x\nset autoscale xfix\nset grid mxtics\nset xtics add " << fine << "\n";
+  if (y)
+    gp << "set logscale y\nset autoscale yfix\nset grid mytics\nset ytics add " << fine << "\n";
+  const char* side_x = x ? "graph 0.03" : "0";
+  const char* side_y = y ? "graph 0.05" : "0";
+  gp << "set offsets " << side_x << ", " << side_x << ", " << side_y << ", " << side_y << "\n";
+  return gp.str();
+}
+
+int distinguishing_digits(std::span<const double> values) {
+  std::vector<double> distinct(values.begin(), values.end());
+  std::sort(distinct.begin(), distinct.end());
+  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+  for (int digits = 3; digits < 12; ++digits) {
+    bool clash = false;
+    for (std::size_t k = 1; k < distinct.size() && !clash; ++k)
+      clash = format_number(distinct[k], digits) == format_number(distinct[k - 1], digits);
+    if (!clash) return digits;
+  }
+  return 12;
+}
+
 std::string line_types(std::size_t count) {
   std::ostringstream gp;
   for (std::size_t k = 0; k < count; ++k)
@@ -86,7 +120,7 @@ std::string plot_header(const std::string& png, int width, int height) {
      << "set terminal pngcairo size " << width << "," << height << " noenhanced font 'sans,11'\n"
      << "set output " << gnuplot_string(png) << "\n"
      << "set datafile separator ','\n"
-     << "set grid back lc rgb '#d9d9d9' lw 1 dt 1\n";
+     << "set grid back lc rgb '#c8c8c8' lw 1 dt 1, lc rgb '#e6e6e6' lw 1 dt 1\n";
   return gp.str();
 }
 

@@ -191,7 +191,7 @@ std::string response_plot_script(const Scene& scene, const ResponseTable& table)
      << "\n"
      << "set xlabel 'frequency [" << unit_name(scene.continuation.unit) << "]'\n"
      << "set ylabel " << gnuplot_string(axis_label("amplitude", scale.unit)) << "\n"
-     << (log_amplitude_axis(scene.output.amplitude_axis, span) ? "set logscale y\n" : "")
+     << log_axes(false, log_amplitude_axis(scene.output.amplitude_axis, span))
      << "set key outside right top\n";
   const int xcol = scene.continuation.unit == FrequencyUnit::kHz ? 2 : 3;
   gp << "plot ";

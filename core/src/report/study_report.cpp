@@ -118,6 +118,7 @@ struct SweepDisplay {
   std::string unit;
   double factor = 1.0;
   std::string factor_text = "1";
+  int digits = 3;  // of the values in legends
 };
 
 std::vector<SweepDisplay> sweep_displays(const StudySpec& study) {
@@ -136,6 +137,9 @@ std::vector<SweepDisplay> sweep_displays(const StudySpec& study) {
       d.factor = scale.factor;
       d.factor_text = scale_factor_text(scale);
     }
+    std::vector<double> shown;
+    for (double x : s.values) shown.push_back(x * d.factor);
+    d.digits = distinguishing_digits(shown);
     out.push_back(d);
   }
   return out;
@@ -143,7 +147,8 @@ std::vector<SweepDisplay> sweep_displays(const StudySpec& study) {
 
 // A legend entry: "normal_load = 120 N".
 std::string value_label(const SweepDisplay& d, double value) {
-  return d.name + " = " + format_number(value * d.factor) + (d.unit.empty() ? "" : " " + d.unit);
+  return d.name + " = " + format_number(value * d.factor, d.digits) +
+         (d.unit.empty() ? "" : " " + d.unit);
 }
 
 // The peak amplitude of study.node in a run's outcome (NaN when it has none).
@@ -179,7 +184,7 @@ void write_overlay_plot(const StudyResult& r, const std::string& title, StagedOu
      << "set title " << gnuplot_string(title + ": " + study.node + " over the study") << "\n"
      << "set xlabel 'frequency [" << unit_name(r.unit) << "]'\n"
      << "set ylabel " << gnuplot_string(axis_label("amplitude", scale.unit)) << "\n"
-     << (log_amplitude_axis(r.amplitude_axis, span) ? "set logscale y\n" : "") << "plot ";
+     << log_axes(false, log_amplitude_axis(r.amplitude_axis, span)) << "plot ";
   const int xcol = r.unit == FrequencyUnit::kHz ? 2 : 3;
   std::size_t curve = 0;
   for (const auto& run : runs) {
@@ -246,8 +251,7 @@ void write_peak_plot(const StudyResult& r, const std::string& title, StagedOutpu
      << "set title " << gnuplot_string(title + ": peak amplitude of " + study.node) << "\n"
      << "set xlabel " << gnuplot_string(axis_label(d0.name, d0.unit)) << "\n"
      << "set ylabel " << gnuplot_string(axis_label("peak amplitude", scale.unit)) << "\n"
-     << (log_x ? "set logscale x\n" : "")
-     << (log_amplitude_axis(r.amplitude_axis, span) ? "set logscale y\n" : "");
+     << log_axes(log_x, log_amplitude_axis(r.amplitude_axis, span));
   const int peak_col =
       static_cast<int>(1 + study.sweeps.size() + 3) +
       2 * static_cast<int>(std::find(response.begin(), response.end(), study.node) -

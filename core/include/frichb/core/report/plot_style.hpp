@@ -45,6 +45,11 @@ bool log_amplitude_axis(AmplitudeAxis mode, const ValueSpan& span);
 // values: false.
 bool log_spaced(std::span<const double> values);
 
+// The lines that make the x and/or y axis logarithmic: the range fitted to the data with a
+// margin (rather than widened to whole decades) and a light grid at the minor tics. Empty when
+// neither is.
+std::string log_axes(bool x, bool y);
+
 // The line types of a plot's curves: `set linetype k` for k = 1..count, curve k-1 in colour
 // (k-1) mod 7 of the palette and dash type 1, 2, 4, 5 for the first, second, ... round of the
 // colours. Plot curve i with `lt i+1`.
@@ -58,6 +63,10 @@ std::string plot_header(const std::string& png, int width, int height);
 
 // A sequential colour-blind-safe colour map (viridis) for `set palette defined`.
 std::string sequential_palette();
+
+// The fewest significant digits (3 to 12) that keep the distinct `values` distinct in
+// format_number: the precision of a legend's values.
+int distinguishing_digits(std::span<const double> values);
 
 // "name [unit]", or "name" when unit is empty.
 std::string axis_label(const std::string& name, const std::string& unit);
