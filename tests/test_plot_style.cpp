@@ -30,6 +30,11 @@ TEST(PlotStyle, LengthUnitFromTheLargestValue) {
   EXPECT_EQ(length_scale(1e-3).unit, "mm");
   EXPECT_EQ(length_scale(1e-3).factor, 1e3);
   EXPECT_EQ(length_scale(0.02).unit, "mm");
+  EXPECT_EQ(length_scale(0.999).unit, "mm");
+  // From 1 m on: m.
+  EXPECT_EQ(length_scale(1.5).unit, "m");
+  EXPECT_EQ(length_scale(1.5).factor, 1.0);
+  EXPECT_EQ(scale_factor_text(length_scale(1.5)), "1");
   // The magnitude decides (a displacement axis may be negative).
   EXPECT_EQ(length_scale(-0.004).unit, "mm");
   // Nothing to scale: µm.
@@ -76,6 +81,7 @@ TEST(PlotStyle, LogSpacingOfSweptValues) {
   // The study of configs/studies: 13 values from 0.2 to 200, log-spaced (a factor 10^(1/4)
   // between neighbours).
   std::vector<double> geometric;
+  geometric.reserve(13);
   for (int k = 0; k < 13; ++k) geometric.push_back(0.2 * std::pow(10.0, k / 4.0));
   EXPECT_TRUE(log_spaced(geometric));
   // 1-2-5 steps: log steps ln 2 = 0.69 and ln 2.5 = 0.92, within a factor 1.5.
@@ -85,6 +91,7 @@ TEST(PlotStyle, LogSpacingOfSweptValues) {
   EXPECT_TRUE(log_spaced(std::vector<double>{1, 100}));
   // 1, 2, ..., 20: log steps from ln 2 = 0.69 down to ln(20/19) = 0.05.
   std::vector<double> linear;
+  linear.reserve(20);
   for (int k = 1; k <= 20; ++k) linear.push_back(k);
   EXPECT_FALSE(log_spaced(linear));
   // Geometric but within a decade (ratio 4).

@@ -26,7 +26,10 @@ constexpr std::array<int, 4> kDashes = {1, 2, 4, 5};
 
 LengthScale length_scale(double largest_m) {
   LengthScale scale;
-  if (std::isfinite(largest_m) && std::abs(largest_m) >= 1e-3) {
+  if (std::isfinite(largest_m) && std::abs(largest_m) >= 1.0) {
+    scale.factor = 1.0;
+    scale.unit = "m";
+  } else if (std::isfinite(largest_m) && std::abs(largest_m) >= 1e-3) {
     scale.factor = 1e3;
     scale.unit = "mm";
   }
@@ -34,7 +37,7 @@ LengthScale length_scale(double largest_m) {
 }
 
 std::string scale_factor_text(const LengthScale& scale) {
-  return scale.factor == 1e3 ? "1e3" : "1e6";
+  return scale.factor == 1.0 ? "1" : scale.factor == 1e3 ? "1e3" : "1e6";
 }
 
 void ValueSpan::add(double value) {

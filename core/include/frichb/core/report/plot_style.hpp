@@ -21,9 +21,10 @@ struct LengthScale {
   std::string unit = "µm";
 };
 // The unit of an axis whose largest absolute value is `largest_m` metres: µm below 1 mm
-// (and when `largest_m` is zero or not finite), mm from 1 mm on.
+// (and when `largest_m` is zero or not finite), mm from 1 mm, m from 1 m on (a prescribed
+// motion of `frichb loop` given in metres).
 LengthScale length_scale(double largest_m);
-// `factor` as it goes into a gnuplot expression: "1e6" (µm) or "1e3" (mm).
+// `factor` as it goes into a gnuplot expression: "1e6" (µm), "1e3" (mm) or "1" (m).
 std::string scale_factor_text(const LengthScale& scale);
 
 // The smallest positive and the largest of some plotted values; `add` ignores values that are
