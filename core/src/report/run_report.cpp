@@ -177,8 +177,8 @@ ValueSpan amplitude_span(const ResponseTable& table) {
   return span;
 }
 
-// response.gp: every response node's amplitude against frequency, in µm or mm, on a log axis
-// when the amplitudes span more than a decade (or as output.amplitude_axis says).
+// response.gp: every response node's amplitude against frequency (length_scale: µm, mm or m), on a
+// log axis when the amplitudes span more than a decade (or as output.amplitude_axis says).
 std::string response_plot_script(const Scene& scene, const ResponseTable& table) {
   const auto& nodes = table.nodes;
   const ValueSpan span = amplitude_span(table);
@@ -205,7 +205,7 @@ std::string response_plot_script(const Scene& scene, const ResponseTable& table)
 }
 
 // A friction loop's plot: the tangential force T1 against the relative displacement u_t1,
-// the displacement in µm or mm (`largest_m`: its largest absolute value).
+// the displacement in µm, mm or m (`largest_m`: its largest absolute value).
 std::string loop_plot_script(const std::string& csv, const std::string& title, int dims,
                              double largest_m) {
   const LengthScale scale = length_scale(largest_m);
