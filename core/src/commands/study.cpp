@@ -16,6 +16,7 @@
 #include <mutex>
 #include <numbers>
 #include <set>
+#include <span>
 #include <sstream>
 #include <system_error>
 #include <thread>
@@ -189,6 +190,86 @@ std::vector<std::vector<std::size_t>> StudySpec::axes() const {
   return out;
 }
 
+namespace {
+
+// The keys of a scene path: `a.b[0].c` and `a.b.0.c` both give a, b, 0, c.
+std::vector<std::string> path_keys(const std::string& path) {
+  std::vector<std::string> keys(1);
+  for (const char c : path) {
+    if (c == '.' || c == '[' || c == ']') {
+      if (!keys.back().empty()) keys.emplace_back();
+    } else {
+      keys.back() += c;
+    }
+  }
+  if (keys.back().empty()) keys.pop_back();
+  return keys;
+}
+
+bool is_index(const std::string& key) {
+  return !key.empty() && key.find_first_not_of("0123456789") == std::string::npos;
+}
+
+// The unit `schema` gives `key`, or the first unit the fields of its record lists give it (a
+// section written as a list, such as `excitation`); "" when it has no such key.
+std::string unit_in(std::span<const frichb_param_spec> schema, const std::string& key) {
+  for (const frichb_param_spec& p : schema)
+    if (p.name && key == p.name) return p.unit ? p.unit : "";
+  for (const frichb_param_spec& p : schema)
+    if (p.fields && p.n_fields > 0) {
+      std::string unit = unit_in(std::span(p.fields, p.n_fields), key);
+      if (!unit.empty()) return unit;
+    }
+  return "";
+}
+
+// The law of the scene's contacts entry `key` (its name, or its index), or null.
+const LoadedPlugin* contact_law(const Scene& scene, const std::string& key) {
+  for (const ContactSpec& c : scene.contacts) {
+    const bool named = c.name == key || (c.patch && c.name.starts_with(key + "."));
+    const bool indexed = is_index(key) && c.entry == std::stoul(key);
+    if ((named || indexed) && c.plugin) return c.plugin.get();
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+SweepQuantity sweep_quantity(const Scene& scene, const std::string& path) {
+  std::vector<std::string> keys = path_keys(path);
+  SweepQuantity q;
+  if (keys.empty()) return q;
+  // A number list's entry: named by its list, the unit of the list's elements.
+  std::string index;
+  if (keys.size() > 1 && is_index(keys.back())) {
+    index = "[" + keys.back() + "]";
+    keys.pop_back();
+  }
+  const std::string& key = keys.back();
+  q.name = key + index;
+  if (keys.size() == 3 && keys[0] == "structure" && keys[1] == "params") {
+    if (scene.structure.plugin) q.unit = unit_in(scene.structure.plugin->schema(), key);
+    return q;
+  }
+  if (keys.size() == 4 && keys[0] == "contacts" && keys[2] == "params") {
+    if (const LoadedPlugin* law = contact_law(scene, keys[1])) q.unit = unit_in(law->schema(), key);
+    return q;
+  }
+  // A core section: its path without list indices, contacts.<entry> as contacts[].
+  std::string section;
+  for (std::size_t k = 0; k + 1 < keys.size(); ++k) {
+    if (k == 1 && keys[0] == "contacts") {
+      section += "[]";
+      continue;
+    }
+    if (is_index(keys[k])) continue;
+    section += (section.empty() ? "" : ".") + keys[k];
+  }
+  for (const CoreSection& s : core_schemas())
+    if (s.path == section) q.unit = unit_in(s.schema, key);
+  return q;
+}
+
 StudySpec load_study(const Scene& scene) {
   YamlContext ctx{scene.file.string()};
   YAML::Node root = scene.root;
@@ -216,6 +297,9 @@ StudySpec load_study(const Scene& scene) {
     SweepSpec sweep;
     sweep.path = r.text("path");
     sweep.with_previous = r.boolean("with_previous");
+    const SweepQuantity quantity = sweep_quantity(scene, sweep.path);
+    sweep.name = quantity.name;
+    sweep.unit = quantity.unit;
     if (sweep.with_previous && i == 0)
       ctx.fail(entry["with_previous"], key + ".with_previous",
                "the first sweep has no previous sweep to vary with");
@@ -239,6 +323,7 @@ StudySpec load_study(const Scene& scene) {
       const auto n = static_cast<std::size_t>(r.integer("count"));
       if (n < 2) ctx.fail(entry["count"], key + ".count", "count >= 2");
       const bool log = r.text("spacing") == "log";
+      sweep.log_spacing = log;
       if (log && !(from > 0 && to > 0))
         ctx.fail(entry, key + ".spacing", "log spacing needs from > 0 and to > 0");
       for (std::size_t k = 0; k < n; ++k) {
@@ -579,6 +664,7 @@ StudyResult run_study(const StudyRequest& request, StudyCommunicator& comm) {
   result.unit = scene.continuation.unit;
   result.response = scene.output.response;
   result.plots = scene.output.plots;
+  result.amplitude_axis = scene.output.amplitude_axis;
   result.processes = comm.size();
   result.threads = threads;
   result.study = study;

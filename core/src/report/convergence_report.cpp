@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "frichb/core/report/plot_style.hpp"
 #include "frichb/core/support/format.hpp"
 #include "frichb/core/support/version.hpp"
 
@@ -109,8 +110,8 @@ void write_plot(const ConvergenceResult& result, StagedOutput& out) {
       result.scene_name.empty() ? result.scene_file.stem().string() : result.scene_name;
   std::ostringstream gp;
   gp << "# gnuplot script written by frichb convergence; `gnuplot convergence.gp`\n"
-     << "set terminal pngcairo size 1200,520 noenhanced\nset output 'convergence.png'\n"
-     << "set datafile separator ','\nset logscale xy\nset grid\nset key bottom left\n"
+     << plot_header("convergence.png", 1200, 560) << line_types(result.oversampling.size() + 1)
+     << "set logscale xy\nset key below\n"
      << "set xlabel 'wall time of the run [s]'\nset multiplot layout 1,2 title "
      << gnuplot_string(name + ": error against run time (reference " +
                        result.rows.back().setting.id + ")")
@@ -119,17 +120,19 @@ void write_plot(const ConvergenceResult& result, StagedOutput& out) {
   const char* titles[] = {"peak amplitude error (relative)", "peak frequency error (relative)"};
   for (int k = 0; k < 2; ++k) {
     gp << "set ylabel '" << titles[k] << "'\nplot ";
-    bool first = true;
+    std::size_t series = 0;
     for (int o : result.oversampling) {
-      gp << (first ? "" : ", \\\n     ") << "'convergence.csv' using (column(4) == " << o
+      gp << (series ? ", \\\n     " : "") << "'convergence.csv' using (column(4) == " << o
          << " && column('" << columns[k] << "') > 0 ? column('wall_s') : 1/0):(column('"
-         << columns[k] << "')) with points pt 7 ps 1.2 title 'oversampling " << o << "'";
-      first = false;
+         << columns[k] << "')) with points lt " << series + 1 << " pt 7 ps 1.2 title 'oversampling "
+         << o << "'";
+      ++series;
     }
     if (k == 0 && std::isfinite(result.timesim.compared()))
       gp << ", \\\n     'convergence.csv' using (column('wall_s')):(column("
             "'amplitude_error_vs_timesim') > 0 ? column('amplitude_error_vs_timesim') : "
-            "1/0) with points pt 6 ps 1.2 title 'vs time integration'";
+            "1/0) with points lt "
+         << series + 1 << " pt 6 ps 1.2 title 'vs time integration'";
     gp << "\n";
   }
   gp << "unset multiplot\n";

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "frichb/core/report/plot_style.hpp"
 #include "frichb/core/support/version.hpp"
 
 namespace frichb::core {
@@ -13,23 +14,28 @@ namespace {
 std::string loop_plot_script(const LoopResult& result) {
   const auto& comps = result.components;
   const auto d = static_cast<int>(comps.size());
+  const LengthScale scale = length_scale(
+      result.displacement_m.size() > 0 ? result.displacement_m.col(0).cwiseAbs().maxCoeff() : 0.0);
+  const std::string u = "($2*" + scale_factor_text(scale) + ")";
   std::ostringstream gp;
   gp << "# gnuplot script written by frichb loop\n"
-     << "set terminal pngcairo size " << (d > 1 ? 1400 : 800) << ",600 noenhanced\n"
-     << "set output 'loop.png'\nset datafile separator ','\nset grid\nset key below\n";
+     << plot_header("loop.png", d > 1 ? 1400 : 800, 600) << line_types(2) << "unset key\n";
   const bool two_d = comps.size() >= 2 && comps[1] == 1;
   const std::string title = gnuplot_string(result.name + " (" + result.law->name() + ")");
   gp << (d > 1 ? "set multiplot layout 1,2 title " : "set title ") << title << "\n";
-  gp << "set xlabel 'u_t1 [m]'\nset ylabel 'T1 [N]'\n"
-     << "plot 'loop.csv' using 2:" << 2 + d << " with lines lw 2 title 'T1 vs u_t1'\n";
+  if (d > 1) gp << "set title 'T1 against u_t1'\n";
+  gp << "set xlabel " << gnuplot_string(axis_label("u_t1", scale.unit)) << "\nset ylabel 'T1 [N]'\n"
+     << "plot 'loop.csv' using " << u << ":" << 2 + d << " with lines lt 1 title 'T1 vs u_t1'\n";
   if (two_d) {
-    gp << "set xlabel 'T1 [N]'\nset ylabel 'T2 [N]'\nset size ratio -1\n"
+    gp << "set title 'friction force path (T1, T2)'\n"
+       << "set xlabel 'T1 [N]'\nset ylabel 'T2 [N]'\nset size ratio -1\n"
        << "plot 'loop.csv' using " << 2 + d << ":" << 3 + d
-       << " with lines lw 2 title 'friction loop (T1, T2)'\n";
+       << " with lines lt 1 title 'friction loop (T1, T2)'\n";
   } else if (d > 1) {
-    gp << "set xlabel 'phase [period]'\nset ylabel 'force [N]'\n"
-       << "plot 'loop.csv' using 1:" << 2 + d << " with lines lw 2 title 'T1', "
-       << "'loop.csv' using 1:" << 1 + 2 * d << " with lines lw 2 title 'N'\n";
+    gp << "set title 'forces over the period'\nset key outside right top\n"
+       << "set xlabel 'phase [period]'\nset ylabel 'force [N]'\n"
+       << "plot 'loop.csv' using 1:" << 2 + d << " with lines lt 1 title 'T1', "
+       << "'loop.csv' using 1:" << 1 + 2 * d << " with lines lt 2 title 'N'\n";
   }
   if (d > 1) gp << "unset multiplot\n";
   return gp.str();

@@ -1,8 +1,11 @@
 #include "frichb/core/report/modes_report.hpp"
 
+#include <algorithm>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "frichb/core/report/plot_style.hpp"
 
 namespace frichb::core {
 
@@ -20,19 +23,21 @@ int nodal_diameter_tic_step(std::size_t nodal_diameters) {
 std::string map_script(const ModesResult& result) {
   std::ostringstream gp;
   gp << "# gnuplot script written by frichb modes\n"
-     << "set terminal pngcairo size 1000,700 noenhanced\nset output 'modes.png'\n"
-     << "set datafile separator ','\nset grid\nset key outside right\n"
+     << plot_header("modes.png", 1000, 700)
+     << line_types(result.families + std::min<std::size_t>(result.speeds_rpm.size(), 2))
+     << "set key outside right top\n"
      << "set title 'nodal-diameter map (" << result.sectors << " sectors, engine order "
      << result.engine_order << ")'\n"
      << "set xlabel 'nodal diameter'\nset ylabel 'natural frequency [Hz]'\n"
      << "set xtics " << nodal_diameter_tic_step(result.frequencies_hz.size()) << "\nplot ";
   gp << "for [i=2:" << result.families + 1
-     << "] 'families.csv' using 1:i with linespoints pt 7 title sprintf('family %d', i - 1)";
+     << "] 'families.csv' using 1:i with linespoints lt (i - 1) lw 1.5 pt 7 title "
+        "sprintf('family %d', i - 1)";
   for (std::size_t k = 0; k < result.speeds_rpm.size() && !result.excitation.empty(); ++k) {
     const double rpm = result.speeds_rpm[k];
     gp << ", \\\n     'excitation.csv' using 4:($1 == " << rpm
-       << " ? $5 : 1/0) with linespoints dt 2 lw 2 lc rgb '" << (k ? "red" : "blue")
-       << "' title 'EO " << result.engine_order << " at " << rpm
+       << " ? $5 : 1/0) with linespoints lt " << result.families + std::min<std::size_t>(k, 1) + 1
+       << " dt 2 lw 2 title 'EO " << result.engine_order << " at " << rpm
        << " rpm', \\\n     'excitation.csv' using 4:($1 == " << rpm
        << " ? $5 : 1/0):(sprintf('%d', $2)) with labels offset 1,0.5 notitle";
   }

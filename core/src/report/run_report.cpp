@@ -10,11 +10,13 @@
 #include <chrono>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <numbers>
 #include <sstream>
 
 #include "frichb/core/numerics/dense_lu.hpp"
 #include "frichb/core/numerics/harmonics.hpp"
+#include "frichb/core/report/plot_style.hpp"
 #include "frichb/core/support/version.hpp"
 
 #include "frichb/core/support/format.hpp"
@@ -165,38 +167,57 @@ nlohmann::json last_point_json(const ContinuationSummary& summary, Eigen::Index 
           {"newton_iterations", p.newton_iterations}};
 }
 
-std::string response_plot_script(const Scene& scene, const std::vector<ResponseNode>& nodes) {
+// The span of the amplitude columns (<node>_amplitude_m) of the response table.
+ValueSpan amplitude_span(const ResponseTable& table) {
+  ValueSpan span;
+  for (std::size_t c = 0; c < table.header.size(); ++c)
+    if (table.header[c].ends_with("_amplitude_m"))
+      for (const auto& row : table.rows)
+        if (c < row.size()) span.add(row[c]);
+  return span;
+}
+
+// response.gp: every response node's amplitude against frequency (length_scale: µm, mm or m), on a
+// log axis when the amplitudes span more than a decade (or as output.amplitude_axis says).
+std::string response_plot_script(const Scene& scene, const ResponseTable& table) {
+  const auto& nodes = table.nodes;
+  const ValueSpan span = amplitude_span(table);
+  const LengthScale scale = length_scale(span.largest);
   std::ostringstream gp;
   gp << "# gnuplot script written by frichb; run `gnuplot response.gp` to remake response.png\n"
-     << "set terminal pngcairo size 1000,640 noenhanced\n"
-     << "set output 'response.png'\n"
-     << "set datafile separator ','\n"
-     << "set title "
+     << plot_header("response.png", 1000, 640) << line_types(nodes.size()) << "set title "
      << gnuplot_string((scene.name.empty() ? scene.file.stem().string() : scene.name) +
                        ": forced response")
      << "\n"
      << "set xlabel 'frequency [" << unit_name(scene.continuation.unit) << "]'\n"
-     << "set ylabel 'amplitude [m]'\nset grid\nset key top right\n";
+     << "set ylabel " << gnuplot_string(axis_label("amplitude", scale.unit)) << "\n"
+     << log_axes(false, log_amplitude_axis(scene.output.amplitude_axis, span))
+     << "set key outside right top\n";
   const int xcol = scene.continuation.unit == FrequencyUnit::kHz ? 2 : 3;
   gp << "plot ";
   for (std::size_t i = 0; i < nodes.size(); ++i)
     gp << (i ? ", \\\n     " : "") << "'response.csv' using " << xcol << ":"
-       << "(column(" << gnuplot_string(nodes[i].name + "_amplitude_m")
-       << ")) with linespoints pt 7 ps 0.4 title " << gnuplot_string(nodes[i].name);
+       << "(column(" << gnuplot_string(nodes[i].name + "_amplitude_m") << ")*"
+       << scale_factor_text(scale) << ") with linespoints lt " << i + 1 << " pt 7 ps 0.4 title "
+       << gnuplot_string(nodes[i].name);
   gp << "\n";
   return gp.str();
 }
 
-std::string loop_plot_script(const std::string& csv, const std::string& title, int dims) {
+// A friction loop's plot: the tangential force T1 against the relative displacement u_t1,
+// the displacement in µm, mm or m (`largest_m`: its largest absolute value).
+std::string loop_plot_script(const std::string& csv, const std::string& title, int dims,
+                             double largest_m) {
+  const LengthScale scale = length_scale(largest_m);
   std::ostringstream gp;
-  gp << "set terminal pngcairo size 800,600 noenhanced\n"
-     << "set output " << gnuplot_string(fs::path(csv).replace_extension(".png").filename().string())
-     << "\n"
-     << "set datafile separator ','\nset grid\n"
+  gp << plot_header(fs::path(csv).replace_extension(".png").filename().string(), 800, 600)
+     << line_types(1) << "unset key\n"
      << "set title " << gnuplot_string(title) << "\n"
-     << "set xlabel 'relative displacement u_t1 [m]'\nset ylabel 'friction force T1 [N]'\n"
-     << "plot " << gnuplot_string(fs::path(csv).filename().string()) << " using 2:" << (2 + dims)
-     << " with lines lw 2 title 'loop'\n";
+     << "set xlabel " << gnuplot_string(axis_label("relative displacement u_t1", scale.unit))
+     << "\n"
+     << "set ylabel 'friction force T1 [N]'\n"
+     << "plot " << gnuplot_string(fs::path(csv).filename().string()) << " using ($2*"
+     << scale_factor_text(scale) << "):" << (2 + dims) << " with lines lt 1 title 'loop'\n";
   return gp.str();
 }
 
@@ -240,10 +261,12 @@ nlohmann::json write_loop(StagedOutput& out, const RunRecord& run, const Frictio
   write_csv(out.path(base + "_harmonics.csv"), force_table.header, force_table.rows);
   if (plots) {
     const fs::path gp = out.path(base + ".gp");
-    write_text(gp,
-               loop_plot_script(csv.string(),
-                                contact.name + " at " + format_number(loop.frequency) + " " + unit,
-                                static_cast<int>(comps.size())));
+    write_text(
+        gp,
+        loop_plot_script(
+            csv.string(), contact.name + " at " + format_number(loop.frequency) + " " + unit,
+            static_cast<int>(comps.size()),
+            trace.displacement.size() > 0 ? trace.displacement.col(0).cwiseAbs().maxCoeff() : 0.0));
     run_gnuplot(gp, out.stop());
   }
   nlohmann::json entry = friction_loop_entry(run, loop);
@@ -252,23 +275,56 @@ nlohmann::json write_loop(StagedOutput& out, const RunRecord& run, const Frictio
   return entry;
 }
 
+// A patch entry among a crossing's contacts and the extent of its pairs on face A: their
+// coordinates along the face's tangents from its centroid (m).
+struct PatchExtent {
+  std::string entry;
+  std::size_t pairs = 0;
+  double s1_min = std::numeric_limits<double>::infinity(), s1_max = -s1_min;
+  double s2_min = s1_min, s2_max = -s1_min;
+  void add(const std::array<double, 2>& s) {
+    ++pairs;
+    s1_min = std::min(s1_min, s[0]);
+    s1_max = std::max(s1_max, s[0]);
+    s2_min = std::min(s2_min, s[1]);
+    s2_max = std::max(s2_max, s[1]);
+  }
+};
+
 // The plot of a patch's face at one frequency: each pair at its place on face A, coloured by
-// its share of the period stuck.
+// its share of the period stuck (a colour-blind-safe sequential map), with equal scales on both
+// axes. Each axis spans at least a quarter of the larger extent on either side of the pairs'
+// centre, so that a single row of pairs (or a single pair) keeps a readable frame.
 std::string face_plot_script(const std::string& csv, const std::string& png,
-                             const std::string& entry, const std::string& title) {
+                             const PatchExtent& patch, const std::string& title) {
+  const double largest = std::max({std::abs(patch.s1_min), std::abs(patch.s1_max),
+                                   std::abs(patch.s2_min), std::abs(patch.s2_max)});
+  const LengthScale scale = length_scale(largest);
+  const double span1 = patch.s1_max - patch.s1_min, span2 = patch.s2_max - patch.s2_min;
+  double extent = std::max(span1, span2);
+  if (!(extent > 0)) extent = largest > 0 ? largest : 1e-3;  // one pair
+  const auto range = [&](double lo, double hi) {
+    const double half = std::max(0.5 * (hi - lo), 0.25 * extent) + 0.15 * extent;
+    const double centre = 0.5 * (lo + hi);
+    return "[" + format_number((centre - half) * scale.factor, 8) + ":" +
+           format_number((centre + half) * scale.factor, 8) + "]";
+  };
+  const char* size = patch.pairs <= 16 ? "3" : patch.pairs <= 100 ? "2" : "1";
+  const std::string factor = scale_factor_text(scale);
+  const std::string using_ = " every ::1 using (strcol(1) eq " + gnuplot_string(patch.entry) +
+                             " ? $5*" + factor + " : NaN):($6*" + factor + ")";
   std::ostringstream gp;
-  gp << "set terminal pngcairo size 900,600 noenhanced\n"
-     << "set output " << gnuplot_string(png) << "\n"
-     << "set datafile separator ','\nset grid\nset size ratio -1\n"
-     << "set offsets graph 0.05, graph 0.05, graph 0.1, graph 0.1\n"
+  gp << plot_header(png, 900, 600) << "set size ratio -1\nunset key\n"
+     << "set xrange " << range(patch.s1_min, patch.s1_max) << "\n"
+     << "set yrange " << range(patch.s2_min, patch.s2_max) << "\n"
      << "set title " << gnuplot_string(title) << "\n"
-     << "set xlabel 'along tangent1 from the face centroid [mm]'\n"
-     << "set ylabel 'along tangent2 [mm]'\n"
+     << "set xlabel "
+     << gnuplot_string(axis_label("along tangent1 from the face centroid", scale.unit)) << "\n"
+     << "set ylabel " << gnuplot_string(axis_label("along tangent2", scale.unit)) << "\n"
      << "set cblabel 'share of the period stuck'\nset cbrange [0:1]\n"
-     << "set palette defined (0 'red', 0.5 'yellow', 1 'blue')\n"
-     << "plot " << gnuplot_string(csv) << " every ::1 using (strcol(1) eq " << gnuplot_string(entry)
-     << " ? $5*1000 : NaN):($6*1000):8 with points pt 7 ps 2 palette "
-     << "notitle\n";
+     << sequential_palette() << "plot " << gnuplot_string(csv) << using_
+     << ":8 with points pt 7 ps " << size << " palette notitle, \\\n     " << gnuplot_string(csv)
+     << using_ << " with points pt 6 ps " << size << " lc rgb '#404040' notitle\n";
   return gp.str();
 }
 
@@ -380,7 +436,7 @@ nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool p
   for (const FrictionLoop& loop : run.loops) loops.push_back(write_loop(out, run, loop, plots));
   if (plots && !run.table.rows.empty()) {  // no points: no empty plot
     const fs::path gp = out.path("response.gp");
-    write_text(gp, response_plot_script(run.scene, run.table.nodes));
+    write_text(gp, response_plot_script(run.scene, run.table));
     run_gnuplot(gp, out.stop());
   }
   return loops;
@@ -388,15 +444,15 @@ nlohmann::json write_curve_files(StagedOutput& out, const RunRecord& run, bool p
 
 namespace {
 
-// The table of one crossing's contact states (states[first, last)); returns the names of the
-// patch entries among them.
-std::vector<std::string> write_states_table(const fs::path& csv_file, const RunRecord& run,
+// The table of one crossing's contact states (states[first, last)); returns the patch entries
+// among them with their extents.
+std::vector<PatchExtent> write_states_table(const fs::path& csv_file, const RunRecord& run,
                                             const std::vector<FrictionLoop>& states,
                                             std::size_t first, std::size_t last) {
   std::ostringstream csv;
   csv.precision(12);
   csv << "entry,contact,node_a,node_b,face_s1_m,face_s2_m,area_m2,stuck,slipping,open\n";
-  std::vector<std::string> patches;
+  std::vector<PatchExtent> patches;
   for (std::size_t i = first; i < last; ++i) {
     const ContactSpec& spec = run.scene.contacts[states[i].contact];
     const auto& comps = run.model.contacts()[states[i].contact].tracer->components();
@@ -406,8 +462,15 @@ std::vector<std::string> write_states_table(const fs::path& csv_file, const RunR
       for (const auto& p : spec.patch->pairs)
         if (spec.side_a == std::to_string(p.node_a)) pair = &p;
     const std::string entry = pair ? spec.name.substr(0, spec.name.rfind('.')) : spec.name;
-    if (pair && std::find(patches.begin(), patches.end(), entry) == patches.end())
-      patches.push_back(entry);
+    if (pair) {
+      auto found = std::find_if(patches.begin(), patches.end(),
+                                [&](const PatchExtent& p) { return p.entry == entry; });
+      if (found == patches.end()) {
+        patches.emplace_back().entry = entry;
+        found = patches.end() - 1;
+      }
+      found->add(pair->face_coordinates);
+    }
     csv << entry << ',' << spec.name << ',' << spec.side_a << ',' << spec.side_b << ',';
     if (pair)
       csv << pair->face_coordinates[0] << ',' << pair->face_coordinates[1] << ',' << pair->area;
@@ -439,8 +502,8 @@ nlohmann::json write_contact_states(StagedOutput& out, const RunRecord& run,
     nlohmann::json plot_files = nlohmann::json::array();
     for (std::size_t k = 0; plots && k < patches.size(); ++k) {
       std::string face = stem;
-      face.append("_").append(patches[k]).append("_face");
-      std::string title = patches[k];
+      face.append("_").append(patches[k].entry).append("_face");
+      std::string title = patches[k].entry;
       title.append(" at ").append(format_number(frequency)).append(" ").append(unit);
       title.append(": share of the period stuck");
       const fs::path gp = out.path("contact_states/" + face + ".gp");

@@ -9,6 +9,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "frichb/core/report/plot_style.hpp"
 #include "frichb/core/support/format.hpp"
 #include "frichb/core/support/version.hpp"
 
@@ -110,38 +111,95 @@ nlohmann::json study_json(const StudyResult& r, const StudyIndex& index) {
           {"wall_s", r.wall_seconds}};
 }
 
+// How a sweep is shown in plots: its short name (the path when two sweeps share one), its unit,
+// and the factor its values are multiplied by (a length in metres is shown in µm or mm).
+struct SweepDisplay {
+  std::string name;
+  std::string unit;
+  double factor = 1.0;
+  std::string factor_text = "1";
+  int digits = 3;  // of the values in legends
+};
+
+std::vector<SweepDisplay> sweep_displays(const StudySpec& study) {
+  std::vector<SweepDisplay> out;
+  for (const SweepSpec& s : study.sweeps) {
+    SweepDisplay d;
+    d.name = s.name.empty() ? s.path : s.name;
+    for (const SweepSpec& other : study.sweeps)
+      if (&other != &s && other.name == s.name) d.name = s.path;
+    d.unit = s.unit;
+    if (s.unit == "m") {
+      double largest = 0.0;
+      for (double x : s.values) largest = std::max(largest, std::abs(x));
+      const LengthScale scale = length_scale(largest);
+      d.unit = scale.unit;
+      d.factor = scale.factor;
+      d.factor_text = scale_factor_text(scale);
+    }
+    std::vector<double> shown;
+    for (double x : s.values) shown.push_back(x * d.factor);
+    d.digits = distinguishing_digits(shown);
+    out.push_back(d);
+  }
+  return out;
+}
+
+// A legend entry: "normal_load = 120 N".
+std::string value_label(const SweepDisplay& d, double value) {
+  return d.name + " = " + format_number(value * d.factor, d.digits) +
+         (d.unit.empty() ? "" : " " + d.unit);
+}
+
+// The peak amplitude of study.node in a run's outcome (NaN when it has none).
+double node_peak(const StudyRunRow& run, const std::string& node) {
+  for (const auto& p : run.outcome.peaks)
+    if (p.node == node) return p.amplitude_m;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+// The span of the peaks of study.node over the runs that wrote their output (`written`) or
+// over every run.
+ValueSpan peak_span(const StudyResult& r, bool written) {
+  ValueSpan span;
+  for (const auto& run : r.runs)
+    if (!written || run.outcome.wrote_output) span.add(node_peak(run, r.study.node));
+  return span;
+}
+
 // overlay.gp/png: the response curves of study.node, one line per run that wrote its output
-// (nothing when none did).
+// (nothing when none did). The amplitude axis is logarithmic when the runs' peaks span more
+// than a decade (or as output.amplitude_axis says).
 void write_overlay_plot(const StudyResult& r, const std::string& title, StagedOutput& out) {
   const StudySpec& study = r.study;
   const auto& runs = r.runs;
+  const std::vector<SweepDisplay> displays = sweep_displays(study);
+  const ValueSpan span = peak_span(r, true);
+  const LengthScale scale = length_scale(span.largest);
+  std::size_t curves = 0;
+  for (const auto& run : runs) curves += run.outcome.wrote_output ? 1 : 0;
   std::ostringstream gp;
   gp << "# gnuplot script written by frichb study; `gnuplot overlay.gp` remakes it\n"
-     << "set terminal pngcairo size 1100,700 noenhanced\nset output 'overlay.png'\n"
-     << "set datafile separator ','\nset grid\nset key outside right top\n"
+     << plot_header("overlay.png", 1100, 700) << line_types(curves) << "set key outside right top\n"
      << "set title " << gnuplot_string(title + ": " + study.node + " over the study") << "\n"
      << "set xlabel 'frequency [" << unit_name(r.unit) << "]'\n"
-     << "set ylabel 'amplitude [m]'\n"
-     << "set palette defined (0 '#1f4fbf', 0.5 '#2ca02c', 1 '#d62728')\nunset colorbox\n"
-     << "plot ";
-  bool first = true;
+     << "set ylabel " << gnuplot_string(axis_label("amplitude", scale.unit)) << "\n"
+     << log_axes(false, log_amplitude_axis(r.amplitude_axis, span)) << "plot ";
   const int xcol = r.unit == FrequencyUnit::kHz ? 2 : 3;
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    if (!runs[i].outcome.wrote_output) continue;
+  std::size_t curve = 0;
+  for (const auto& run : runs) {
+    if (!run.outcome.wrote_output) continue;
     std::string label;
     for (std::size_t s = 0; s < study.sweeps.size(); ++s)
-      label += (s ? ", " : "") +
-               study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) + "=" +
-               format_number(runs[i].values[s]);
-    gp << (first ? "" : ", \\\n     ") << gnuplot_string("runs/" + runs[i].id + "/response.csv")
-       << " using " << xcol << ":(column(" << gnuplot_string(study.node + "_amplitude_m")
-       << ")) with lines lw 1.5 lc palette frac "
-       << (runs.size() > 1 ? static_cast<double>(i) / static_cast<double>(runs.size() - 1) : 0.0)
-       << " title " << gnuplot_string(label);
-    first = false;
+      label += (s ? ", " : "") + value_label(displays[s], run.values[s]);
+    gp << (curve ? ", \\\n     " : "") << gnuplot_string("runs/" + run.id + "/response.csv")
+       << " using " << xcol << ":(column(" << gnuplot_string(study.node + "_amplitude_m") << ")*"
+       << scale_factor_text(scale) << ") with lines lt " << curve + 1 << " title "
+       << gnuplot_string(label);
+    ++curve;
   }
   gp << "\n";
-  if (!first) {
+  if (curve > 0) {
     write_text(out.path("overlay.gp"), gp.str());
     run_gnuplot(out.path("overlay.gp"), out.stop());
   }
@@ -149,8 +207,10 @@ void write_overlay_plot(const StudyResult& r, const std::string& title, StagedOu
 
 // The plot command of peak.gp when the grid has more than one axis: the first axis on x, one
 // line per combination of the sweeps of the other axes.
-std::string peak_plot_per_combination(const StudyResult& r, std::size_t first_axis, int peak_col) {
+std::string peak_plot_per_combination(const StudyResult& r, std::size_t first_axis,
+                                      const std::string& x, const std::string& y) {
   const StudySpec& study = r.study;
+  const std::vector<SweepDisplay> displays = sweep_displays(study);
   std::vector<std::vector<double>> others;
   for (const auto& run : r.runs) {
     std::vector<double> rest(run.values.begin() + static_cast<std::ptrdiff_t>(first_axis),
@@ -158,52 +218,54 @@ std::string peak_plot_per_combination(const StudyResult& r, std::size_t first_ax
     if (std::find(others.begin(), others.end(), rest) == others.end()) others.push_back(rest);
   }
   std::ostringstream pk;
-  pk << "plot ";
+  pk << line_types(others.size()) << "plot ";
   for (std::size_t g = 0; g < others.size(); ++g) {
     std::string cond = "1", label;
     for (std::size_t s = first_axis; s < study.sweeps.size(); ++s) {
       const double value = others[g][s - first_axis];
       cond += " && abs(column(" + std::to_string(s + 2) + ") - (" + format_scene_value(value) +
               ")) <= 1e-9 * (1 + abs(" + format_scene_value(value) + "))";
-      label += (s > first_axis ? ", " : "") +
-               study.sweeps[s].path.substr(study.sweeps[s].path.find_last_of('.') + 1) + "=" +
-               format_number(value);
+      label += (s > first_axis ? ", " : "") + value_label(displays[s], value);
     }
-    pk << (g ? ", \\\n     " : "") << "'study.csv' using 2:((" << cond << ") ? column(" << peak_col
-       << ") : 1/0) with linespoints pt 7 lw 2 title " << gnuplot_string(label);
+    pk << (g ? ", \\\n     " : "") << "'study.csv' using " << x << ":((" << cond << ") ? " << y
+       << " : 1/0) with linespoints lt " << g + 1 << " pt 7 title " << gnuplot_string(label);
   }
   pk << "\n";
   return pk.str();
 }
 
 // peak.gp/png: the peak amplitude of study.node (from study.csv) against the first swept value.
+// The swept axis is logarithmic when its values are log-spaced (log_spaced, or spacing: log);
+// the amplitude axis when the peaks span more than a decade (or as output.amplitude_axis says).
 void write_peak_plot(const StudyResult& r, const std::string& title, StagedOutput& out) {
   const StudySpec& study = r.study;
   const auto& response = r.response;
   const auto& s0 = study.sweeps.front();
-  double lo = std::numeric_limits<double>::infinity(), hi = 0;
-  for (double x : s0.values) {
-    lo = std::min(lo, x);
-    hi = std::max(hi, x);
-  }
+  const SweepDisplay d0 = sweep_displays(study).front();
+  const ValueSpan span = peak_span(r, false);
+  const LengthScale scale = length_scale(span.largest);
+  const bool log_x = s0.log_spacing || log_spaced(s0.values);
   std::ostringstream pk;
   pk << "# gnuplot script written by frichb study; `gnuplot peak.gp` remakes it\n"
-     << "set terminal pngcairo size 900,600 noenhanced\nset output 'peak.png'\n"
-     << "set datafile separator ','\nset grid\nset key outside right top\n"
+     << plot_header("peak.png", 900, 600) << "set key outside right top\n"
      << "set title " << gnuplot_string(title + ": peak amplitude of " + study.node) << "\n"
-     << "set xlabel " << gnuplot_string(s0.path) << "\nset ylabel 'peak amplitude [m]'\n"
-     << (lo > 0 && hi / lo > 100 ? "set logscale x\n" : "");
+     << "set xlabel " << gnuplot_string(axis_label(d0.name, d0.unit)) << "\n"
+     << "set ylabel " << gnuplot_string(axis_label("peak amplitude", scale.unit)) << "\n"
+     << log_axes(log_x, log_amplitude_axis(r.amplitude_axis, span));
   const int peak_col =
       static_cast<int>(1 + study.sweeps.size() + 3) +
       2 * static_cast<int>(std::find(response.begin(), response.end(), study.node) -
                            response.begin()) +
       1;
+  const std::string x = d0.factor == 1.0 ? "2" : "(column(2)*" + d0.factor_text + ")";
+  const std::string y =
+      "(column(" + std::to_string(peak_col) + ")*" + scale_factor_text(scale) + ")";
   const std::size_t first_axis = study.axes().front().size();
   if (first_axis == study.sweeps.size()) {
-    pk << "plot 'study.csv' using 2:" << peak_col << " with linespoints pt 7 lw 2 title "
-       << gnuplot_string(study.node) << "\n";
+    pk << line_types(1) << "plot 'study.csv' using " << x << ":" << y
+       << " with linespoints lt 1 pt 7 title " << gnuplot_string(study.node) << "\n";
   } else {
-    pk << peak_plot_per_combination(r, first_axis, peak_col);
+    pk << peak_plot_per_combination(r, first_axis, x, y);
   }
   write_text(out.path("peak.gp"), pk.str());
   run_gnuplot(out.path("peak.gp"), out.stop());

@@ -55,7 +55,21 @@ struct SweepSpec {
   std::string path;            // as written
   std::vector<double> values;  // the values, generated when given as from/to/count
   bool with_previous = false;  // varies together with the previous sweep (same length)
+  bool log_spacing = false;    // generated with `spacing: log`
+  std::string name;            // short name and unit for plots (sweep_quantity)
+  std::string unit;
 };
+
+// The short name and unit of a swept key, for plot axes and legends: the name is the path's
+// last key (`normal_load`; an entry of a number list as `masses[1]`), the unit the one the
+// schema validating the key gives (a contact's law for contacts.<name>.params.<key>, the
+// structure's provider for structure.params.<key>, the core's section schemas otherwise); ""
+// when dimensionless, unknown (a scene variable) or the plugin is not bound.
+struct SweepQuantity {
+  std::string name;
+  std::string unit;
+};
+SweepQuantity sweep_quantity(const Scene& scene, const std::string& path);
 
 struct StudySpec {
   std::vector<SweepSpec> sweeps;
@@ -116,9 +130,10 @@ struct StudyResult {
   bool leader = true;  // this process holds the rows (rank 0); the other ranks hold none
   std::filesystem::path scene_file;
   std::string scene_name;
-  FrequencyUnit unit = FrequencyUnit::kHz;  // of the scene's sweep
-  std::vector<std::string> response;        // the scene's output.response nodes
-  bool plots = true;                        // the scene's output.plots
+  FrequencyUnit unit = FrequencyUnit::kHz;                  // of the scene's sweep
+  std::vector<std::string> response;                        // the scene's output.response nodes
+  bool plots = true;                                        // the scene's output.plots
+  AmplitudeAxis amplitude_axis = AmplitudeAxis::automatic;  // the scene's output.amplitude_axis
   StudySpec study;
   std::vector<StudyRunRow> runs;  // by run index
   int processes = 1;

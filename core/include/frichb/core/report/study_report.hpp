@@ -3,7 +3,9 @@
 //                          sweeps, the processes and threads, the optimum (study.json)
 //   overlay.gp/png         the response curves of study.node, one line per run written
 //   peak.gp/png            the peak amplitude of study.node against the first swept value
-// (plots when the scene's output.plots). Each run's own files are written into runs/NNNN/ by
+// (plots when the scene's output.plots; report/plot_style.hpp: amplitudes in µm or mm, log axes
+// where the peaks span more than a decade or the swept values are log-spaced, the swept keys by
+// SweepSpec::name and unit). Each run's own files are written into runs/NNNN/ by
 // the request's RunWriter as the run ends. Throws OutputError.
 #pragma once
 
