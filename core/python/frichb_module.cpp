@@ -419,23 +419,11 @@ void bind_errors(py::module_& m) {
 }
 
 // RunResult.
-void bind_run_result(py::module_& m) {
-  py::class_<core::RunResult, std::shared_ptr<core::RunResult>>(
-      m, "RunResult",
-      "The response curve of a scene (frichb.run): the rows of response.csv as numpy arrays, "
-      "the peaks, how the curve ended. write(folder) writes what `frichb run` writes.")
-      .def_property_readonly(
-          "status", [](const core::RunResult& r) { return r.outcome.status; },
-          "The exit code `frichb run` gives: 0 completed, 3 ended early (results all the same).")
-      .def_property_readonly(
-          "termination", [](const core::RunResult& r) { return r.outcome.termination; },
-          "How the verb ended: 'completed', or the continuation's reason ('max_points', ...).")
-      .def_property_readonly(
-          "message", [](const core::RunResult& r) { return r.outcome.message; },
-          "Why it ended early, with a suggestion; empty when completed.")
-      .def_property_readonly(
-          "warnings", [](const core::RunResult& r) { return r.outcome.warnings; },
-          "The warnings logged while it ran, in order.")
+using RunResultClass = py::class_<core::RunResult, std::shared_ptr<core::RunResult>>;
+
+// RunResult's curve: response.csv's table and columns, the response harmonics, time signals.
+void bind_run_result_curve(RunResultClass& result_class) {
+  result_class
       .def_property_readonly(
           "columns", [](const core::RunResult& r) { return r.table.header; },
           "The names of response.csv's columns, in order.")
@@ -534,7 +522,12 @@ void bind_run_result(py::module_& m) {
           "The time signal of a response node over one period at a point of the curve, rebuilt "
           "from its harmonics: (t, x) with t the sample times, s (t = 0 where the excitation's "
           "phase is 0; samples equally spaced over the period), and x an array [component, "
-          "sample], m.")
+          "sample], m.");
+}
+
+// RunResult's contact methods (output.contact_forces).
+void bind_run_result_contacts(RunResultClass& result_class) {
+  result_class
       .def_property_readonly(
           "contacts",
           [](const core::RunResult& r) {
@@ -624,7 +617,30 @@ void bind_run_result(py::module_& m) {
           "(harmonic_balance.samples_per_period times trace_oversampling, the first at phase "
           "0): a dict with "
           "'displacement' [component, sample] (m) and 'force' [component, sample] (N, the law's "
-          "force, preload included), 'periodic' and 'energy_per_cycle_j'.")
+          "force, preload included), 'periodic' and 'energy_per_cycle_j'.");
+}
+
+void bind_run_result(py::module_& m) {
+  RunResultClass result_class(
+      m, "RunResult",
+      "The response curve of a scene (frichb.run): the rows of response.csv as numpy arrays, "
+      "the peaks, how the curve ended. write(folder) writes what `frichb run` writes.");
+  result_class
+      .def_property_readonly(
+          "status", [](const core::RunResult& r) { return r.outcome.status; },
+          "The exit code `frichb run` gives: 0 completed, 3 ended early (results all the same).")
+      .def_property_readonly(
+          "termination", [](const core::RunResult& r) { return r.outcome.termination; },
+          "How the verb ended: 'completed', or the continuation's reason ('max_points', ...).")
+      .def_property_readonly(
+          "message", [](const core::RunResult& r) { return r.outcome.message; },
+          "Why it ended early, with a suggestion; empty when completed.")
+      .def_property_readonly(
+          "warnings", [](const core::RunResult& r) { return r.outcome.warnings; },
+          "The warnings logged while it ran, in order.");
+  bind_run_result_curve(result_class);
+  bind_run_result_contacts(result_class);
+  result_class
       .def_property_readonly(
           "peaks",
           [](const core::RunResult& r) {
