@@ -418,7 +418,7 @@ void bind_errors(py::module_& m) {
   py::register_exception_translator(translate_errors);
 }
 
-// RunResult.
+// The Python class of RunResult, bound in parts by the functions below.
 using RunResultClass = py::class_<core::RunResult, std::shared_ptr<core::RunResult>>;
 
 // RunResult's curve: response.csv's table and columns, the response harmonics, time signals.
@@ -620,6 +620,7 @@ void bind_run_result_contacts(RunResultClass& result_class) {
           "force, preload included), 'periodic' and 'energy_per_cycle_j'.");
 }
 
+// RunResult: the outcome, peaks, summary and write, then the curve and the contacts.
 void bind_run_result(py::module_& m) {
   RunResultClass result_class(
       m, "RunResult",
