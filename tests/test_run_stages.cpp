@@ -101,13 +101,12 @@ TEST(RunStages, LinearSceneMeetsTheClosedFormPeak) {
   const double wn = std::sqrt(kStiffness / kMass);
   const double peak = kForce / (2 * kZeta * kStiffness * std::sqrt(1 - kZeta * kZeta));
   const double at = wn * std::sqrt(1 - 2 * kZeta * kZeta);
-  // The amplitude is the largest of 256 samples of the period: low by at most
-  // eps = 1 - cos(pi / 256) = 7.5e-5, by an amount that turns with the response's phase. Near
-  // the peak the amplitude falls as 1 - x^2 / 2 (x: distance in half-widths zeta w_n), so the
-  // sampled maximum may sit up to sqrt(2 eps) half-widths = 6.1e-5 w_n away.
-  const double eps = 1 - std::cos(std::numbers::pi / 256);
-  EXPECT_NEAR(table.peaks[0]->amplitude_m / peak, 1.0, eps);
-  EXPECT_NEAR(table.peaks[0]->omega_rad_s / at, 1.0, kZeta * std::sqrt(2 * eps));
+  // The amplitude is the series' own maximum over the period, and the peak is solved until
+  // what it can still rise is below 1e-10 of it: near the peak the amplitude falls as
+  // 1 - x^2 / 2 (x: distance in half-widths zeta w_n), so the frequency is within
+  // sqrt(2e-10) half-widths.
+  EXPECT_NEAR(table.peaks[0]->amplitude_m / peak, 1.0, 1e-10);
+  EXPECT_NEAR(table.peaks[0]->omega_rad_s / at, 1.0, kZeta * std::sqrt(2e-10));
   // The resonance band put a sample within 0.1 half-widths of the peak.
   const double half_width = kZeta * wn;
   double nearest = 1e300;

@@ -608,7 +608,8 @@ RunOutcome outcome_from_json(const nlohmann::json& o) {
   outcome.unknowns = o.at("unknowns").get<long>();
   for (const auto& p : o.at("peaks"))
     outcome.peaks.push_back({p.at("node").get<std::string>(), p.at("amplitude_m").get<double>(),
-                             p.at("omega_rad_s").get<double>(), p.at("refined").get<bool>()});
+                             p.at("omega_rad_s").get<double>(), p.at("refined").get<bool>(),
+                             Eigen::VectorXd()});
   outcome.wall_seconds = o.at("wall_s").get<double>();
   outcome.wrote_output = o.at("wrote_output").get<bool>();
   return outcome;

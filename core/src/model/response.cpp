@@ -1,8 +1,18 @@
 #include "frichb/core/model/response.hpp"
 
 #include <cmath>
+#include <numbers>
 
 namespace frichb::core {
+
+namespace {
+
+// Local maxima of the sampled squared norm within this share of the largest sample are polished
+// (a lower one cannot overtake the largest by more than the grid's error, far below it).
+constexpr double kCandidateBand = 1e-2;
+constexpr int kMaxPolishIterations = 30;
+
+}  // namespace
 
 AmplitudeSampler::AmplitudeSampler(const std::vector<int>& harmonics, int samples)
     : layout_(harmonics, samples), aft_(layout_) {}
@@ -10,19 +20,74 @@ AmplitudeSampler::AmplitudeSampler(const std::vector<int>& harmonics, int sample
 double AmplitudeSampler::peak_amplitude(const std::vector<Eigen::VectorXcd>& per_harmonic,
                                         const std::vector<Eigen::Index>& components) {
   const int n = layout_.samples();
-  Eigen::VectorXd squared = Eigen::VectorXd::Zero(n), samples(n);
-  Eigen::VectorXd coefficients(layout_.coefficient_count());
   const auto& h = layout_.harmonics();
-  for (Eigen::Index comp : components) {
-    for (std::size_t k = 0; k < h.size(); ++k) {
-      const std::complex<double> x = per_harmonic[k](comp);
-      coefficients(layout_.cos_index(k)) = x.real();
-      if (h[k] > 0) coefficients(layout_.sin_index(k)) = -x.imag();
+  const auto kept = static_cast<Eigen::Index>(h.size());
+  const auto d = static_cast<Eigen::Index>(components.size());
+  squared_.setZero(n);
+  samples_.resize(n);
+  coefficients_.setZero(layout_.coefficient_count());
+  cos_.resize(kept, d);
+  sin_.resize(kept, d);
+  for (Eigen::Index a = 0; a < d; ++a) {
+    for (Eigen::Index k = 0; k < kept; ++k) {
+      const std::complex<double> x = per_harmonic[static_cast<std::size_t>(k)](components[a]);
+      cos_(k, a) = x.real();
+      sin_(k, a) = -x.imag();
+      coefficients_(layout_.cos_index(static_cast<std::size_t>(k))) = cos_(k, a);
+      if (h[static_cast<std::size_t>(k)] > 0)
+        coefficients_(layout_.sin_index(static_cast<std::size_t>(k))) = sin_(k, a);
     }
-    aft_.to_time(coefficients.data(), samples.data());
-    squared += samples.cwiseAbs2();
+    aft_.to_time(coefficients_.data(), samples_.data());
+    squared_ += samples_.cwiseAbs2();
   }
-  return std::sqrt(squared.maxCoeff());
+  const double top = squared_.maxCoeff();
+  if (!(top > 0)) return 0.0;
+
+  // |x|^2 and its first two derivatives in the phase tau = omega t, from the series.
+  Eigen::VectorXd cn(kept), sn(kept);
+  const auto evaluate = [&](double tau, double* value, double* slope, double* curvature) {
+    for (Eigen::Index k = 0; k < kept; ++k) {
+      const double nk = h[static_cast<std::size_t>(k)];
+      cn(k) = std::cos(nk * tau);
+      sn(k) = std::sin(nk * tau);
+    }
+    *value = *slope = *curvature = 0.0;
+    for (Eigen::Index a = 0; a < d; ++a) {
+      double x = 0, x1 = 0, x2 = 0;
+      for (Eigen::Index k = 0; k < kept; ++k) {
+        const double nk = h[static_cast<std::size_t>(k)];
+        const double c = cos_(k, a), s = sin_(k, a);
+        x += c * cn(k) + s * sn(k);
+        x1 += nk * (s * cn(k) - c * sn(k));
+        x2 -= nk * nk * (c * cn(k) + s * sn(k));
+      }
+      *value += x * x;
+      *slope += 2 * x * x1;
+      *curvature += 2 * (x1 * x1 + x * x2);
+    }
+  };
+  const double spacing = 2 * std::numbers::pi / n;
+  double best = top;
+  for (int j = 0; j < n; ++j) {
+    const double here = squared_(j);
+    if (here < (1 - kCandidateBand) * top || here < squared_((j + n - 1) % n) ||
+        here < squared_((j + 1) % n))
+      continue;
+    // Newton on d|x|^2/dtau = 0 from the sample, kept within one spacing of it (the maximum
+    // it belongs to lies there) and stopped where the curvature says it is no maximum.
+    const double tau0 = spacing * j;
+    double tau = tau0, value = 0, slope = 0, curvature = 0;
+    for (int it = 0; it < kMaxPolishIterations; ++it) {
+      evaluate(tau, &value, &slope, &curvature);
+      if (value > best) best = value;
+      if (!(curvature < 0)) break;
+      const double step = -slope / curvature;
+      if (std::abs(tau + step - tau0) > spacing || std::abs(step) <= 1e-15 * (1 + std::abs(tau)))
+        break;
+      tau += step;
+    }
+  }
+  return std::sqrt(best);
 }
 
 std::vector<double> AmplitudeSampler::harmonic_amplitudes(

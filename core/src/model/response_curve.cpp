@@ -7,6 +7,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "frichb/core/model/resonance_peak.hpp"
 #include "frichb/core/model/response.hpp"
 #include "frichb/core/numerics/harmonics.hpp"
 
@@ -16,70 +17,6 @@
 namespace frichb::core {
 
 namespace {
-
-// Golden-section refinement of the highest point `top` of a traced curve over the frequency
-// between its two neighbours, to 1e-10 relative in frequency. Each probe solves the equations
-// at a fixed frequency from the curve's linear interpolation, all of them on one `solver`.
-// Golden sections rather than parabolic steps: the amplitude is the largest of a period's
-// samples, whose top has kinks where the largest sample changes; a parabola through such a
-// top lands off it, and its vertex moves with rounding noise in the amplitudes, where the
-// golden probes sit at fixed fractions of the bracket. Returns (amplitude, omega) or nothing
-// when the curve turns around the top point, the top point is an end of the curve, or a
-// probe fails.
-std::optional<std::pair<double, double>> refine_peak(
-    const HarmonicBalanceModel& model, FixedParameterSolver* solver,
-    const std::vector<ContinuationPoint>& points, std::size_t top,
-    const std::vector<Eigen::Index>& kept, AmplitudeSampler& sampler, const StopToken& stop) {
-  if (top == 0 || top + 1 >= points.size() || kept.empty()) return std::nullopt;
-  const Eigen::Index n = model.equation_count();
-  const Eigen::VectorXd& before = points[top - 1].y;
-  const Eigen::VectorXd& at = points[top].y;
-  const Eigen::VectorXd& after = points[top + 1].y;
-  if ((at(n) - before(n)) * (after(n) - at(n)) <= 0) return std::nullopt;  // a fold
-  auto guess = [&](double w) {
-    const Eigen::VectorXd& a = (w - at(n)) * (before(n) - at(n)) > 0 ? before : after;
-    const double s = (w - at(n)) / (a(n) - at(n));
-    Eigen::VectorXd y = (1 - s) * at + s * a;
-    y(n) = w;
-    return y;
-  };
-  bool failed = false;
-  auto amplitude = [&](double w) {
-    Eigen::VectorXd y = guess(w);
-    if (n > 0) {
-      const NewtonResult solved = solver->solve(y);
-      if (!solved.converged) {
-        failed = true;
-        return 0.0;
-      }
-      y = solved.y;
-    }
-    return sampler.peak_amplitude(model.kept_response(y), kept);
-  };
-  const double inv_phi = (std::sqrt(5.0) - 1) / 2;
-  double a = before(n), b = after(n);
-  double c = b - inv_phi * (b - a), d = a + inv_phi * (b - a);
-  double fc = amplitude(c), fd = amplitude(d);
-  for (int i = 0;
-       i < 80 && !failed && !stop.stop_requested() && std::abs(b - a) > 1e-10 * std::abs(at(n));
-       ++i) {
-    if (fc > fd) {
-      b = d;
-      d = c;
-      fd = fc;
-      c = b - inv_phi * (b - a);
-      fc = amplitude(c);
-    } else {
-      a = c;
-      c = d;
-      fc = fd;
-      d = a + inv_phi * (b - a);
-      fd = amplitude(d);
-    }
-  }
-  if (failed || stop.stop_requested()) return std::nullopt;
-  return fc > fd ? std::make_pair(fc, c) : std::make_pair(fd, d);
-}
 
 TurningPoints find_turning_points(const ContinuationSummary& summary, Eigen::Index n, double unit,
                                   double span) {
@@ -306,20 +243,43 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
     rows.push_back(std::move(row));
   }
 
-  // The highest point of each node's curve, refined between its neighbours.
+  // The peak of each node's curve, solved along the curve beside its highest point.
   std::vector<bool> refined(nodes.size(), false);
-  const auto solver = n > 0 ? std::make_unique<FixedParameterSolver>(model, options) : nullptr;
+  std::vector<Eigen::VectorXd> peak_y(nodes.size());
+  std::unique_ptr<ChordSolver> chord;
   for (std::size_t k = 0; k < nodes.size(); ++k) {
+    if (rows.empty() || options.newton.stop.stop_requested()) break;
+    const std::size_t column = 3 + k * (1 + harmonics.size());
     std::size_t top = 0;
     for (std::size_t i = 1; i < rows.size(); ++i)
-      if (rows[i][3 + k * (1 + harmonics.size())] > rows[top][3 + k * (1 + harmonics.size())])
-        top = i;
-    const auto refined_peak = refine_peak(model, solver.get(), summary.points, top, nodes[k].kept,
-                                          sampler, options.newton.stop);
-    if (refined_peak && refined_peak->first >= peak_amp[k]) {
-      peak_amp[k] = refined_peak->first;
-      peak_w[k] = refined_peak->second;
+      if (rows[i][column] > rows[top][column]) top = i;
+    peak_y[k] = summary.points[top].y;
+    if (top == 0 || top + 1 >= rows.size()) continue;  // the curve's end is its highest point
+    if (!chord) chord = std::make_unique<ChordSolver>(model, options);
+    ResonancePeak solved = solve_resonance_peak(model, *chord, summary.points, top, nodes[k].kept,
+                                                sampler, options.newton.stop);
+    if (!solved.solved) {
+      if (!options.newton.stop.stop_requested())
+        spdlog::warn(
+            "{}: the peak of {} was not solved ({}); the highest traced point is "
+            "reported",
+            scene.file.string(), nodes[k].name, solved.message);
+      continue;
+    }
+    spdlog::debug("peak of {}: {} m at {} rad/s, {} evaluations, slope {} m", nodes[k].name,
+                  format_number(solved.amplitude_m), format_number(solved.y(n)), solved.evaluations,
+                  format_number(solved.slope));
+    if (solved.amplitude_m >= peak_amp[k]) {
+      peak_amp[k] = solved.amplitude_m;
+      peak_w[k] = solved.y(n);
+      peak_y[k] = std::move(solved.y);
       refined[k] = true;
+    } else {
+      spdlog::warn(
+          "{}: the solved peak of {} ({} m) lies below its highest traced point ({} m); "
+          "the highest traced point is reported",
+          scene.file.string(), nodes[k].name, format_number(solved.amplitude_m),
+          format_number(peak_amp[k]));
     }
   }
   table.truncation = check_truncation(scene, model, summary, rows);
@@ -328,7 +288,8 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
       table.peaks.emplace_back(std::nullopt);
       continue;
     }
-    table.peaks.emplace_back(NodePeak{nodes[k].name, peak_amp[k], peak_w[k], refined[k]});
+    table.peaks.emplace_back(
+        NodePeak{nodes[k].name, peak_amp[k], peak_w[k], refined[k], std::move(peak_y[k])});
   }
   const double unit = scene.continuation.to_rad_per_s();
   table.turning_points = find_turning_points(

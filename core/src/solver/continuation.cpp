@@ -554,6 +554,91 @@ const SolveProfile& FixedParameterSolver::profile() const {
   return state_->profile;
 }
 
+// A chord's points serve derivatives along the curve (a flat peak's location): solved to this
+// share of the continuation's tolerances, most often one Newton iteration more, but not below
+// the floor (near the residual's rounding) unless the continuation's tolerance already is.
+constexpr double kChordToleranceShare = 1e-3;
+constexpr double kChordToleranceFloor = 1e-12;
+
+struct ChordSolver::State {
+  State(const CurveProblem& problem, Scaling scaling, const ContinuationOptions& options)
+      : newton(options.newton), scaled(problem, std::move(scaling), options, &profile) {
+    newton.floor_on_hyperplane = true;
+    for (double* tolerance : {&newton.residual_tolerance, &newton.step_tolerance})
+      *tolerance =
+          std::min(*tolerance, std::max(kChordToleranceShare * *tolerance, kChordToleranceFloor));
+  }
+  NewtonOptions newton;
+  SolveProfile profile;
+  ScaledProblem scaled;  // counts into `profile` (declared after it)
+};
+
+ChordSolver::ChordSolver(const CurveProblem& problem, const ContinuationOptions& options)
+    : equations_(problem.equation_count()) {
+  Scaling s;
+  std::string why;
+  if (!make_scaling(options, equations_, &s, &why))
+    throw std::invalid_argument("chord solver: " + why);
+  state_ = std::make_unique<State>(problem, std::move(s), options);
+}
+
+ChordSolver::~ChordSolver() = default;
+
+double ChordSolver::theta(const VectorXd& a, const VectorXd& b, const VectorXd& y) const {
+  const ScaledProblem& scaled = state_->scaled;
+  const VectorXd d = scaled.scale(b) - scaled.scale(a);
+  return d.dot(scaled.scale(y) - scaled.scale(a)) / d.squaredNorm();
+}
+
+ChordPoint ChordSolver::solve(const VectorXd& a, const VectorXd& b, double theta,
+                              const VectorXd& guess) {
+  ChordPoint out;
+  out.y = guess;
+  const Index n = equations_;
+  if (a.size() != n + 1 || b.size() != n + 1 || guess.size() != n + 1) {
+    out.message = "a, b and the guess must have n + 1 entries";
+    return out;
+  }
+  const ScaledProblem& scaled = state_->scaled;
+  const VectorXd as = scaled.scale(a);
+  const VectorXd d = scaled.scale(b) - as;
+  const double length = d.norm();
+  if (!(length > 0) || !std::isfinite(length)) {
+    out.message = "the chord's ends coincide";
+    return out;
+  }
+  if (n == 0) {
+    out.converged = true;
+    out.y = a + theta * (b - a);
+    out.velocity = b - a;
+    return out;
+  }
+  const VectorXd normal = d / length;
+  const VectorXd through = as + theta * d;
+  const Correction corr =
+      newton_correct(scaled, scaled.scale(guess), state_->newton, &normal, &through);
+  out.iterations = corr.iterations;
+  out.residual_norm = corr.residual_norm;
+  out.y = scaled.unscale(corr.ys);
+  if (!corr.converged) {
+    out.message = corr.message;
+    return out;
+  }
+  VectorXd v;
+  if (!next_tangent(corr.js, normal, scaled.linear(), &v)) {
+    out.message = "singular bordered Jacobian at " + scaled.describe_lambda(corr.ys);
+    return out;
+  }
+  // v is the unit tangent with v . normal > 0; dy/dtheta projects on the chord as d does.
+  out.velocity = scaled.unscale(v * (length / v.dot(normal)));
+  out.converged = true;
+  return out;
+}
+
+const SolveProfile& ChordSolver::profile() const {
+  return state_->profile;
+}
+
 double ContinuationOptions::band_advance(double lambda, double direction) const {
   double limit = std::numeric_limits<double>::infinity();
   for (const auto& band : step_bands) {

@@ -137,7 +137,7 @@ Correction newton_correct(const ScaledProblem& problem, const VectorXd& ys0,
       // keeps its direction from iterate to iterate (a minimum of |e| on the hyperplane);
       // across a jump it reverses. A floor on the hyperplane that brackets no root is
       // refused: the caller shortens the step, or steps past the kink.
-      if (keller && !floor_brackets_root) {
+      if (keller && !floor_brackets_root && !opt.floor_on_hyperplane) {
         std::ostringstream msg;
         msg << "Newton stalled on a residual floor of " << floor_residual << " at "
             << problem.describe_lambda(floor_ys);

@@ -1,8 +1,13 @@
-// Post-processing of harmonic solutions: amplitudes of structure nodes.
+// Post-processing of harmonic solutions: the amplitude of a structure node.
 //
 // The amplitude of a node is the maximum over one period of the Euclidean norm of its
-// displacement components (for a scalar DOF: max |x(t)|), evaluated on a time grid of
-// `samples` points (default: 8 times the AFT grid, at least 256).
+// displacement components (for a scalar DOF: max |x(t)|), taken in continuous time: the
+// largest samples of a time grid of `samples` points (default: 8 times the AFT grid, at least
+// 256) locate the maxima, and Newton's method on the time polishes each on the harmonic series
+// itself, to rounding. The measure is then a smooth function of the harmonic amplitudes
+// wherever the norm's largest maximum over the period is a single, strict one (everywhere but
+// where two maxima of the period exchange, and at zero motion), which is what lets the peak of
+// a response curve be solved for rather than searched (model/resonance_peak.hpp).
 #pragma once
 
 #include <Eigen/Dense>
@@ -13,11 +18,14 @@
 
 namespace frichb::core {
 
+// Not thread-safe (its AFT buffers); one per thread.
 class AmplitudeSampler {
  public:
   AmplitudeSampler(const std::vector<int>& harmonics, int samples);
 
-  // `per_harmonic[k](i)`: complex amplitude (X = c - i s) of component i at kept harmonic k.
+  // `per_harmonic[k](i)`: complex amplitude (X = c - i s, the motion c cos + s sin) of
+  // component i at kept harmonic k. Returns max over the period of |x(t)|_2 over the
+  // `components`, m when the amplitudes are in m; 0 for no motion.
   double peak_amplitude(const std::vector<Eigen::VectorXcd>& per_harmonic,
                         const std::vector<Eigen::Index>& components);
   // sqrt(sum_i |X_k,i|^2) for each kept harmonic k (|c0| for harmonic 0).
@@ -27,6 +35,8 @@ class AmplitudeSampler {
  private:
   HarmonicLayout layout_;
   Aft aft_;
+  Eigen::MatrixXd cos_, sin_;  // per component (column), per kept harmonic (row)
+  Eigen::VectorXd squared_, samples_, coefficients_;
 };
 
 }  // namespace frichb::core

@@ -2,7 +2,7 @@
 // (frichb run does; so can a study, a Python binding or a program of its own):
 //   find_start_point  - the solution at the sweep's start frequency
 //   trace_response    - the curve over the sweep (trace_curve; a linear scene is sampled)
-//   tabulate_response - amplitudes of the response nodes per point, their refined peaks, the
+//   tabulate_response - amplitudes of the response nodes per point, their solved peaks, the
 //                       turning points and the harmonic-truncation check
 //   solve_friction_loops - the contacts' periodic traces at requested frequencies
 // Units: frequencies in rad/s unless a field says the scene's unit; displacements in m.
@@ -80,15 +80,17 @@ struct ContactHarmonics {
 std::vector<ContactHarmonics> contact_harmonics(const HarmonicBalanceModel& model,
                                                 const Eigen::VectorXd& y);
 
-// The peak amplitude of one response node. The highest point of the traced curve is refined
-// by a golden-section search over the frequency between its two neighbours, to 1e-10
-// relative in frequency (each probe a fixed-frequency Newton solve, all on one
-// FixedParameterSolver), unless the curve turns there or a probe fails.
+// The peak amplitude of one response node (the measure of model/response.hpp): solved along
+// the curve beside its highest traced point (model/resonance_peak.hpp), or, where it cannot be
+// (the highest point is an end of the curve, a solve fails: logged as a warning), the highest
+// traced point itself.
 struct NodePeak {
   std::string node;
   double amplitude_m = 0.0;
   double omega_rad_s = 0.0;
-  bool refined = false;
+  bool refined = false;  // solved, not the highest traced point
+  Eigen::VectorXd y;     // the solution at the peak (unknowns, omega last); empty in a study
+                         // run in another process (its outcome carries the numbers only)
 };
 
 // Turning points of the traced curve (sign changes of the tangent's frequency component) in

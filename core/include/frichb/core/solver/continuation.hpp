@@ -140,6 +140,9 @@ struct NewtonOptions {
   // shortened, or taken past the kink). At fixed lambda (the start point, the landing on
   // lambda_end) any floor within the tolerance is accepted.
   int residual_floor_iterations = 3;
+  // Accept a floor within the tolerance on the Keller hyperplane as well, whichever way the
+  // residual turns (ChordSolver does: its planes cross the curve between two of its points).
+  bool floor_on_hyperplane = false;
   // The stop token of the call (support/interrupt.hpp): a stop requested on it ends a solve
   // unconverged at its next iteration, and a trace (cancelled) at its next step.
   StopToken stop;
@@ -423,6 +426,50 @@ class FixedParameterSolver {
  private:
   struct State;
   std::unique_ptr<State> state_;
+};
+
+// A point of a curve between two of its points, and the curve's velocity there
+// (ChordSolver).
+struct ChordPoint {
+  bool converged = false;
+  int iterations = 0;
+  double residual_norm = 0.0;  // scaled infinity norm at the last iterate
+  Eigen::VectorXd y;           // unscaled, lambda last
+  Eigen::VectorXd velocity;    // dy/dtheta, unscaled
+  std::string message;         // why not, when not converged
+};
+
+// Points of a curve e(y) = 0 on the planes across the chord between two of its points a and b
+// (unscaled, lambda last): y(theta) solves e(y) = 0 with (y - a - theta (b - a)) . (b - a) = 0
+// in the continuation's scaled variables, theta = 0 at a and 1 at b, and its velocity
+// dy/dtheta solves [e_y; (b - a)^T] dy/dtheta = [0; |b - a|^2] (scaled). Where the curve
+// crosses each plane between a and b once - it does between neighbouring points of a trace,
+// at a fold too, since the planes are not planes of constant lambda - theta is a parameter of
+// the curve there, as smooth as the curve. Each solve is the continuation's Keller corrector
+// (its tolerances and line search) from `guess`, sharing the linear solver's kept state with
+// the solves before it as FixedParameterSolver does. A model without equations (n = 0) has
+// y(theta) = a + theta (b - a). Holds references: `problem` must outlive it. Not thread-safe.
+class ChordSolver {
+ public:
+  // Throws std::invalid_argument when the scales of `options` do not fit the problem.
+  ChordSolver(const CurveProblem& problem, const ContinuationOptions& options);
+  ~ChordSolver();
+  ChordSolver(const ChordSolver&) = delete;
+  ChordSolver& operator=(const ChordSolver&) = delete;
+
+  // y(theta) and its velocity from `guess`; a stop requested on options.newton.stop ends the
+  // solve unconverged. a, b and guess have n + 1 entries, a != b (else not converged).
+  ChordPoint solve(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double theta,
+                   const Eigen::VectorXd& guess);
+  // The theta of the plane through y: (y - a) . (b - a) / |b - a|^2, scaled.
+  double theta(const Eigen::VectorXd& a, const Eigen::VectorXd& b, const Eigen::VectorXd& y) const;
+  // Every solve so far.
+  const SolveProfile& profile() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+  Eigen::Index equations_ = 0;
 };
 
 // Called after each accepted point with its index in summary.points; return false to stop.
