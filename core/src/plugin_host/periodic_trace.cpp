@@ -364,10 +364,12 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
 // the start [D* | I], its unknowns' columns plus its start-state columns times D*: one pass
 // with the derivative instead of the derivative carried through every pass. `settled` is
 // false, and the caller carries the derivative from the initial state instead, where that
-// derivative depends on the warm-up: a warm-up that left the state where it started (a
-// contact stuck throughout, whose state the unknowns do not move), or a periodic state with a
-// direction the contact never slips in (I - M singular there) or a multiplier beyond 1; and
-// where the passes reach options_.max_passes.
+// derivative may depend on the warm-up: a warm-up that left a component of the state at its
+// initial value throughout (a contact stuck in that direction from the start, whose periodic
+// state then keeps that direction's value: I - M singular there), a periodic state with a
+// direction the contact never slips in (I - M singular) or a multiplier beyond 1; and where
+// the passes reach options_.max_passes. The first of these is known after the warm-up, before
+// any pass with the derivative.
 bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& settled,
                                                        std::string* error) {
   settled = false;
@@ -386,7 +388,8 @@ bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& 
   if (!run_period(out, state, nullptr, out.force, out.state, nullptr, nullptr, kinks, error))
     return false;
   out.passes = 1;
-  if ((out.state.rowwise() - start.transpose()).cwiseAbs().maxCoeff() == 0.0) return true;
+  if ((out.state.rowwise() - start.transpose()).cwiseAbs().colwise().maxCoeff().minCoeff() == 0.0)
+    return true;
   const double u_scale = std::max(out.displacement.cwiseAbs().maxCoeff(), 1e-300);
   const double tol = options_.relative_tolerance;
   std::vector<Eigen::MatrixXd> dforce(static_cast<std::size_t>(d), Eigen::MatrixXd(n, p + s));
