@@ -362,7 +362,8 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
 // Where such a pass repeats its start, the periodic state's derivative is the fixed point of
 // D -> M D + B, D* = (I - M)^-1 B, and every derivative of the pass (forces, kinks) is that of
 // the start [D* | I], its unknowns' columns plus its start-state columns times D*: one pass
-// with the derivative instead of the derivative carried through every pass. `settled` is
+// with the derivative instead of the derivative carried through every pass. The pass's forces
+// and kinks are moved onto the periodic state's by the same start-state columns. `settled` is
 // false, and the caller carries the derivative from the initial state instead, where that
 // derivative may depend on the warm-up: a warm-up that left a component of the state at its
 // initial value throughout (a contact stuck in that direction from the start, whose periodic
@@ -388,8 +389,12 @@ bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& 
   if (!run_period(out, state, nullptr, out.force, out.state, nullptr, nullptr, kinks, error))
     return false;
   out.passes = 1;
-  if ((out.state.rowwise() - start.transpose()).cwiseAbs().colwise().maxCoeff().minCoeff() == 0.0)
+  // The caller then traces this same pass again, from the same start, with the derivative: it
+  // counts once.
+  if ((out.state.rowwise() - start.transpose()).cwiseAbs().colwise().maxCoeff().minCoeff() == 0.0) {
+    out.passes = 0;
     return true;
+  }
   const double u_scale = std::max(out.displacement.cwiseAbs().maxCoeff(), 1e-300);
   const double tol = options_.relative_tolerance;
   std::vector<Eigen::MatrixXd> dforce(static_cast<std::size_t>(d), Eigen::MatrixXd(n, p + s));
@@ -442,8 +447,22 @@ bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& 
   fixed_point.setThreshold(kPeriodicStateRankThreshold);
   fixed_point.compute(Eigen::MatrixXd::Identity(s, s) - monodromy);
   if (fixed_point.rank() < s) return true;
+  const Eigen::VectorXd to_periodic = fixed_point.solve(state - start);
   const Eigen::MatrixXd periodic_dstate = fixed_point.solve(dstate.leftCols(p));
-  if (!periodic_dstate.allFinite()) return true;
+  if (!to_periodic.allFinite() || !periodic_dstate.allFinite()) return true;
+  // The pass started within the tolerance of the periodic state, not on it: its forces and
+  // kinks are moved onto the periodic state's by their derivatives with respect to the start
+  // state along the Newton step s* - s0 = (I - M)^-1 (s1 - s0), which leaves them second order
+  // in the pass's change from the periodic state's.
+  for (int a = 0; a < d; ++a)
+    out.force.col(a).noalias() += dforce[static_cast<std::size_t>(a)].rightCols(s) * to_periodic;
+  for (std::size_t index = 0; kinks != nullptr && index < kinks->count; ++index) {
+    Kink& kink = kinks->items[index];
+    kink.fraction =
+        std::clamp(kink.fraction + (kink.dfraction.tail(s) * to_periodic).value(), 0.0, 1.0);
+    kink.jump.noalias() += kink.djump.rightCols(s) * to_periodic;
+    if (kink.onset_power > 0) kink.onset.noalias() += kink.donset.rightCols(s) * to_periodic;
+  }
   for (auto& df : dforce) df.leftCols(p).noalias() += df.rightCols(s) * periodic_dstate;
   for (std::size_t index = 0; kinks != nullptr && index < kinks->count; ++index) {
     Kink& kink = kinks->items[index];
