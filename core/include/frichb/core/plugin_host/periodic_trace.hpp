@@ -14,11 +14,13 @@
 // tangents (and the Newton steps allowed) the passes up to the periodic state carry no
 // derivative: a pass that repeats its start carries the derivative with respect to the
 // unknowns (B) and to its start state (M), and the periodic state's derivative is the fixed
-// point D* = (I - M)^-1 B. Where that derivative depends on the warm-up instead (I - M
-// singular: a direction the contact never slips in; a contact stuck from its initial state;
-// a multiplier of M beyond 1), and for laws without the Newton steps, the derivative is
-// carried through every pass from the U-independent initial state, warm-up included, until
-// it repeats too.
+// point D* = (I - M)^-1 B; that pass's forces are moved onto the periodic state along the
+// Newton step (I - M)^-1 (s1 - s0) by their start-state derivatives (to second order in the
+// pass's change, itself within relative_tolerance). Where the derivative depends on the
+// warm-up instead (I - M singular: a direction the contact never slips in; a state component
+// the first pass leaves at its initial value; a multiplier of M beyond 1), and for laws
+// without the Newton steps, the derivative is carried through every pass from the
+// U-independent initial state, warm-up included, until it repeats too.
 // A contact that never slips keeps its initial state, so its mean tangential force is kt
 // times the mean relative displacement (docs/theory.md, "full stick convention").
 //
