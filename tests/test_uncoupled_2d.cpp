@@ -140,6 +140,29 @@ TEST(Uncoupled2d, AnalyticJacobianEqualsCentralDifferences) {
   }
 }
 
+// t1 slips every cycle (its slider's start is forgotten: the periodic state's derivative is the
+// fixed point of one pass), t2 slips once to a static offset during the first pass and then
+// sticks (its slider keeps what the warm-up made of U: a direction the passes never contract).
+// The Jacobian of both, together, against central differences.
+TEST(Uncoupled2d, AnalyticJacobianWithOneAxisSlippingAndOneStuckAfterTheWarmUp) {
+  auto h = test::make_law("uncoupled_2d", "{kt: 2.0e5, mu: 0.5, normal_load: 5.0}");
+  HarmonicLayout layout({0, 1, 2}, 64);
+  PeriodicTracer tracer(*h.law, layout);
+  const int c = layout.coefficient_count();
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(2 * c);
+  u(1) = 4e-5;      // t1: cosine amplitude 3.2 mu N / kt, slipping twice a cycle
+  u(c) = 1e-3;      // t2: static offset 80 mu N / kt ...
+  u(c + 2) = 4e-6;  // ... and a sine amplitude below the reversal threshold 2 mu N / kt
+  ContactTrace t;
+  std::string error;
+  ASSERT_TRUE(tracer.trace(u, JacobianMode::kAnalytic, t, &error)) << error;
+  ASSERT_TRUE(t.periodic) << t.diagnostic;
+  ASSERT_FALSE(t.used_finite_differences);
+  const Eigen::MatrixXd fd = central_differences(tracer, u);
+  EXPECT_NEAR(fd(c, c), 0.0, 1e-6 * 2e5);  // t2's mean force stays at mu N whatever its offset
+  EXPECT_LT((t.jacobian - fd).cwiseAbs().maxCoeff(), 1e-6 * fd.cwiseAbs().maxCoeff());
+}
+
 TEST(Uncoupled2d, SeparationReleasesBothSliders) {
   auto h = test::make_law("uncoupled_2d", "{kt: 2.0e5, mu: 0.4, normal_load: 2.0, kn: 1.0e5}");
   HarmonicLayout layout({0, 1, 2, 3}, 200);

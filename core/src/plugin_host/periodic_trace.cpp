@@ -21,6 +21,13 @@ constexpr double kMaxPeriodicStateStep = 1e3;
 // Room for force kinks inside one step (a law reports at most this many).
 constexpr std::size_t kMaxKinksPerStep = 8;
 
+// No multiplier of the monodromy M beyond 1: a fixed point the passes are attracted to.
+bool attracting(const Eigen::MatrixXd& monodromy) {
+  const Eigen::EigenSolver<Eigen::MatrixXd> multipliers(monodromy, false);
+  return multipliers.info() == Eigen::Success &&
+         multipliers.eigenvalues().cwiseAbs().maxCoeff() <= 1.0 + kPeriodicStateRankThreshold;
+}
+
 }  // namespace
 
 PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayout& layout,
@@ -84,6 +91,8 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
   // state's own derivative alone (ABI 1.3).
   frichb_step_tangents state_tangent{nullptr, nullptr, nullptr, nullptr, nullptr, ds_ds.data()};
   const bool derivative = dstate != nullptr;
+  // The derivative's columns: the unknowns, then any others the caller carries in dstate.
+  const Eigen::Index columns = derivative ? dstate->cols() : 0;
   const bool tangents_wanted = derivative || monodromy != nullptr;
   if (monodromy != nullptr) monodromy->setIdentity(s, s);
   // Kinks of this pass: fraction, jump (3 per kink) and, with the derivative, their
@@ -172,12 +181,12 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
           auto component_row = [&](const std::vector<double>& rows, int a) {
             return rows.data() + (3 * k + static_cast<std::size_t>(components_[a])) * inputs;
           };
-          kink.dfraction.resize(unknown_count());
+          kink.dfraction.resize(columns);
           chain(report.dfraction.data() + k * inputs, kink.dfraction);
-          kink.djump.resize(d, unknown_count());
+          kink.djump.resize(d, columns);
           for (int a = 0; a < d; ++a) chain(component_row(report.djump, a), kink.djump.row(a));
           if (kink.onset_power > 0) {
-            kink.donset.resize(d, unknown_count());
+            kink.donset.resize(d, columns);
             for (int a = 0; a < d; ++a) chain(component_row(report.donset, a), kink.donset.row(a));
           }
         }
@@ -235,7 +244,8 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
 // warm-up put it. A step is only taken while the passes keep shrinking their change, towards
 // a fixed point that attracts (no multiplier of M beyond 1), and is checked by the next pass:
 // the trace ends, as without steps, on a pass that repeats its start.
-bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::string* error) {
+bool PeriodicTracer::run_passes_from_initial_state(ContactTrace& out, bool with_derivative,
+                                                   std::string* error) {
   const int n = layout_.samples(), p = unknown_count(), s = state_size_;
   Eigen::VectorXd state(s), start(s);
   law_.initial_state(state.data());
@@ -305,9 +315,7 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
     change_before = relative_change;
     // A fixed point where M has a multiplier beyond 1 repels the passes: they would never
     // reach it, so no step goes there (a law whose passes diverge is left to the pass bound).
-    const Eigen::EigenSolver<Eigen::MatrixXd> multipliers(monodromy, false);
-    if (multipliers.info() != Eigen::Success ||
-        multipliers.eigenvalues().cwiseAbs().maxCoeff() > 1.0 + kPeriodicStateRankThreshold) {
+    if (!attracting(monodromy)) {
       newton = false;
       continue;
     }
@@ -329,6 +337,143 @@ bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::st
   if (with_derivative) out.derivative_passes = out.passes;
   out.kinks = along_ ? static_cast<int>(kinks_.count) : 0;
   transform_forces(out, with_derivative ? &dforce : nullptr, kinks_);
+  return true;
+}
+
+bool PeriodicTracer::run_passes(ContactTrace& out, bool with_derivative, std::string* error) {
+  if (with_derivative && state_size_ > 0 && law_.traits().provides_tangent != 0 &&
+      options_.newton_on_periodic_state) {
+    bool settled = false;
+    if (!run_passes_to_periodic_derivative(out, settled, error)) return false;
+    if (settled) return true;
+    const int spent = out.passes;
+    if (!run_passes_from_initial_state(out, true, error)) return false;
+    out.passes += spent;
+    return true;
+  }
+  return run_passes_from_initial_state(out, with_derivative, error);
+}
+
+// Value passes from the law's initial state, with Newton steps on the periodic state as in
+// run_passes_from_initial_state, where the pass after the warm-up, every pass after a Newton
+// step and every pass after one that repeated its start carry the derivative of the state with
+// respect to the unknowns and to the pass's start state: from D0 = [0 | I] the pass ends on
+// [B | M] (B the derivative of the pass's map with respect to the unknowns, M its monodromy).
+// Where such a pass repeats its start, the periodic state's derivative is the fixed point of
+// D -> M D + B, D* = (I - M)^-1 B, and every derivative of the pass (forces, kinks) is that of
+// the start [D* | I], its unknowns' columns plus its start-state columns times D*: one pass
+// with the derivative instead of the derivative carried through every pass. The pass's forces
+// and kinks are moved onto the periodic state's by the same start-state columns. `settled` is
+// false, and the caller carries the derivative from the initial state instead, where that
+// derivative may depend on the warm-up: a warm-up that left a component of the state at its
+// initial value throughout (a contact stuck in that direction from the start, whose periodic
+// state then keeps that direction's value: I - M singular there), a periodic state with a
+// direction the contact never slips in (I - M singular) or a multiplier beyond 1; and where
+// the passes reach options_.max_passes. The first of these is known after the warm-up, before
+// any pass with the derivative.
+bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& settled,
+                                                       std::string* error) {
+  settled = false;
+  const int n = layout_.samples(), p = unknown_count(), s = state_size_, d = dimension();
+  Eigen::VectorXd state(s), start(s);
+  law_.initial_state(state.data());
+  start = state;
+  out.force.resize(n, d);
+  out.state.resize(n, s);
+  out.passes = 0;
+  out.derivative_passes = 0;
+  out.newton_passes = 0;
+  out.periodic = true;
+  out.diagnostic.clear();
+  KinkList* kinks = along_ ? &kinks_ : nullptr;
+  if (!run_period(out, state, nullptr, out.force, out.state, nullptr, nullptr, kinks, error))
+    return false;
+  out.passes = 1;
+  // The caller then traces this same pass again, from the same start, with the derivative: it
+  // counts once.
+  if ((out.state.rowwise() - start.transpose()).cwiseAbs().colwise().maxCoeff().minCoeff() == 0.0) {
+    out.passes = 0;
+    return true;
+  }
+  const double u_scale = std::max(out.displacement.cwiseAbs().maxCoeff(), 1e-300);
+  const double tol = options_.relative_tolerance;
+  std::vector<Eigen::MatrixXd> dforce(static_cast<std::size_t>(d), Eigen::MatrixXd(n, p + s));
+  Eigen::MatrixXd dstate, monodromy;
+  bool newton = true, carry = true;
+  double change_before = std::numeric_limits<double>::infinity();
+  for (;;) {
+    start = state;
+    if (carry) {
+      dstate.setZero(s, p + s);
+      dstate.rightCols(s).setIdentity();
+    }
+    if (!run_period(out, state, carry ? &dstate : nullptr, out.force, out.state,
+                    carry ? &dforce : nullptr, !carry && newton ? &monodromy : nullptr, kinks,
+                    error))
+      return false;
+    ++out.passes;
+    if (carry) {
+      ++out.derivative_passes;
+      monodromy = dstate.rightCols(s);
+    }
+    const double change = (state - start).cwiseAbs().maxCoeff();
+    const double scale = std::max(u_scale, state.cwiseAbs().maxCoeff());
+    const bool repeated = change <= tol * scale;
+    if (repeated && carry) break;
+    if (out.passes >= options_.max_passes) return true;
+    carry = repeated;
+    if (repeated || !newton) continue;
+    // The Newton step of run_passes_from_initial_state, on the state alone.
+    const double relative_change = change / scale;
+    if (!(relative_change < change_before) || !attracting(monodromy)) {
+      newton = false;
+      continue;
+    }
+    change_before = relative_change;
+    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> fixed_point;
+    fixed_point.setThreshold(kPeriodicStateRankThreshold);
+    fixed_point.compute(Eigen::MatrixXd::Identity(s, s) - monodromy);
+    const Eigen::VectorXd step = fixed_point.solve(state - start);
+    if (!step.allFinite() || step.cwiseAbs().maxCoeff() > kMaxPeriodicStateStep * scale) {
+      newton = false;
+      continue;
+    }
+    state = start + step;
+    ++out.newton_passes;
+    carry = true;
+  }
+  if (!attracting(monodromy)) return true;
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> fixed_point;
+  fixed_point.setThreshold(kPeriodicStateRankThreshold);
+  fixed_point.compute(Eigen::MatrixXd::Identity(s, s) - monodromy);
+  if (fixed_point.rank() < s) return true;
+  const Eigen::VectorXd to_periodic = fixed_point.solve(state - start);
+  const Eigen::MatrixXd periodic_dstate = fixed_point.solve(dstate.leftCols(p));
+  if (!to_periodic.allFinite() || !periodic_dstate.allFinite()) return true;
+  // The pass started within the tolerance of the periodic state, not on it: its forces and
+  // kinks are moved onto the periodic state's by their derivatives with respect to the start
+  // state along the Newton step s* - s0 = (I - M)^-1 (s1 - s0), which leaves them second order
+  // in the pass's change from the periodic state's.
+  for (int a = 0; a < d; ++a)
+    out.force.col(a).noalias() += dforce[static_cast<std::size_t>(a)].rightCols(s) * to_periodic;
+  for (std::size_t index = 0; kinks != nullptr && index < kinks->count; ++index) {
+    Kink& kink = kinks->items[index];
+    kink.fraction =
+        std::clamp(kink.fraction + (kink.dfraction.tail(s) * to_periodic).value(), 0.0, 1.0);
+    kink.jump.noalias() += kink.djump.rightCols(s) * to_periodic;
+    if (kink.onset_power > 0) kink.onset.noalias() += kink.donset.rightCols(s) * to_periodic;
+  }
+  for (auto& df : dforce) df.leftCols(p).noalias() += df.rightCols(s) * periodic_dstate;
+  for (std::size_t index = 0; kinks != nullptr && index < kinks->count; ++index) {
+    Kink& kink = kinks->items[index];
+    kink.dfraction.head(p).noalias() += kink.dfraction.tail(s) * periodic_dstate;
+    kink.djump.leftCols(p).noalias() += kink.djump.rightCols(s) * periodic_dstate;
+    if (kink.onset_power > 0)
+      kink.donset.leftCols(p).noalias() += kink.donset.rightCols(s) * periodic_dstate;
+  }
+  settled = true;
+  out.kinks = along_ ? static_cast<int>(kinks_.count) : 0;
+  transform_forces(out, &dforce, kinks_);
   return true;
 }
 
@@ -397,7 +542,8 @@ void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen
         const Eigen::VectorXd along_sigma =
             h * amplitude(a) * weight.cwiseProduct(dzeta_dsigma * g + zeta * h * dg);
         out.jacobian.middleRows(a * c, c) -=
-            h * zeta * weight.cwiseProduct(g) * damplitude.row(a) + along_sigma * kink.dfraction;
+            h * zeta * weight.cwiseProduct(g) * damplitude.row(a).head(p) +
+            along_sigma * kink.dfraction.head(p);
       }
     };
     subtract_onset(kink.jump, kink.djump, 1.0, true);

@@ -7,12 +7,20 @@
 // layout and, on request, dF/dU ((d*C) x (d*C), column-major Eigen matrix).
 //
 // Periodicity: the period is traced repeatedly from the law's initial state until the state
-// at the start of a pass repeats at its end (relative tolerance) and, when the Jacobian is
-// requested, until the derivative of the state carried through the same passes repeats too:
-// the Jacobian is the exact derivative of the computed periodic forces, warm-up included.
-// For a law with tangents, a pass that does not repeat its start is followed by a Newton step
-// onto the fixed point of the pass's map (its monodromy from the tangents), for the state and
-// its derivative alike (TraceOptions::newton_on_periodic_state).
+// at the start of a pass repeats at its end (relative tolerance). For a law with tangents, a
+// pass that does not repeat its start is followed by a Newton step onto the fixed point of the
+// pass's map (its monodromy M from the tangents; TraceOptions::newton_on_periodic_state).
+// The Jacobian is the exact derivative of the computed periodic forces. For a law with
+// tangents (and the Newton steps allowed) the passes up to the periodic state carry no
+// derivative: a pass that repeats its start carries the derivative with respect to the
+// unknowns (B) and to its start state (M), and the periodic state's derivative is the fixed
+// point D* = (I - M)^-1 B; that pass's forces are moved onto the periodic state along the
+// Newton step (I - M)^-1 (s1 - s0) by their start-state derivatives (to second order in the
+// pass's change, itself within relative_tolerance). Where the derivative depends on the
+// warm-up instead (I - M singular: a direction the contact never slips in; a state component
+// the first pass leaves at its initial value; a multiplier of M beyond 1), and for laws
+// without the Newton steps, the derivative is carried through every pass from the
+// U-independent initial state, warm-up included, until it repeats too.
 // A contact that never slips keeps its initial state, so its mean tangential force is kt
 // times the mean relative displacement (docs/theory.md, "full stick convention").
 //
@@ -142,6 +150,8 @@ class PeriodicTracer {
   double energy_per_cycle(const Eigen::VectorXd& u_coefficients,
                           const Eigen::VectorXd& force_coefficients) const;
   bool run_passes(ContactTrace& out, bool with_derivative, std::string* error);
+  bool run_passes_from_initial_state(ContactTrace& out, bool with_derivative, std::string* error);
+  bool run_passes_to_periodic_derivative(ContactTrace& out, bool& settled, std::string* error);
   bool run_period(const ContactTrace& motion, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
                   Eigen::MatrixXd& force, Eigen::MatrixXd& states,
                   std::vector<Eigen::MatrixXd>* dforce, Eigen::MatrixXd* monodromy, KinkList* kinks,
