@@ -70,6 +70,55 @@ PeriodicTracer::PeriodicTracer(const ContactLawInstance& law, const HarmonicLayo
     throw PluginError(error);
 }
 
+// The kinks a law reported in step j (`count` of them, in kink_report_) appended to `kinks`,
+// with their derivatives with respect to the derivative's columns (the unknowns, then any
+// others the caller carries in dstate) when `dstate` is carried.
+void PeriodicTracer::record_kinks(std::size_t count, int j, const Eigen::MatrixXd* dstate,
+                                  KinkList& kinks) const {
+  const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
+  const int s = state_size_, jp = (j + n - 1) % n;
+  const bool derivative = dstate != nullptr;
+  const Eigen::Index columns = derivative ? dstate->cols() : 0;
+  const auto inputs = static_cast<std::size_t>(s) + 12;
+  const KinkReport& report = kink_report_;
+  for (std::size_t k = 0; k < std::min(count, kMaxKinksPerStep); ++k) {
+    Kink& kink = kinks.append();
+    kink.sample = j;
+    kink.fraction = report.fraction[k];
+    kink.jump.resize(d);
+    for (int a = 0; a < d; ++a) kink.jump(a) = report.jump[3 * k + components_[a]];
+    kink.onset_power = report.onset_power[k];
+    kink.onset_side = report.onset_side[k];
+    kink.onset.resize(d);
+    for (int a = 0; a < d; ++a)
+      kink.onset(a) = kink.onset_power > 0 ? report.onset[3 * k + components_[a]] : 0.0;
+    if (derivative) {
+      // Chain rule as for the force below, from the step's inputs to the unknowns.
+      auto chain = [&](const double* di, auto&& row) {
+        row.setZero();
+        for (int l = 0; l < s; ++l) row += di[l] * dstate->row(l);
+        for (int b = 0; b < d; ++b) {
+          const int cb = components_[b];
+          row.segment(b * c, c) += di[s + cb] * basis_.row(jp) + di[s + 3 + cb] * basis_.row(j) +
+                                   di[s + 6 + cb] * dbasis_.row(jp) +
+                                   di[s + 9 + cb] * dbasis_.row(j);
+        }
+      };
+      auto component_row = [&](const std::vector<double>& rows, int a) {
+        return rows.data() + (3 * k + static_cast<std::size_t>(components_[a])) * inputs;
+      };
+      kink.dfraction.resize(columns);
+      chain(report.dfraction.data() + k * inputs, kink.dfraction);
+      kink.djump.resize(d, columns);
+      for (int a = 0; a < d; ++a) chain(component_row(report.djump, a), kink.djump.row(a));
+      if (kink.onset_power > 0) {
+        kink.donset.resize(d, columns);
+        for (int a = 0; a < d; ++a) chain(component_row(report.donset, a), kink.donset.row(a));
+      }
+    }
+  }
+}
+
 bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& state,
                                 Eigen::MatrixXd* dstate, Eigen::MatrixXd& force,
                                 Eigen::MatrixXd& states, std::vector<Eigen::MatrixXd>* dforce,
@@ -91,14 +140,11 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
   // state's own derivative alone (ABI 1.3).
   frichb_step_tangents state_tangent{nullptr, nullptr, nullptr, nullptr, nullptr, ds_ds.data()};
   const bool derivative = dstate != nullptr;
-  // The derivative's columns: the unknowns, then any others the caller carries in dstate.
-  const Eigen::Index columns = derivative ? dstate->cols() : 0;
   const bool tangents_wanted = derivative || monodromy != nullptr;
   if (monodromy != nullptr) monodromy->setIdentity(s, s);
   // Kinks of this pass: fraction, jump (3 per kink) and, with the derivative, their
   // derivatives with respect to the step's inputs [state_prev, u_prev, u_now, rate_prev,
-  // rate_now].
-  const auto inputs = static_cast<std::size_t>(s) + 12;
+  // rate_now] (record_kinks).
   KinkReport& report = kink_report_;
   frichb_force_kinks kink_buffer{sizeof(frichb_force_kinks),
                                  kMaxKinksPerStep,
@@ -154,44 +200,7 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
                           tangents_wanted ? &tangents : nullptr, error)) {
       return false;
     }
-    if (kinks != nullptr) {
-      for (std::size_t k = 0; k < std::min(kink_buffer.count, kMaxKinksPerStep); ++k) {
-        Kink& kink = kinks->append();
-        kink.sample = j;
-        kink.fraction = report.fraction[k];
-        kink.jump.resize(d);
-        for (int a = 0; a < d; ++a) kink.jump(a) = report.jump[3 * k + components_[a]];
-        kink.onset_power = report.onset_power[k];
-        kink.onset_side = report.onset_side[k];
-        kink.onset.resize(d);
-        for (int a = 0; a < d; ++a)
-          kink.onset(a) = kink.onset_power > 0 ? report.onset[3 * k + components_[a]] : 0.0;
-        if (derivative) {
-          // Chain rule as for the force below, from the step's inputs to the unknowns.
-          auto chain = [&](const double* di, auto&& row) {
-            row.setZero();
-            for (int l = 0; l < s; ++l) row += di[l] * dstate->row(l);
-            for (int b = 0; b < d; ++b) {
-              const int cb = components_[b];
-              row.segment(b * c, c) +=
-                  di[s + cb] * basis_.row(jp) + di[s + 3 + cb] * basis_.row(j) +
-                  di[s + 6 + cb] * dbasis_.row(jp) + di[s + 9 + cb] * dbasis_.row(j);
-            }
-          };
-          auto component_row = [&](const std::vector<double>& rows, int a) {
-            return rows.data() + (3 * k + static_cast<std::size_t>(components_[a])) * inputs;
-          };
-          kink.dfraction.resize(columns);
-          chain(report.dfraction.data() + k * inputs, kink.dfraction);
-          kink.djump.resize(d, columns);
-          for (int a = 0; a < d; ++a) chain(component_row(report.djump, a), kink.djump.row(a));
-          if (kink.onset_power > 0) {
-            kink.donset.resize(d, columns);
-            for (int a = 0; a < d; ++a) chain(component_row(report.donset, a), kink.donset.row(a));
-          }
-        }
-      }
-    }
+    if (kinks != nullptr) record_kinks(kink_buffer.count, j, dstate, *kinks);
     if (monodromy != nullptr) {
       mnext.noalias() = ds_ds.topLeftCorner(s, s).lazyProduct(*monodromy);
       monodromy->swap(mnext);

@@ -156,6 +156,7 @@ class PeriodicTracer {
                   Eigen::MatrixXd& force, Eigen::MatrixXd& states,
                   std::vector<Eigen::MatrixXd>* dforce, Eigen::MatrixXd* monodromy, KinkList* kinks,
                   std::string* error);
+  void record_kinks(std::size_t count, int j, const Eigen::MatrixXd* dstate, KinkList& kinks) const;
   void transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce,
                         const KinkList& kinks);
 
