@@ -359,9 +359,11 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
   Workspace& ws = work_;
   auto t_part = Clock::now();
   bool ok = true;
+  ws.forces_at.resize(0);
   gather_forces(y, ws.forces, derivatives, message, ok);
   stats_.contact_seconds += elapsed(t_part);
   if (!ok) return false;
+  ws.forces_at = y;
   const Eigen::VectorXd& forces = ws.forces;
 
   // Per kept harmonic n, with complex amplitudes X = c - i s (layout of HarmonicLayout):
@@ -507,14 +509,24 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
   return true;
 }
 
-std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(const Eigen::VectorXd& y) const {
+Eigen::VectorXd HarmonicBalanceModel::point_record(const Eigen::VectorXd& y) const {
+  const Workspace& ws = work_;
+  if (ws.forces_at.size() != y.size() || (ws.forces_at.array() != y.array()).any()) return {};
+  return ws.forces;
+}
+
+std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(
+    const Eigen::VectorXd& y, const Eigen::VectorXd& kept_forces) const {
   const int c = layout_.coefficient_count();
   const double w = y(unknown_count_);
-  Eigen::VectorXd forces;
-  bool ok = true;
-  std::string message;
-  gather_forces(y, forces, false, &message, ok);
-  if (!ok) throw std::runtime_error("response recovery: " + message);
+  Eigen::VectorXd traced;
+  if (kept_forces.size() != unknown_count_) {
+    bool ok = true;
+    std::string message;
+    gather_forces(y, traced, false, &message, ok);
+    if (!ok) throw std::runtime_error("response recovery: " + message);
+  }
+  const Eigen::VectorXd& forces = kept_forces.size() == unknown_count_ ? kept_forces : traced;
   const auto& h = layout_.harmonics();
   std::vector<Eigen::VectorXcd> out;
   for (std::size_t k = 0; k < h.size(); ++k) {

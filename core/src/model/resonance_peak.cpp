@@ -49,7 +49,7 @@ class PeakSearch {
     p.theta = theta;
     p.y = point.y;
     try {
-      p.amplitude = amplitude(point.y);
+      p.amplitude = sampler_.peak_amplitude(model_.kept_response(point.y, point.record), kept_);
       const Eigen::VectorXd step = kSlopeStep * point.velocity;
       p.slope = (amplitude(point.y + step) - amplitude(point.y - step)) / (2 * kSlopeStep);
     } catch (const std::runtime_error& e) {

@@ -2,6 +2,7 @@
 #include "frichb/core/model/response_curve.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <numbers>
@@ -218,12 +219,13 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
   }
   table.header.insert(table.header.end(), {"newton_iterations", "step", "condition"});
   auto& rows = table.rows;
+  const auto tabulating = std::chrono::steady_clock::now();
   std::vector<double> peak_amp(nodes.size(), -1.0), peak_w(nodes.size(), 0.0);
   for (std::size_t i = 0; i < summary.points.size(); ++i) {
     if (options.newton.stop.stop_requested()) break;  // the caller reports it
     const auto& p = summary.points[i];
     const double w = p.y(n);
-    const auto x = model.kept_response(p.y);
+    const auto x = model.kept_response(p.y, p.record);
     std::vector<double> row = {static_cast<double>(i), w / (2 * std::numbers::pi), w};
     auto& at_point = table.harmonics.emplace_back();
     if (scene.output.contact_forces) table.contacts.push_back(contact_harmonics(model, p.y));
@@ -243,6 +245,12 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
     rows.push_back(std::move(row));
   }
 
+  spdlog::debug(
+      "response at {} points ({} with the continuation's contact forces) in {} s", rows.size(),
+      std::count_if(summary.points.begin(), summary.points.end(),
+                    [](const ContinuationPoint& p) { return p.record.size() > 0; }),
+      format_number(
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - tabulating).count()));
   // The peak of each node's curve, solved along the curve beside its highest point.
   std::vector<bool> refined(nodes.size(), false);
   std::vector<Eigen::VectorXd> peak_y(nodes.size());

@@ -80,6 +80,7 @@ class CurveTracer {
   double elapsed() const { return seconds_since(clock_start_); }
   bool emit(const ContinuationPoint& p) {
     summary_.points.push_back(p);
+    summary_.points.back().record = raw_problem_.point_record(p.y);
     return !on_point_ || on_point_(summary_.points.back(), summary_.points.size() - 1);
   }
   ContinuationSummary finish(const Ending& ending);
@@ -561,13 +562,16 @@ constexpr double kChordToleranceShare = 1e-3;
 constexpr double kChordToleranceFloor = 1e-12;
 
 struct ChordSolver::State {
-  State(const CurveProblem& problem, Scaling scaling, const ContinuationOptions& options)
-      : newton(options.newton), scaled(problem, std::move(scaling), options, &profile) {
+  State(const CurveProblem& curve, Scaling scaling, const ContinuationOptions& options)
+      : problem(curve),
+        newton(options.newton),
+        scaled(curve, std::move(scaling), options, &profile) {
     newton.floor_on_hyperplane = true;
     for (double* tolerance : {&newton.residual_tolerance, &newton.step_tolerance})
       *tolerance =
           std::min(*tolerance, std::max(kChordToleranceShare * *tolerance, kChordToleranceFloor));
   }
+  const CurveProblem& problem;
   NewtonOptions newton;
   SolveProfile profile;
   ScaledProblem scaled;  // counts into `profile` (declared after it)
@@ -631,6 +635,7 @@ ChordPoint ChordSolver::solve(const VectorXd& a, const VectorXd& b, double theta
   }
   // v is the unit tangent with v . normal > 0; dy/dtheta projects on the chord as d does.
   out.velocity = scaled.unscale(v * (length / v.dot(normal)));
+  out.record = state_->problem.point_record(out.y);
   out.converged = true;
   return out;
 }

@@ -88,8 +88,14 @@ class HarmonicBalanceModel final : public CurveProblem {
   int component_count() const { return components_; }
   // Contact-free response of the contact unknowns at w (rad/s): U0.
   Eigen::VectorXd linear_response(double w) const;
-  // Complex amplitude X_n (kept DOFs) of each kept harmonic for the solution y.
-  std::vector<Eigen::VectorXcd> kept_response(const Eigen::VectorXd& y) const;
+  // The contact forces' coefficients of the last evaluation when it was at y (bit for bit),
+  // else empty: what a continuation point keeps so that kept_response need not trace the
+  // contacts again.
+  Eigen::VectorXd point_record(const Eigen::VectorXd& y) const override;
+  // Complex amplitude X_n (kept DOFs) of each kept harmonic for the solution y. `forces`: the
+  // contact forces' coefficients at y (point_record), or empty to trace the contacts for them.
+  std::vector<Eigen::VectorXcd> kept_response(const Eigen::VectorXd& y,
+                                              const Eigen::VectorXd& forces = {}) const;
   // Index of a structure DOF among the kept DOFs.
   Eigen::Index kept_index(std::size_t dof) const;
   // Traces contact c at the solution y (for friction loops).
@@ -174,6 +180,7 @@ class HarmonicBalanceModel final : public CurveProblem {
   // Work buffers of evaluate(), kept between calls so that the hot loop does not allocate.
   struct Workspace {
     Eigen::VectorXd forces;
+    Eigen::VectorXd forces_at;  // the y of `forces` (empty when they failed or were never traced)
     Eigen::MatrixXcd contact_receptance, receptance, receptance_derivative, product;
     Eigen::MatrixXcd force_block, scaled;
     Eigen::MatrixXd scaled_real, stacked_real;

@@ -116,6 +116,15 @@ class CurveProblem {
     if (message != nullptr) *message = "this problem cannot apply its Jacobian as an operator";
     return false;
   }
+  // What the problem keeps of an accepted point for its post-processing (stored in
+  // ContinuationPoint::record): called once per accepted point, on the tracer's thread, right
+  // after the point is accepted, when the problem's last evaluation is normally at y itself. The
+  // default keeps nothing (an empty vector); a problem that keeps something must return it only
+  // when it belongs to y, since the caller cannot check.
+  virtual Eigen::VectorXd point_record(const Eigen::VectorXd& y) const {
+    (void)y;
+    return {};
+  }
 };
 
 // The linear solver of the continuation's systems (ContinuationOptions::linear_solver).
@@ -343,6 +352,8 @@ struct ContinuationPoint {
   // earlier point's matrix unless this one was factorised); with matrix_free, of the kept
   // preconditioner (JacobianPreconditioner::condition) unless the matrix was formed.
   double condition = 0.0;
+  // CurveProblem::point_record at y (empty when the problem keeps nothing of the point).
+  Eigen::VectorXd record;
 };
 
 enum class TerminationType {
@@ -436,6 +447,7 @@ struct ChordPoint {
   double residual_norm = 0.0;  // scaled infinity norm at the last iterate
   Eigen::VectorXd y;           // unscaled, lambda last
   Eigen::VectorXd velocity;    // dy/dtheta, unscaled
+  Eigen::VectorXd record;      // CurveProblem::point_record at y (converged points)
   std::string message;         // why not, when not converged
 };
 
