@@ -7,11 +7,16 @@
 #include <stdexcept>
 #include <utility>
 
+#include <spdlog/spdlog.h>
+
 #include "frichb/core/support/format.hpp"
 
 namespace frichb::core {
 
 namespace {
+
+// The share of the bracket's side within which a secant root next to c is overshot (below).
+constexpr double kSecantOvershootShare = 0.1;
 
 // One evaluation of the stationarity condition: the curve's point at theta, the amplitude
 // there and its slope along the curve.
@@ -56,6 +61,9 @@ class PeakSearch {
       failure_ = e.what();
       return std::nullopt;
     }
+    spdlog::trace(
+        "peak probe {}: theta {:.17g}, amplitude {:.17g} m, slope {:.6g} m, {} Newton iterations",
+        evaluations_, theta, p.amplitude, p.slope, point.iterations);
     return p;
   }
 
@@ -121,15 +129,22 @@ ResonancePeak solve_resonance_peak(const HarmonicBalanceModel& model, ChordSolve
                     search.evaluations());
     // The secant root of the slope through c and the previous probe where it falls inside the
     // side's interval and shortens the steps (superlinear where the curve is smooth), else the
-    // interval's middle (where the amplitude has a corner, the law's sample-made kinks).
+    // interval's middle (where the amplitude has a corner, the law's sample-made kinks). A
+    // secant root within kSecantOvershootShare of the side's width from c is overshot to twice
+    // its distance: where the secant is good the probe lands past the root, lower than c, and
+    // closes the side to that distance, where a probe at the root itself would leave the far
+    // end (and the bound on the rise there) where it was.
     double theta = 0.5 * (c->theta + far.theta);
     if (previous.slope != c->slope) {
       const double secant =
           c->theta - c->slope * (c->theta - previous.theta) / (c->slope - previous.slope);
+      const double step = secant - c->theta;
+      const bool toward_far = right ? step > 0 : step < 0;
+      const double target =
+          std::abs(step) < kSecantOvershootShare * width ? c->theta + 2 * step : secant;
       const double margin = 1e-3 * width;
-      const bool inside = right ? secant > c->theta + margin && secant < far.theta - margin
-                                : secant < c->theta - margin && secant > far.theta + margin;
-      if (inside && std::abs(secant - c->theta) < 0.5 * move_before) theta = secant;
+      const bool inside = right ? target < far.theta - margin : target > far.theta + margin;
+      if (toward_far && inside && std::abs(step) < 0.5 * move_before) theta = target;
     }
     const double s = (theta - c->theta) / (far.theta - c->theta);
     auto m = search.probe(theta, (1 - s) * c->y + s * far.y);

@@ -13,7 +13,9 @@
 // keeps three points l < c < r of the chord with c the highest (at first the traced points
 // top - 1, top, top + 1), so that a maximum of A lies in the bracket, and steps from c to the
 // secant root of g through c and the previous probe where that root falls on the side g(c)
-// points to and shortens the steps, else to the middle of that side. Where the curve is
+// points to and shortens the steps (a root within a tenth of the side's width from c is
+// overshot to twice its distance, so that the probe closes that side), else to the middle of
+// that side. Where the curve is
 // smooth (laws traced along the motion) the secant steps converge superlinearly; where it has
 // corners (a sample-only law's stick-slip switches move between samples) the peak may be a
 // corner, which the halvings close in on. It stops when that side is kThetaTolerance wide,
