@@ -18,8 +18,9 @@ constexpr double kPeriodicStateRankThreshold = 1e-10;
 // A Newton step on the periodic state longer than this many times the trace's scale (the
 // largest displacement or state) is not taken.
 constexpr double kMaxPeriodicStateStep = 1e3;
-// Newton steps on the periodic state whose next pass changed the state by no less than the pass
-// before (see run_passes) tolerated before the passes go on without steps.
+// Passes that did not change the state by less than the pass before them (each takes no Newton
+// step on the periodic state; see run_passes_from_initial_state) before the passes go on
+// without steps.
 constexpr int kMaxRefusedPeriodicStateSteps = 8;
 // Room for force kinks inside one step (a law reports at most this many).
 constexpr std::size_t kMaxKinksPerStep = 8;
