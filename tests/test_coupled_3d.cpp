@@ -585,5 +585,67 @@ TEST(Coupled3d, NewtonOnThePeriodicStateMeetsThePlainPassesInFewPasses) {
   EXPECT_GT(most_plain_passes, 300);  // the slow regime is exercised
 }
 
+// The motion of one node pair of the patch_100 shroud contact (scaled kt, kn and preload, three
+// local components over harmonics 0..5) near its resonance: the slider's periodic state
+// contracts by only 1 - 5.6e-4 per period in its slow direction, the multiplier growing from
+// 0.71 to that value as the passes approach it, while the other direction settles in one pass.
+// Newton steps on the periodic state whose next pass changed it by more than the pass before
+// (the fast direction following the step) are refused without giving up the steps: the trace
+// becomes periodic within the default 200 passes, on the periodic state that plain passes
+// reach after some 30000 (the oracle, to a tighter tolerance).
+TEST(Coupled3d, SlowlyContractingSliderStateBecomesPeriodicWithNewtonSteps) {
+  auto h = test::make_law("coupled_3d",
+                          "{kt: 2631.5789473684263, kn: 1315.7894736842131, mu: 0.5, "
+                          "normal_load: 0.08518005540166185}");
+  const HarmonicLayout layout({0, 1, 2, 3, 4, 5}, 256);
+  const Eigen::VectorXd u{
+      {1.0887344368998084e-06, 7.070901237105558e-06,   -8.80228646140838e-06,
+       2.144176381537392e-07,  3.8483352048810136e-07,  1.015254464638649e-08,
+       -9.928482852787434e-09, 2.001788911408127e-10,   -3.8178910186136933e-10,
+       4.772532279050302e-10,  9.931703367716629e-11,   4.5221684622550924e-07,
+       1.0035269710095901e-05, 7.641981976880874e-06,   1.4433704627706539e-06,
+       -3.22601680325962e-07,  1.7632265473557672e-08,  3.431181352779203e-08,
+       -6.428707160635705e-09, 6.182704829957802e-10,   -4.983951899342815e-10,
+       6.363667160191904e-10,  -8.54989859185197e-09,   -1.9768491458776366e-05,
+       2.4248847343312227e-05, 4.180405406476013e-08,   2.1983945832741601e-07,
+       9.904557789814531e-10,  -2.4511443776186032e-09, -7.15364491889459e-10,
+       5.688390690072505e-10,  -1.7385916580048558e-11, -2.1671433992967115e-11}};
+  TraceOptions plain;
+  plain.newton_on_periodic_state = false;
+  plain.max_passes = 200000;
+  plain.relative_tolerance = 1e-14;
+  PeriodicTracer oracle_tracer(*h.law, layout, plain);
+  ASSERT_EQ(oracle_tracer.unknown_count(), u.size());
+  ContactTrace oracle;
+  std::string error;
+  ASSERT_TRUE(oracle_tracer.trace(u, JacobianMode::kNone, oracle, &error)) << error;
+  ASSERT_TRUE(oracle.periodic) << oracle.diagnostic;
+  EXPECT_GT(oracle.passes, 10000);
+  const double scale = oracle.force_coefficients.cwiseAbs().maxCoeff();
+  PeriodicTracer tracer(*h.law, layout);
+  for (const JacobianMode mode : {JacobianMode::kNone, JacobianMode::kAnalytic}) {
+    ContactTrace t;
+    ASSERT_TRUE(tracer.trace(u, mode, t, &error)) << error;
+    EXPECT_TRUE(t.periodic) << t.diagnostic;
+    EXPECT_LT(t.passes, 100);
+    // The oracle stops within 1e-14 per pass of the state, 2e-11 of it at this contraction.
+    EXPECT_LT((t.force_coefficients - oracle.force_coefficients).cwiseAbs().maxCoeff(),
+              1e-8 * scale);
+    if (mode != JacobianMode::kAnalytic) continue;
+    // The Jacobian of the periodic forces, against central differences of traces that each
+    // become periodic as well. The periodic state moves by 1 / (1 - 0.99944) times a pass's
+    // response to U, and the differences err by as much: measured against the analytic
+    // Jacobian, 2.3e-3 at steps of 1e-5 of the largest coefficient and 2.3e-5 at 1e-6
+    // (truncation, quadratic in the step), 1.9e-6 at 1e-7 (central_differences), 2.2e-5 at 1e-8
+    // (rounding).
+    const Eigen::MatrixXd fd = central_differences(tracer, u);
+    const double jacobian_scale = fd.cwiseAbs().maxCoeff();
+    const double err = (t.jacobian - fd).cwiseAbs().maxCoeff() / jacobian_scale;
+    EXPECT_LT(err, 1e-5);
+    std::cout << "slowly contracting slider: " << t.passes << " passes, Jacobian relative error "
+              << err << "\n";
+  }
+}
+
 }  // namespace
 }  // namespace frichb::core

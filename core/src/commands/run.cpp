@@ -137,9 +137,11 @@ std::vector<std::string> result_warnings(const Scene& scene, const RunResult& ru
     warnings.push_back(fmt::format(
         "{}: {} contact traces did not become periodic within "
         "harmonic_balance.max_trace_passes = {} passes (each costs that many passes; last: "
-        "{}); a contact that sticks and slips in a limit cycle of its own, or a tolerance "
-        "too tight for it: raise max_trace_passes if the curve changes, or raise "
-        "trace_oversampling",
+        "{}); a contact whose state contracts by little per period (a multiplier of the "
+        "pass's monodromy near 1: a direction it barely slips in) where the Newton steps onto "
+        "the periodic state kept overshooting, or one with no periodic state (a multiplier "
+        "beyond 1, or a limit cycle over several periods): raise max_trace_passes if the "
+        "curve changes, or raise trace_oversampling",
         scene.file.string(), stats.non_periodic_traces, scene.harmonic_balance.max_trace_passes,
         stats.last_trace_diagnostic));
   if (stats.contacts_with_fd_jacobian &&

@@ -18,6 +18,10 @@ constexpr double kPeriodicStateRankThreshold = 1e-10;
 // A Newton step on the periodic state longer than this many times the trace's scale (the
 // largest displacement or state) is not taken.
 constexpr double kMaxPeriodicStateStep = 1e3;
+// Passes that did not change the state by less than the pass before them (each takes no Newton
+// step on the periodic state; see run_passes_from_initial_state) before the passes go on
+// without steps.
+constexpr int kMaxRefusedPeriodicStateSteps = 8;
 // Room for force kinks inside one step (a law reports at most this many).
 constexpr std::size_t kMaxKinksPerStep = 8;
 
@@ -252,7 +256,11 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
 // contact never slips in, where M is the identity), so the state there stays where the
 // warm-up put it. A step is only taken while the passes keep shrinking their change, towards
 // a fixed point that attracts (no multiplier of M beyond 1), and is checked by the next pass:
-// the trace ends, as without steps, on a pass that repeats its start.
+// the trace ends, as without steps, on a pass that repeats its start. A pass that does not
+// shrink the change takes no step, and the steps resume from the next pass that does (a
+// slider whose slow direction contracts by 1 - 5.6e-4 per period while its multiplier rises
+// from 0.7 as the state approaches: the first steps fall short, and the direction it slips
+// fully in jumps after each); after kMaxRefusedPeriodicStateSteps such passes, plain passes.
 bool PeriodicTracer::run_passes_from_initial_state(ContactTrace& out, bool with_derivative,
                                                    std::string* error) {
   const int n = layout_.samples(), p = unknown_count(), s = state_size_;
@@ -279,6 +287,7 @@ bool PeriodicTracer::run_passes_from_initial_state(ContactTrace& out, bool with_
   }
   bool newton = options_.newton_on_periodic_state && s > 0 && law_.traits().provides_tangent != 0;
   double change_before = std::numeric_limits<double>::infinity();
+  int refused_steps = 0;
   for (;;) {
     start = state;
     if (with_derivative) dstart = dstate;
@@ -311,14 +320,17 @@ bool PeriodicTracer::run_passes_from_initial_state(ContactTrace& out, bool with_
       break;
     }
     if (!track) continue;
-    // A pass after a Newton step that changed the state by more than the pass before the
-    // step: the map is not smooth enough here (samples switching between stick and slip);
+    // A pass that changed the state by no less than the pass before it (after a Newton step:
+    // the directions the contact slips fully in follow the step within a pass; a step from a
+    // monodromy where the samples switch between stick and slip may overshoot): no step from
+    // it, the next pass is compared with it, and after kMaxRefusedPeriodicStateSteps of these
     // plain passes from here on. The state alone is watched: its derivative jumps while the
     // samples settle, and once the state repeats a step gives the derivative's fixed point
     // exactly (M and B no longer change).
     const double relative_change = change / scale;
     if (relative_change > tol && !(relative_change < change_before)) {
-      newton = false;
+      change_before = relative_change;
+      if (++refused_steps > kMaxRefusedPeriodicStateSteps) newton = false;
       continue;
     }
     change_before = relative_change;
@@ -410,6 +422,7 @@ bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& 
   Eigen::MatrixXd dstate, monodromy;
   bool newton = true, carry = true;
   double change_before = std::numeric_limits<double>::infinity();
+  int refused_steps = 0;
   for (;;) {
     start = state;
     if (carry) {
@@ -434,7 +447,12 @@ bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& 
     if (repeated || !newton) continue;
     // The Newton step of run_passes_from_initial_state, on the state alone.
     const double relative_change = change / scale;
-    if (!(relative_change < change_before) || !attracting(monodromy)) {
+    if (!(relative_change < change_before)) {
+      change_before = relative_change;
+      if (++refused_steps > kMaxRefusedPeriodicStateSteps) newton = false;
+      continue;
+    }
+    if (!attracting(monodromy)) {
       newton = false;
       continue;
     }
