@@ -479,8 +479,22 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
     if (message) *message = "the residual is not finite at w = " + std::to_string(w) + " rad/s";
     return false;
   }
+  return finish_jacobian(w, jacobian, op, std::move(receptances), std::move(parameter_column),
+                         message);
+}
+
+bool HarmonicBalanceModel::finish_jacobian(double w, Eigen::MatrixXd* jacobian,
+                                           std::shared_ptr<const JacobianOperator>* op,
+                                           std::vector<HarmonicReceptance>&& receptances,
+                                           Eigen::VectorXd&& parameter_column,
+                                           std::string* message) const {
+  const auto started = std::chrono::steady_clock::now();
+  const auto elapsed = [&started] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  };
+  const int c = layout_.coefficient_count();
+  const Eigen::Index n = unknown_count_;
   if (op != nullptr) {
-    t_part = Clock::now();
     std::vector<ContactTangent> tangents(contacts_.size());
     for (std::size_t i = 0; i < contacts_.size(); ++i) {
       tangents[i].first = static_cast<Eigen::Index>(contacts_[i].offset) * c;
@@ -493,15 +507,14 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
     *op = std::make_shared<HarmonicJacobian>(c, components_, std::move(receptances),
                                              std::move(tangents), std::move(parameter_column),
                                              contact_threads_);
-    stats_.assembly_seconds += elapsed(t_part);
+    stats_.assembly_seconds += elapsed();
     return true;
   }
   if (!jacobian) return true;
 
-  t_part = Clock::now();
   assemble_jacobian(*jacobian);
   jacobian->leftCols(n).diagonal().array() += 1.0;
-  stats_.assembly_seconds += elapsed(t_part);
+  stats_.assembly_seconds += elapsed();
   if (!jacobian->allFinite()) {
     if (message) *message = "the Jacobian is not finite at w = " + std::to_string(w) + " rad/s";
     return false;

@@ -60,6 +60,8 @@ using SparseGather = Eigen::SparseMatrix<std::complex<double>, Eigen::RowMajor>;
 // components, Hermitian, in about 12 (components x kept + components^2) flops.
 Eigen::MatrixXcd gather_hermitian(const SparseGather& g, const Eigen::MatrixXcd& f);
 
+struct HarmonicReceptance;  // model/harmonic_jacobian.hpp
+
 class HarmonicBalanceModel final : public CurveProblem {
  public:
   // Builds the reduced model of a bound scene (plugins loaded, params validated) on an
@@ -137,6 +139,13 @@ class HarmonicBalanceModel final : public CurveProblem {
   // into `op` (at most one of them not null).
   bool evaluate_into(const Eigen::VectorXd& y, Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
                      std::shared_ptr<const JacobianOperator>* op, std::string* message) const;
+  // evaluate_into's Jacobian at frequency w from the contacts' blocks (traces_): as an operator
+  // into `op` over the harmonics' `receptances` and `parameter_column`, or formed into
+  // `jacobian` (neither: nothing). False, with `message`, where it is not finite.
+  bool finish_jacobian(double w, Eigen::MatrixXd* jacobian,
+                       std::shared_ptr<const JacobianOperator>* op,
+                       std::vector<HarmonicReceptance>&& receptances,
+                       Eigen::VectorXd&& parameter_column, std::string* message) const;
 
   struct ContactReceptance;
   struct Workspace;
