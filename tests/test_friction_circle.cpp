@@ -221,6 +221,28 @@ TEST(FrictionCircle, MeetsTheAdaptiveReferenceAt256SamplesAtSecondOrderOrBetter)
   }
 }
 
+// A function whose partials are written out (Dual::from_partials, what the slider's direction
+// rate uses) carries the derivatives the whole expression run in dual numbers carries.
+TEST(Dual, FromPartialsIsTheChainRuleOfTheWholeExpression) {
+  using D = sdk::Dual<3>;
+  // Three inputs that each depend on all three variables.
+  const D x = D::variable(0.7, 0) * 2.0 + D::variable(0.3, 1);
+  const D y = D::variable(-1.2, 1) * D::variable(0.4, 2) + 1.5;
+  const D z = sdk::sin(D::variable(0.9, 0)) + D::variable(2.0, 2);
+  const D whole = x * y / z + sdk::cos(x);
+  const double xv = x.value(), yv = y.value(), zv = z.value();
+  const D written =
+      D::from_partials(xv * yv / zv + std::cos(xv),
+                       std::array<double, 3>{yv / zv - std::sin(xv), xv / zv, -xv * yv / (zv * zv)},
+                       std::array<const D*, 3>{&x, &y, &z});
+  EXPECT_EQ(written.value(), whole.value());
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(written.derivative(i), whole.derivative(i), 1e-14 * std::abs(whole.derivative(i)))
+        << "variable " << i;
+    EXPECT_NE(whole.derivative(i), 0.0) << "variable " << i;
+  }
+}
+
 // The tangents a law gets by running the step on dual numbers are the derivatives of the
 // step: against central differences of the double step, over every step of a traced period
 // (stick, slip, separation and re-contact inside steps).

@@ -23,6 +23,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstddef>
 
 namespace frichb::sdk {
 
@@ -79,10 +80,28 @@ class Dual {
     for (int i = 0; i < N; ++i) d.derivative_[i] = df * derivative_[i];
     return d;
   }
+  // A function of K duals at their values: value f, partial derivatives df with respect to
+  // each (the chain rule: derivatives sum_k df[k] x[k]'), for code that writes a function's
+  // partials out rather than running its whole expression in duals.
+  template <std::size_t K>
+  static Dual from_partials(double f, const std::array<double, K>& df,
+                            const std::array<const Dual*, K>& x) {
+    // Summed in a local array: the result's storage may be the caller's, which the compiler
+    // must assume the inputs alias.
+    std::array<double, N> sum{};
+    for (std::size_t k = 0; k < K; ++k)
+      for (int i = 0; i < N; ++i) sum[i] += df[k] * x[k]->derivative_[i];
+    Dual d(f);
+    d.derivative_ = sum;
+    return d;
+  }
 
  private:
-  double value_ = 0.0;
+  // The derivatives first: a copy of a dual then moves them in the same 16-byte pairs that
+  // the arithmetic loads (the value first offset every pair by 8 bytes, and a load of a pair
+  // just copied then missed the store it should be forwarded from).
   std::array<double, N> derivative_{};
+  double value_ = 0.0;
 };
 
 template <int N>

@@ -45,6 +45,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <type_traits>
 
 #include "frichb/plugin/abi.h"
 #include "frichb/plugin/dual.hpp"
@@ -75,7 +76,7 @@ class HermiteCubic {
   }
   std::array<S, 3> position(const S& s) const {
     std::array<S, 3> u;
-    for (std::size_t i = 0; i < 3; ++i) u[i] = a_[i] + s * (b_[i] + s * (c_[i] + s * d_[i]));
+    for (std::size_t i = 0; i < 3; ++i) u[i] = position_of(i, s);
     return u;
   }
   // position(y) - position(x), without the cancellation of subtracting two positions when y
@@ -88,9 +89,14 @@ class HermiteCubic {
   }
   std::array<S, 3> rate(const S& s) const {
     std::array<S, 3> v;
-    for (std::size_t i = 0; i < 3; ++i) v[i] = b_[i] + s * (2.0 * c_[i] + 3.0 * s * d_[i]);
+    for (std::size_t i = 0; i < 3; ++i) v[i] = rate_of(i, s);
     return v;
   }
+  // One component of position(s) and rate(s), by the same operations.
+  S position_of(std::size_t i, const S& s) const {
+    return a_[i] + s * (b_[i] + s * (c_[i] + s * d_[i]));
+  }
+  S rate_of(std::size_t i, const S& s) const { return b_[i] + s * (2.0 * c_[i] + 3.0 * s * d_[i]); }
   // The same cubic in doubles (the values of a dual-number one).
   HermiteCubic<double> values() const {
     HermiteCubic<double> out;
@@ -269,16 +275,48 @@ class FrictionCircleSlider {
            mu_ * normal_rate / n.stiffness;
   }
 
-  // d angle / ds.
+  // What the direction's rate reads of the motion at one s: u_n and u_t' (in Scalar) and the
+  // normal side there (in double, with its derivatives in u_n).
   template <class S>
-  S angle_rate(const HermiteCubic<S>& m, const S& s, const S& angle) const {
-    const auto u = m.position(s);
-    const auto v = m.rate(s);
-    const auto n = normal_.side(u[2]);
+  struct SlipMotion {
+    S un, v0, v1;
+    NormalSide<double> side;
+  };
+  template <class S>
+  SlipMotion<S> slip_motion(const HermiteCubic<S>& m, const S& s) const {
+    SlipMotion<S> at{m.position_of(2, s), m.rate_of(0, s), m.rate_of(1, s), {}};
+    at.side = normal_.side(value_of(at.un));
+    return at;
+  }
+
+  // d angle / ds = kt (u_t' . e_a) / (mu N) on the motion `at`. In dual numbers the value is
+  // the double code's, by the same operations, and the derivatives come by the chain rule
+  // through the four quantities it reads (u_n, u_t1', u_t2', the angle), with its partials
+  // written out: what the slip's sub-steps spend most of a derivative pass on.
+  template <class S>
+  S turning_rate(const SlipMotion<S>& at, const S& angle) const {
+    const auto& n = at.side;
     // At N = 0 (the opening point of a slip segment) the direction no longer matters: the
     // force vanishes there and the slider is released.
     if (!(n.normal > 0)) return S(0.0);
-    return n.stiffness * (cos(angle) * v[1] - sin(angle) * v[0]) / (mu_ * n.normal);
+    const double a = value_of(angle), c = std::cos(a), sn = std::sin(a);
+    const double v0 = value_of(at.v0), v1 = value_of(at.v1);
+    const double turning = c * v1 - sn * v0, limit = mu_ * n.normal;
+    const double rate = n.stiffness * turning / limit;
+    if constexpr (std::is_same_v<S, double>) {
+      return rate;
+    } else {
+      const double per_length = n.stiffness / limit;
+      return S::from_partials(
+          rate,
+          std::array<double, 4>{(n.dstiffness * turning - rate * mu_ * n.dnormal) / limit,
+                                -per_length * sn, per_length * c, -per_length * (sn * v1 + c * v0)},
+          std::array<const S*, 4>{&at.un, &at.v0, &at.v1, &angle});
+    }
+  }
+  template <class S>
+  S angle_rate(const HermiteCubic<S>& m, const S& s, const S& angle) const {
+    return turning_rate(slip_motion(m, s), angle);
   }
 
   // Decides the phase at s (the step's start): open, a slider outside the circle returned
@@ -535,10 +573,11 @@ class FrictionCircleSlider {
   // Classical Runge-Kutta step of the direction from (s, angle) over ds.
   template <class S>
   S rk4(const HermiteCubic<S>& m, const S& s, const S& angle, const S& ds) const {
+    const SlipMotion<S> middle = slip_motion(m, S(s + 0.5 * ds));
     const S k1 = angle_rate(m, s, angle);
-    const S k2 = angle_rate(m, s + 0.5 * ds, angle + 0.5 * ds * k1);
-    const S k3 = angle_rate(m, s + 0.5 * ds, angle + 0.5 * ds * k2);
-    const S k4 = angle_rate(m, s + ds, angle + ds * k3);
+    const S k2 = turning_rate(middle, angle + 0.5 * ds * k1);
+    const S k3 = turning_rate(middle, angle + 0.5 * ds * k2);
+    const S k4 = angle_rate(m, S(s + ds), angle + ds * k3);
     return angle + ds / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
   }
 
@@ -598,7 +637,7 @@ class FrictionCircleSlider {
       const double sd = value_of(s), dsd = value_of(next_s) - sd;
       const bool stiff = relaxation_rate(md, sd + 0.5 * dsd) * dsd > 1.0;
       const S next = advance_angle(m, s, ph.angle, next_s - s, stiff);
-      const double lam = value_of(slip_rate(m, next_s, next));
+      const double lam = slip_rate(md, value_of(next_s), value_of(next));
       if (lam < 0) {
         // Slip to stick inside this sub-step: the root of lambda along the same sub-step.
         const double a = value_of(s), b = value_of(next_s), a0 = value_of(ph.angle);
