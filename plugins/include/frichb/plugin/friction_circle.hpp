@@ -587,15 +587,17 @@ class FrictionCircleSlider {
   // that rate, and any error is forgotten as fast; the force is small. Newton in Scalar.
   template <class S>
   S backward_euler(const HermiteCubic<S>& m, const S& s, const S& angle, const S& ds) const {
-    const S at = s + ds;
+    // The motion at the sub-step's end, once for every iteration; its values for the slope.
+    const SlipMotion<S> end = slip_motion(m, S(s + ds));
+    const SlipMotion<double> end_value{value_of(end.un), value_of(end.v0), value_of(end.v1),
+                                       end.side};
     S next = angle;
     for (int it = 0; it < 8; ++it) {
-      const S residual = next - angle - ds * angle_rate(m, at, next);
-      const double h = 1e-7;
-      const double slope = 1.0 - value_of(ds) *
-                                     (value_of(angle_rate(m, at, next + h)) -
-                                      value_of(angle_rate(m, at, next - h))) /
-                                     (2 * h);
+      const S residual = next - angle - ds * turning_rate(end, next);
+      const double h = 1e-7, x = value_of(next);
+      const double slope =
+          1.0 - value_of(ds) * (turning_rate(end_value, x + h) - turning_rate(end_value, x - h)) /
+                    (2 * h);
       next = next - residual / (std::abs(slope) > 1e-12 ? slope : 1.0);
       if (std::abs(value_of(residual)) < 1e-15) break;
     }
