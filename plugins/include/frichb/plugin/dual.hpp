@@ -86,8 +86,6 @@ class Dual {
   template <std::size_t K>
   static Dual from_partials(double f, const std::array<double, K>& df,
                             const std::array<const Dual*, K>& x) {
-    // Summed in a local array: the result's storage may be the caller's, which the compiler
-    // must assume the inputs alias.
     std::array<double, N> sum{};
     for (std::size_t k = 0; k < K; ++k)
       for (int i = 0; i < N; ++i) sum[i] += df[k] * x[k]->derivative_[i];
