@@ -472,6 +472,82 @@ TEST(Stress, JacobianOperatorAppliesTheFormedJacobian) {
   }
 }
 
+// The model reduces each harmonic index's residual flexibility F (kept x kept) as the
+// structure fetches it and keeps only G F G^H, G F f and F's rows at the observed DOFs. Oracle:
+// the whole F of the same provider, in dense products. The FE example excited at its root and
+// observed there, so that the tip (a contact DOF only) is not observed.
+TEST(Stress, ReducedResidualFlexibilityActsAsTheWholeOne) {
+  const fs::path configs = fs::path(FRICHB_SOURCE_DIR) / "configs";
+  TempDir dir;
+  const std::string generate = "python3 '" +
+                               (configs / "models" / "make_example_sector.py").string() + "' '" +
+                               (dir.path() / "models" / "generated").string() + "' > /dev/null";
+  ASSERT_EQ(std::system(generate.c_str()), 0);
+  const fs::path file = dir.path() / "fe_sector_example.yaml";
+  fs::copy_file(configs / "fe_sector_example.yaml", file);
+  const Scene scene = bound(file, [](YAML::Node& d) {
+    d["excitation"][0]["dof"] = "root";
+    d["output"]["response"] = std::vector<std::string>{"root"};
+  });
+  StructureInstance structure(scene.structure.plugin, scene.structure.values);
+  const HarmonicBalanceModel model(scene, structure);
+  const ReducedStructure& reduced = model.structure();
+  const ReducedStructure whole(structure, reduced.kept_dofs(), {0, 1, 2, 3, 4, 5, 6, 7});
+  const Eigen::Index tip = model.kept_index(22), root = model.kept_index(20);
+  ASSERT_GE(tip, 0);
+  ASSERT_GE(root, 0);
+
+  const auto& harmonics = model.layout().harmonics();
+  const int c = model.layout().coefficient_count();
+  const double w = 2 * std::numbers::pi * 300.0;
+  // Contact forces at which to recover the response: any will do.
+  const Eigen::VectorXd forces = Eigen::VectorXd::Random(model.equation_count());
+  const Eigen::VectorXd u0 = model.linear_response(w);
+  const std::vector<Eigen::VectorXcd> x = model.kept_response(
+      (Eigen::VectorXd(model.equation_count() + 1) << u0, w).finished(), forces);
+  for (std::size_t k = 0; k < harmonics.size(); ++k) {
+    SCOPED_TRACE("harmonic " + std::to_string(harmonics[k]));
+    const int index = scene.cyclic.harmonic_index(harmonics[k]);
+    const Eigen::MatrixXcd& f = whole.basis(index).residual_flexibility;
+    ASSERT_GT(f.size(), 0);
+    EXPECT_TRUE(reduced.basis(index).flexibility_reduced);
+    EXPECT_EQ(reduced.basis(index).residual_flexibility.size(), 0);
+    Eigen::MatrixXcd r;
+    EXPECT_THROW(reduced.receptance(index, w, r), std::logic_error);
+
+    const Eigen::MatrixXcd g = Eigen::MatrixXcd(model.gather(k));
+    const Eigen::MatrixXcd expected_flexibility = g * f * g.adjoint();
+    EXPECT_LE((model.contact_flexibility(k) - expected_flexibility).norm(),
+              1e-14 * expected_flexibility.norm());
+    // (At harmonic 0 both sides of the contact move alike: G vanishes.)
+    if (harmonics[k] > 0) {
+      EXPECT_GT(expected_flexibility.norm(), 1e-3 * f.norm());
+    }
+
+    // The contact-free motion of the contacts, G R(W) f_ext, in the layout's cos/sin slots.
+    const double big_w = harmonics[k] * w;
+    const Eigen::VectorXcd free_motion = g * whole.respond(index, big_w, model.excitation(k));
+    // The response at the observed DOF to the excitation less the contact forces.
+    Eigen::VectorXcd contact_force(model.component_count());
+    for (int a = 0; a < model.component_count(); ++a) {
+      const double fs = harmonics[k] > 0 ? forces(a * c + model.layout().sin_index(k)) : 0.0;
+      contact_force(a) = cd(forces(a * c + model.layout().cos_index(k)), -fs);
+    }
+    const Eigen::VectorXcd response = whole.respond(
+        index, big_w, model.excitation(k) - Eigen::MatrixXcd(g.adjoint()) * contact_force);
+    EXPECT_NEAR(std::abs(x[k](root) - response(root)), 0.0, 1e-13 * response.norm());
+    EXPECT_TRUE(std::isnan(x[k](tip).real()));
+    for (int a = 0; a < model.component_count(); ++a) {
+      EXPECT_NEAR(u0(a * c + model.layout().cos_index(k)), free_motion(a).real(),
+                  1e-13 * free_motion.norm());
+      if (harmonics[k] > 0) {
+        EXPECT_NEAR(u0(a * c + model.layout().sin_index(k)), -free_motion(a).imag(),
+                    1e-13 * free_motion.norm());
+      }
+    }
+  }
+}
+
 TEST(Stress, HarmonicDecoupledPreconditionerIsExactForATimeInvariantTangent) {
   // A contact that never slips nor separates has the same tangent all period: the harmonics
   // decouple and I + Rc D0 is the Jacobian itself. A Hertz contact opening and closing couples

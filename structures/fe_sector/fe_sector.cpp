@@ -753,9 +753,19 @@ class FeSector final : public frichb::sdk::StructureProvider {
     Mat<cd> g = real_ ? static_compliance<double>(e.real(), cols, factors)
                       : static_compliance<cd>(e, cols, factors);
     if (g.size() == 0) return g;
+    // In place: at a thousand contact node pairs g is half a gigabyte, a temporary as much.
     const Eigen::VectorXd inv_w2 = frequencies_.array().square().inverse().matrix();
-    g -= phi * inv_w2.asDiagonal() * phi.adjoint();
-    g = (0.5 * (g + g.adjoint())).eval();
+    const Mat<cd> scaled = phi * inv_w2.asDiagonal();
+    g.noalias() -= scaled * phi.adjoint();
+    const Index n = g.rows();
+    for (Index j = 0; j < n; ++j) {
+      g(j, j) = g(j, j).real();
+      for (Index i = j + 1; i < n; ++i) {
+        const cd mean = 0.5 * (g(i, j) + std::conj(g(j, i)));
+        g(i, j) = mean;
+        g(j, i) = std::conj(mean);
+      }
+    }
     return g;
   }
 

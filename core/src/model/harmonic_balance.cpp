@@ -65,7 +65,6 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     if (std::find(indices.begin(), indices.end(), harmonic_index_.back()) == indices.end())
       indices.push_back(harmonic_index_.back());
   }
-  structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, indices);
   const auto kept = static_cast<Eigen::Index>(kept_dofs_.size());
   // Gather weights of the sides in the reference sector (offset 0) and in its neighbours
   // (offsets -1, +1) as (row, kept DOF, weight), combined per harmonic with the cyclic phase
@@ -150,9 +149,36 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     for (std::size_t d = 0; d < dofs.size(); ++d)
       excitation_[k](kept_index(dofs[d])) += a * e.direction[d];
   }
+  // The residual flexibility F of a harmonic index is kept x kept: it is reduced, as the
+  // structure fetches it, to what the harmonics of that index need (G F G^H, G F f) and to its
+  // rows at the responses the output reads (the excitation's and the responses' DOFs).
+  contact_receptance_.resize(h.size());
+  ReducedStructure::FlexibilityUse use;
+  {
+    std::vector<std::string> observed;
+    for (const auto& e : scene.excitation) observed.push_back(e.node);
+    for (const auto& r : scene.output.response) observed.push_back(r);
+    for (const auto& name : observed) {
+      if (name == "ground") continue;
+      for (std::size_t d : scene.structure.find(name)->dofs) {
+        const Eigen::Index row = kept_index(d);
+        if (std::find(use.response_rows.begin(), use.response_rows.end(), row) ==
+            use.response_rows.end())
+          use.response_rows.push_back(row);
+      }
+    }
+  }
+  use.reduce = [this](int index, const Eigen::MatrixXcd& f) {
+    for (std::size_t k = 0; k < harmonic_index_.size(); ++k) {
+      if (harmonic_index_[k] != index) continue;
+      contact_receptance_[k].flexibility = gather_hermitian(gather_[k], f);
+      contact_receptance_[k].flexible_motion = gather_[k] * (f * excitation_[k]);
+    }
+  };
+  structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, indices, &use);
   for (std::size_t k = 0; k < h.size(); ++k) {
     const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
-    ContactReceptance cr;
+    ContactReceptance& cr = contact_receptance_[k];
     cr.modal = b.diagonal_damping;
     if (cr.modal) {
       cr.projected = gather_[k] * b.rows;
@@ -161,12 +187,7 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
       if (cr.projected.size() == 0 || cr.projected.imag().cwiseAbs().maxCoeff() == 0.0)
         cr.projected_real = cr.projected.real();
       cr.modal_force = b.rows.adjoint() * excitation_[k];
-      if (b.residual_flexibility.size()) {
-        cr.flexibility = gather_hermitian(gather_[k], b.residual_flexibility);
-        cr.flexible_motion = gather_[k] * (b.residual_flexibility * excitation_[k]);
-      }
     }
-    contact_receptance_.push_back(std::move(cr));
   }
 }
 
@@ -189,7 +210,7 @@ std::vector<HarmonicBalanceModel::ReceptanceForm> HarmonicBalanceModel::receptan
     f.harmonic_index = harmonic_index_[k];
     f.modal = cr.modal;
     f.modes = cr.modal ? cr.projected.cols() : structure_->basis(harmonic_index_[k]).rows.cols();
-    f.residual_flexibility = structure_->basis(harmonic_index_[k]).residual_flexibility.size() > 0;
+    f.residual_flexibility = structure_->basis(harmonic_index_[k]).has_residual_flexibility();
     out.push_back(f);
   }
   return out;
@@ -260,8 +281,22 @@ Eigen::VectorXd HarmonicBalanceModel::linear_response(double w) const {
   Eigen::VectorXd u0 = Eigen::VectorXd::Zero(unknown_count_);
   for (std::size_t k = 0; k < h.size(); ++k) {
     if (excitation_[k].cwiseAbs().maxCoeff() == 0.0) continue;
-    const Eigen::VectorXcd x =
-        gather_[k] * structure_->respond(harmonic_index_[k], h[k] * w, excitation_[k]);
+    const ContactReceptance& cr = contact_receptance_[k];
+    Eigen::VectorXcd x;
+    if (cr.modal) {
+      // G R(W) f = P (q / z(W)) + G F f: the structure's F may have been reduced to G F f.
+      const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
+      const double big_w = h[k] * w;
+      Eigen::VectorXcd modal = cr.modal_force;
+      for (Eigen::Index q = 0; q < modal.size(); ++q) {
+        const double wr = b.frequencies(q);
+        modal(q) /= std::complex<double>(wr * wr - big_w * big_w, big_w * b.damping(q, q));
+      }
+      x = cr.projected * modal;
+      if (cr.flexible_motion.size()) x += cr.flexible_motion;
+    } else {
+      x = gather_[k] * structure_->respond(harmonic_index_[k], h[k] * w, excitation_[k]);
+    }
     for (int a = 0; a < components_; ++a) {
       u0(a * c + layout_.cos_index(k)) = x(a).real();
       if (h[k] > 0) u0(a * c + layout_.sin_index(k)) = -x(a).imag();
@@ -413,7 +448,8 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
       ws.modal -= cr.modal_force;
       ws.motion.noalias() = cr.projected * ws.inv_z.cwiseProduct(ws.modal);
       if (cr.flexibility.size()) {
-        ws.motion.noalias() += cr.flexibility * ws.force;
+        // G F G^H is Hermitian: its lower triangle is read once (half the bytes).
+        ws.motion.noalias() += cr.flexibility.selfadjointView<Eigen::Lower>() * ws.force;
         ws.motion -= cr.flexible_motion;
       }
       if (derivatives)

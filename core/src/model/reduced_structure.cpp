@@ -1,6 +1,7 @@
 #include "frichb/core/model/reduced_structure.hpp"
 
 #include <cstddef>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -26,9 +27,17 @@ Eigen::MatrixXcd modal_impedance_matrix(const ReducedStructure::Basis& b, double
 }  // namespace
 
 ReducedStructure::ReducedStructure(StructureInstance& provider, std::vector<std::size_t> kept_dofs,
-                                   const std::vector<int>& harmonic_indices)
+                                   const std::vector<int>& harmonic_indices,
+                                   const FlexibilityUse* use)
     : kept_dofs_(std::move(kept_dofs)) {
   const auto kept = static_cast<Eigen::Index>(kept_dofs_.size());
+  if (use != nullptr) {
+    for (Eigen::Index row : use->response_rows)
+      if (row < 0 || row >= kept)
+        throw std::out_of_range("ReducedStructure: response row " + std::to_string(row) +
+                                " is not among the " + std::to_string(kept) + " kept DOFs");
+    response_rows_ = use->response_rows;
+  }
   for (int h : harmonic_indices) {
     if (bases_.count(h)) continue;
     const frichb_modal_basis b = provider.modal_basis(h, kept_dofs_);
@@ -57,6 +66,13 @@ ReducedStructure::ReducedStructure(StructureInstance& provider, std::vector<std:
       throw PluginError("structure '" + provider.plugin().name() +
                         "' returned a modal basis with NaN or Inf for harmonic index " +
                         std::to_string(h));
+    if (use != nullptr && use->reduce && basis.diagonal_damping &&
+        basis.residual_flexibility.size() > 0) {
+      use->reduce(h, basis.residual_flexibility);
+      basis.flexibility_rows = basis.residual_flexibility(response_rows_, Eigen::all);
+      basis.residual_flexibility = Eigen::MatrixXcd();  // frees the kept x kept block
+      basis.flexibility_reduced = true;
+    }
     bases_.emplace(h, std::move(basis));
   }
 }
@@ -80,6 +96,10 @@ const Eigen::VectorXd& ReducedStructure::natural_frequencies(int harmonic_index)
 void ReducedStructure::receptance(int harmonic_index, double w, Eigen::MatrixXcd& r,
                                   Eigen::MatrixXcd* dr) const {
   const Basis& b = basis(harmonic_index);
+  if (b.flexibility_reduced)
+    throw std::logic_error("ReducedStructure::receptance: harmonic index " +
+                           std::to_string(harmonic_index) +
+                           " keeps its residual flexibility only where it was reduced");
   const std::complex<double> i(0.0, 1.0);
   const Eigen::Index m = b.frequencies.size();
   if (b.diagonal_damping) {
@@ -119,6 +139,12 @@ Eigen::VectorXcd ReducedStructure::respond(int harmonic_index, double w,
   }
   Eigen::VectorXcd x = b.rows * modal;
   if (b.residual_flexibility.size()) x += b.residual_flexibility * force;
+  if (b.flexibility_reduced) {
+    const Eigen::VectorXcd at_rows = x(response_rows_) + b.flexibility_rows * force;
+    x.setConstant(std::complex<double>(std::numeric_limits<double>::quiet_NaN(),
+                                       std::numeric_limits<double>::quiet_NaN()));
+    x(response_rows_) = at_rows;
+  }
   return x;
 }
 

@@ -96,6 +96,8 @@ class HarmonicBalanceModel final : public CurveProblem {
   Eigen::VectorXd point_record(const Eigen::VectorXd& y) const override;
   // Complex amplitude X_n (kept DOFs) of each kept harmonic for the solution y. `forces`: the
   // contact forces' coefficients at y (point_record), or empty to trace the contacts for them.
+  // With a residual flexibility (reduced at construction), only the DOFs of the excitation's
+  // and the responses' nodes are computed: the entries of the other kept DOFs are NaN.
   std::vector<Eigen::VectorXcd> kept_response(const Eigen::VectorXd& y,
                                               const Eigen::VectorXd& forces = {}) const;
   // Index of a structure DOF among the kept DOFs.
@@ -118,6 +120,12 @@ class HarmonicBalanceModel final : public CurveProblem {
   // u_n = G_n x_n of kept harmonic k (components x kept DOFs; real without cyclic symmetry),
   // sparse: a row holds the frame direction's entries at the DOFs of the contact's two sides.
   const SparseGather& gather(std::size_t k) const { return gather_[k]; }
+  // G F G^H of kept harmonic k (components x components, Hermitian) where its modal damping is
+  // diagonal and the structure has a residual flexibility F, else empty (F itself is reduced
+  // to it at construction: ReducedStructure::FlexibilityUse).
+  const Eigen::MatrixXcd& contact_flexibility(std::size_t k) const {
+    return contact_receptance_[k].flexibility;
+  }
   // Complex amplitude of the external force of kept harmonic k at the kept DOFs.
   const Eigen::VectorXcd& excitation(std::size_t k) const { return excitation_[k]; }
   JacobianMode jacobian_mode() const { return mode_; }
