@@ -113,8 +113,8 @@ std::vector<frichb_param_spec> fe_sector_schema() {
           .defaults_to_text("auto"),
       Param::boolean("residual_flexibility",
                      "add the static residual flexibility of the truncated modes at the kept "
-                     "DOFs (harmonic indices with a real K_h only: 0 and sectors/2; none when "
-                     "K_h is singular or every mode is kept)")
+                     "DOFs (every harmonic index: real for 0 and sectors/2, Hermitian otherwise; "
+                     "none when K_h is singular or every mode is kept)")
           .defaults_to(1.0),
       Param::path("cache_dir",
                   "folder of a disk cache of the modal solution of each harmonic index, keyed "

@@ -111,12 +111,16 @@ std::vector<LinearResonance> linear_resonances(const Scene& scene,
     // K_e P = K_c S^-1 P with S = I + G F G^H K_c: one LU of S and a solve for the modes'
     // columns, never K_e itself.
     Eigen::MatrixXcd effective_on_modes = kc * projected;
-    Eigen::MatrixXcd flexibility = model.contact_flexibility(kept);
-    if (flexibility.size() == 0 && basis.residual_flexibility.size() > 0)
-      flexibility = gather_hermitian(gather, basis.residual_flexibility);
-    if (flexibility.size() > 0) {
+    // G F G^H: the model's where it reduced F, else from the basis's whole F.
+    Eigen::MatrixXcd gathered;
+    const Eigen::MatrixXcd* flexibility = &model.contact_flexibility(kept);
+    if (flexibility->size() == 0 && basis.residual_flexibility.size() > 0) {
+      gathered = gather_hermitian(gather, basis.residual_flexibility);
+      flexibility = &gathered;
+    }
+    if (flexibility->size() > 0) {
       const Eigen::MatrixXcd series =
-          Eigen::MatrixXcd::Identity(kc.rows(), kc.cols()) + flexibility * kc;
+          Eigen::MatrixXcd::Identity(kc.rows(), kc.cols()) + *flexibility * kc;
       effective_on_modes = kc * series.partialPivLu().solve(projected);
     }
     Eigen::MatrixXcd stiffened = projected.adjoint() * effective_on_modes;

@@ -137,14 +137,15 @@ Eigen::VectorXcd ReducedStructure::respond(int harmonic_index, double w,
   } else {
     modal = modal_impedance_matrix(b, w).partialPivLu().solve(modal).eval();
   }
+  if (b.flexibility_reduced) {
+    Eigen::VectorXcd x = Eigen::VectorXcd::Constant(
+        b.rows.rows(), std::complex<double>(std::numeric_limits<double>::quiet_NaN(),
+                                            std::numeric_limits<double>::quiet_NaN()));
+    x(response_rows_) = b.rows(response_rows_, Eigen::all) * modal + b.flexibility_rows * force;
+    return x;
+  }
   Eigen::VectorXcd x = b.rows * modal;
   if (b.residual_flexibility.size()) x += b.residual_flexibility * force;
-  if (b.flexibility_reduced) {
-    const Eigen::VectorXcd at_rows = x(response_rows_) + b.flexibility_rows * force;
-    x.setConstant(std::complex<double>(std::numeric_limits<double>::quiet_NaN(),
-                                       std::numeric_limits<double>::quiet_NaN()));
-    x(response_rows_) = at_rows;
-  }
   return x;
 }
 

@@ -96,8 +96,9 @@ class HarmonicBalanceModel final : public CurveProblem {
   Eigen::VectorXd point_record(const Eigen::VectorXd& y) const override;
   // Complex amplitude X_n (kept DOFs) of each kept harmonic for the solution y. `forces`: the
   // contact forces' coefficients at y (point_record), or empty to trace the contacts for them.
-  // With a residual flexibility (reduced at construction), only the DOFs of the excitation's
-  // and the responses' nodes are computed: the entries of the other kept DOFs are NaN.
+  // For a harmonic whose residual flexibility was reduced at construction (diagonal modal
+  // damping and a residual flexibility), only the DOFs of the excitation's and the responses'
+  // nodes are computed: the entries of the other kept DOFs are NaN.
   std::vector<Eigen::VectorXcd> kept_response(const Eigen::VectorXd& y,
                                               const Eigen::VectorXd& forces = {}) const;
   // Index of a structure DOF among the kept DOFs.

@@ -1,6 +1,8 @@
 // ReducedStructure: receptances R_h(W) = Phi (diag(w_r^2) - W^2 I + i W C)^-1 Phi^H
 // (+ residual flexibility) and dR/dW at the DOFs a scene keeps, for each harmonic index the
-// scene needs, from a structure provider's modal basis (fetched once, at construction).
+// scene needs, from a structure provider's modal basis (fetched once, at construction). Where
+// the caller has the residual flexibility reduced (FlexibilityUse), the receptance is no
+// longer available over all kept DOFs, and responses only at the caller's response rows.
 // Units: W in rad/s, R in m/N. Layout: R(i, j) = response at kept DOF i per unit force at
 // kept DOF j, in the order of `kept_dofs`. Thread-safe after construction (const methods).
 #pragma once
