@@ -396,6 +396,18 @@ TEST(Stress, GmresAndDenseLuTraceTheSameFoldingCurve) {
   EXPECT_NEAR(gmres_peak.value("frequency_hz", 0.0), dense_peak.value("frequency_hz", 0.0), 1e-6);
 }
 
+// The FE example scene copied to `scene` with its sector generated next to it (models/generated
+// in the copy's folder); false if the generator failed.
+bool copy_fe_sector_example(const fs::path& scene) {
+  const fs::path configs = fs::path(FRICHB_SOURCE_DIR) / "configs";
+  const std::string generate =
+      "python3 '" + (configs / "models" / "make_example_sector.py").string() + "' '" +
+      (scene.parent_path() / "models" / "generated").string() + "' > /dev/null";
+  if (std::system(generate.c_str()) != 0) return false;
+  fs::copy_file(configs / "fe_sector_example.yaml", scene);
+  return true;
+}
+
 // The model's Jacobian as an operator against the formed matrix, at a point of the scene's
 // sweep where its contacts move (the contact-free response at mid-sweep, halved).
 // The operator shares the model's modes: the model is kept with it.
@@ -436,14 +448,9 @@ TEST(Stress, JacobianOperatorAppliesTheFormedJacobian) {
     second["params"]["mu"] = 0.2;
     d["contacts"].push_back(second);
   };
-  // The FE example's sector, generated next to a copy of its scene.
   TempDir dir;
-  const std::string generate = "python3 '" +
-                               (configs / "models" / "make_example_sector.py").string() + "' '" +
-                               (dir.path() / "models" / "generated").string() + "' > /dev/null";
-  ASSERT_EQ(std::system(generate.c_str()), 0);
   const fs::path fe_scene = dir.path() / "fe_sector_example.yaml";
-  fs::copy_file(configs / "fe_sector_example.yaml", fe_scene);
+  ASSERT_TRUE(copy_fe_sector_example(fe_scene));
   for (const auto& [file, edit] :
        std::vector<std::pair<fs::path, std::function<void(YAML::Node&)>>>{
            {configs / "bladed_disk_lumped_eo3.yaml", second_contact},
@@ -479,14 +486,9 @@ TEST(Stress, JacobianOperatorAppliesTheFormedJacobian) {
 // harmonics 0 to 5 at engine order 2 of 8 sectors, so that harmonics 0 and 4 share harmonic
 // index 0, and 1 and 5 index 2.
 TEST(Stress, ReducedResidualFlexibilityActsAsTheWholeOne) {
-  const fs::path configs = fs::path(FRICHB_SOURCE_DIR) / "configs";
   TempDir dir;
-  const std::string generate = "python3 '" +
-                               (configs / "models" / "make_example_sector.py").string() + "' '" +
-                               (dir.path() / "models" / "generated").string() + "' > /dev/null";
-  ASSERT_EQ(std::system(generate.c_str()), 0);
   const fs::path file = dir.path() / "fe_sector_example.yaml";
-  fs::copy_file(configs / "fe_sector_example.yaml", file);
+  ASSERT_TRUE(copy_fe_sector_example(file));
   const Scene scene = bound(file, [](YAML::Node& d) {
     d["structure"]["dofs"]["middle"] = 21;
     d["excitation"][0]["dof"] = "middle";

@@ -35,6 +35,24 @@ std::vector<std::size_t> collect_kept_dofs(const Scene& scene) {
   return kept;
 }
 
+// Indices among the kept DOFs of the excitation's and the responses' nodes' DOFs: where the
+// output reads the structure's response.
+std::vector<Eigen::Index> observed_kept_rows(const Scene& scene,
+                                             const std::vector<std::size_t>& kept) {
+  std::vector<Eigen::Index> rows;
+  auto add_node = [&](const std::string& name) {
+    if (name == "ground") return;
+    for (std::size_t d : scene.structure.find(name)->dofs) {
+      const auto row =
+          static_cast<Eigen::Index>(std::find(kept.begin(), kept.end(), d) - kept.begin());
+      if (std::find(rows.begin(), rows.end(), row) == rows.end()) rows.push_back(row);
+    }
+  };
+  for (const auto& e : scene.excitation) add_node(e.node);
+  for (const auto& r : scene.output.response) add_node(r);
+  return rows;
+}
+
 }  // namespace
 
 HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance& structure)
@@ -154,20 +172,7 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   // rows at the responses the output reads (the excitation's and the responses' DOFs).
   contact_receptance_.resize(h.size());
   ReducedStructure::FlexibilityUse use;
-  {
-    std::vector<std::string> observed;
-    for (const auto& e : scene.excitation) observed.push_back(e.node);
-    for (const auto& r : scene.output.response) observed.push_back(r);
-    for (const auto& name : observed) {
-      if (name == "ground") continue;
-      for (std::size_t d : scene.structure.find(name)->dofs) {
-        const Eigen::Index row = kept_index(d);
-        if (std::find(use.response_rows.begin(), use.response_rows.end(), row) ==
-            use.response_rows.end())
-          use.response_rows.push_back(row);
-      }
-    }
-  }
+  use.response_rows = observed_kept_rows(scene, kept_dofs_);
   use.reduce = [this](int index, const Eigen::MatrixXcd& f) {
     for (std::size_t k = 0; k < harmonic_index_.size(); ++k) {
       if (harmonic_index_[k] != index) continue;
