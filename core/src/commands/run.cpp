@@ -265,6 +265,12 @@ PreparedRun prepare_run(const Scene& scene, int contact_threads) {
                    "structure or drop harmonic 0");
   }
 
+  if (scene.output.stability)
+    for (const auto& form : model->receptance_forms())
+      if (form.residual_flexibility)
+        ctx.fail(root["output"]["stability"], "output.stability",
+                 "the stability of a structure with a residual flexibility is not computed "
+                 "(its flexibility has no mass behind it); turn one of them off");
   if (std::string warning = few_samples_warning(scene, *model); !warning.empty()) {
     spdlog::warn("{}", warning);
     start.warnings.push_back(std::move(warning));

@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <sstream>
 
 #include "frichb/core/model/resonance_peak.hpp"
 #include "frichb/core/model/response.hpp"
+#include "frichb/core/model/stability.hpp"
 #include "frichb/core/numerics/harmonics.hpp"
 
 #include "frichb/core/support/format.hpp"
@@ -218,6 +220,10 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
     for (int h : harmonics) table.header.push_back(node.name + "_h" + std::to_string(h) + "_m");
   }
   table.header.insert(table.header.end(), {"newton_iterations", "step", "condition"});
+  if (scene.output.stability)
+    table.header.insert(table.header.end(), {"stable", "largest_multiplier"});
+  double stability_seconds = 0.0;
+  int stability_failures = 0;
   auto& rows = table.rows;
   const auto tabulating = std::chrono::steady_clock::now();
   std::vector<double> peak_amp(nodes.size(), -1.0), peak_w(nodes.size(), 0.0);
@@ -242,6 +248,21 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
     row.push_back(p.newton_iterations);
     row.push_back(p.step);
     row.push_back(std::isfinite(p.condition) ? p.condition : 0.0);  // 0: not estimated
+    if (scene.output.stability) {
+      const auto started = std::chrono::steady_clock::now();
+      const FloquetMultipliers f = floquet_multipliers(model, p.y);
+      stability_seconds +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      if (f.failure.empty()) {
+        row.push_back(f.stable() ? 1.0 : 0.0);
+        row.push_back(f.largest_modulus);
+      } else {  // reported in the table as NaN, and logged
+        if (stability_failures++ == 0)
+          spdlog::warn("no Floquet multipliers at point {}: {}", i, f.failure);
+        row.push_back(std::numeric_limits<double>::quiet_NaN());
+        row.push_back(std::numeric_limits<double>::quiet_NaN());
+      }
+    }
     rows.push_back(std::move(row));
   }
 
@@ -251,6 +272,24 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
                     [](const ContinuationPoint& p) { return p.record.size() > 0; }),
       format_number(
           std::chrono::duration<double>(std::chrono::steady_clock::now() - tabulating).count()));
+  if (scene.output.stability) {
+    const std::size_t stable_column = table.header.size() - 2;
+    table.stable_peaks.assign(nodes.size(), std::nullopt);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const bool stable = rows[i][stable_column] == 1.0;
+      table.unstable_points += rows[i][stable_column] == 0.0 ? 1 : 0;
+      if (i > 0 && rows[i][stable_column] != rows[i - 1][stable_column])
+        table.stability_changes.push_back(i);
+      for (std::size_t k = 0; k < nodes.size() && stable; ++k) {
+        const double amp = rows[i][3 + k * (1 + harmonics.size())];
+        auto& best = table.stable_peaks[k];
+        if (!best || amp > best->amplitude_m) best = ResponseTable::StablePoint{i, amp, rows[i][2]};
+      }
+    }
+  }
+  if (scene.output.stability)
+    spdlog::info("Floquet multipliers of {} points in {} s ({} failed)", rows.size(),
+                 format_number(stability_seconds), stability_failures);
   // The peak of each node's curve, solved along the curve beside its highest point.
   std::vector<bool> refined(nodes.size(), false);
   std::vector<Eigen::VectorXd> peak_y(nodes.size());

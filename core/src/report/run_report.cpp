@@ -125,6 +125,31 @@ nlohmann::json peaks_json(const ResponseTable& table) {
   return peaks;
 }
 
+// With output.stability: the points off the unit circle, each node's highest stable point and
+// where stability changes along the curve.
+nlohmann::json stability_json(const ResponseTable& table) {
+  nlohmann::json highest = nlohmann::json::object();
+  for (std::size_t k = 0; k < table.nodes.size(); ++k) {
+    const auto& p = table.stable_peaks[k];
+    highest[table.nodes[k].name] =
+        p ? nlohmann::json{{"point", p->point},
+                           {"amplitude_m", p->amplitude_m},
+                           {"frequency_hz", p->omega_rad_s / (2 * std::numbers::pi)},
+                           {"omega_rad_s", p->omega_rad_s}}
+          : nlohmann::json(nullptr);
+  }
+  nlohmann::json changes = nlohmann::json::array();
+  const std::size_t stable_column = table.header.size() - 2;
+  for (std::size_t i : table.stability_changes)
+    changes.push_back({{"point", i},
+                       {"frequency_hz", table.rows[i][1]},
+                       {"stable", table.rows[i][stable_column] == 1.0},
+                       {"largest_multiplier", table.rows[i][stable_column + 1]}});
+  return {{"unstable_points", table.unstable_points},
+          {"highest_stable_point", highest},
+          {"changes", changes}};
+}
+
 // Per kept harmonic: how the receptance at the contacts is represented (modes retained, and
 // whether the static residual flexibility of the others is added).
 nlohmann::json receptance_json(const HarmonicBalanceModel& model) {
@@ -194,12 +219,25 @@ std::string response_plot_script(const Scene& scene, const ResponseTable& table)
      << log_axes(false, log_amplitude_axis(scene.output.amplitude_axis, span))
      << "set key outside right top\n";
   const int xcol = scene.continuation.unit == FrequencyUnit::kHz ? 2 : 3;
+  // With the stability columns: the stable points solid, the whole curve under them dashed,
+  // so that the unstable branches show dashed.
+  const bool stability =
+      std::find(table.header.begin(), table.header.end(), "stable") != table.header.end();
   gp << "plot ";
-  for (std::size_t i = 0; i < nodes.size(); ++i)
-    gp << (i ? ", \\\n     " : "") << "'response.csv' using " << xcol << ":"
-       << "(column(" << gnuplot_string(nodes[i].name + "_amplitude_m") << ")*"
-       << scale_factor_text(scale) << ") with linespoints lt " << i + 1 << " pt 7 ps 0.4 title "
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    const std::string amplitude = "column(" + gnuplot_string(nodes[i].name + "_amplitude_m") +
+                                  ")*" + scale_factor_text(scale);
+    gp << (i ? ", \\\n     " : "") << "'response.csv' using " << xcol << ":";
+    if (stability)
+      gp << "(" << amplitude << ") with lines lt " << i + 1 << " dt 2 lw 1.5 notitle, \\\n     "
+         << "'response.csv' using " << xcol << ":(column('stable') > 0.5 ? " << amplitude
+         << " : NaN)";
+    else
+      gp << "(" << amplitude << ")";
+    gp << " with linespoints lt " << i + 1 << " pt 7 ps 0.4 title "
        << gnuplot_string(nodes[i].name);
+  }
+  if (stability) gp << ", \\\n     NaN with lines lc rgb 'black' dt 2 title 'unstable (dashed)'";
   gp << "\n";
   return gp.str();
 }
@@ -568,6 +606,7 @@ nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_
       {"profile", profile_json(summary, stats)},
       {"plugins", plugins_json(scene)},
       {"validated_scene", scene_to_json(scene)}};
+  if (!run.table.stable_peaks.empty()) doc["stability"] = stability_json(run.table);
   if (!stats.last_trace_diagnostic.empty())
     doc["last_trace_diagnostic"] = stats.last_trace_diagnostic;
   if (!study_context.is_null()) doc["study"] = study_context;

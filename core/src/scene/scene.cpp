@@ -251,6 +251,11 @@ const std::vector<frichb_param_spec>& output_schema() {
                      "write contact_harmonics.csv: every contact's force and relative "
                      "displacement harmonics at every point of the curve")
           .defaults_to(0),
+      Param::boolean("stability",
+                     "Floquet multipliers of every point: response.csv gains the columns "
+                     "stable and largest_multiplier (a plain structure without residual "
+                     "flexibility)")
+          .defaults_to(0),
   };
   return s;
 }
@@ -1066,6 +1071,10 @@ void read_output(Scene& scene, YAML::Node root, const YamlContext& ctx) {
                                 : axis == "linear" ? AmplitudeAxis::linear
                                                    : AmplitudeAxis::automatic;
   scene.output.contact_forces = o.boolean("contact_forces");
+  scene.output.stability = o.boolean("stability");
+  if (scene.output.stability && scene.cyclic.enabled())
+    ctx.fail(on["stability"], "output.stability",
+             "the stability of a cyclic scene is not computed: a plain structure only");
   scene.core_values["output"] = ov.to_json(output_schema());
 }
 

@@ -135,6 +135,17 @@ struct ResponseTable {
   std::vector<std::vector<ContactHarmonics>> contacts;
   std::vector<std::vector<int>> contact_components;
   std::vector<std::optional<NodePeak>> peaks;
+  // With output.stability (the table's columns stable and largest_multiplier): per node, its
+  // highest traced point that is stable (nullopt: none is), and the points whose stability
+  // differs from the point before them. Empty otherwise.
+  struct StablePoint {
+    std::size_t point = 0;
+    double amplitude_m = 0.0;
+    double omega_rad_s = 0.0;
+  };
+  std::vector<std::optional<StablePoint>> stable_peaks;
+  std::vector<std::size_t> stability_changes;
+  int unstable_points = 0;
   TurningPoints turning_points;
   std::optional<HarmonicTruncation> truncation;
 };

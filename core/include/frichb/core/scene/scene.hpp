@@ -170,6 +170,9 @@ struct OutputSpec {
   // contact_harmonics.csv: each contact's force and relative displacement harmonics at every
   // point (one extra contact evaluation per point).
   bool contact_forces = false;
+  // response.csv's stable and largest_multiplier columns: the Floquet multipliers of every
+  // point (model/stability.hpp).
+  bool stability = false;
 };
 
 struct Scene {

@@ -1,0 +1,65 @@
+// Floquet multipliers of a harmonic-balance solution: whether a periodic response is stable.
+//
+// The multipliers are those of the monodromy matrix of the variational equations along the
+// solution's orbit, integrated over one excitation period T = 2 pi / w on the contacts'
+// tracing grid (N samples, step h = T / N). The linearised state holds
+//   - the structure's modal coordinates and velocities (dq, dq'): all the provider's modes,
+//     dq'' + C dq' + diag(w_r^2) dq = -P^T df, P = G Phi (contact components x modes);
+//   - the contact-force samples df (the force of each step is the straight line between its
+//     end samples, over which the modal equations are integrated exactly);
+//   - the contact laws' states dz (slider offsets): the hysteresis in the linearisation.
+// One step maps (dq, dq', df, dz) at sample j-1 to sample j through the laws' consistent
+// tangents of that step (d force and d state with respect to the displacement at both ends,
+// the rates du/ds of laws that step along the motion, and the state before the step), taken
+// at the traced periodic state; the new force sample solves the step's small implicit
+// system (I - K1 G1) df_j = ... (model/stability.cpp). The product of the N step maps is the
+// monodromy; its eigenvalues are the multipliers.
+//
+// Two kinds are set apart from the physical multipliers:
+//  - the force samples' own: df_j is a function of the state at sample j for the laws
+//    shipped, so the step maps' image has the dimension of (dq, dq', dz) and the
+//    `contact components` smallest multipliers are zero up to rounding (dropped);
+//  - the neutral ones: a contact state component the period never changes (a contact stuck
+//    throughout, a direction never slipping, a contact open with its slider kept) is a
+//    family of periodic solutions, not an instability: its multiplier is exactly 1. Their
+//    number is that of the eigenvalues of the contacts' own state monodromies (the product
+//    of d state / d state_prev over the period, the motion held) within kNeutralTolerance
+//    of 1; as many multipliers nearest 1 are set apart in `neutral`.
+//
+// Convergence: the force between samples is linear, so the multipliers carry an error of
+// order h^2 on top of the harmonic truncation of the orbit (measured in tests/test_stability).
+// Scope: a plain structure (no cyclic symmetry), real modes, no residual flexibility: the
+// result's `failure` says so otherwise. Threading: reads the model, whose tracers are not
+// thread-safe; one model per thread.
+#pragma once
+
+#include <Eigen/Dense>
+#include <complex>
+#include <string>
+#include <vector>
+
+#include "frichb/core/model/harmonic_balance.hpp"
+
+namespace frichb::core {
+
+inline constexpr double kNeutralTolerance = 1e-9;
+
+struct FloquetMultipliers {
+  // Physical multipliers, largest modulus first (neutral and force-sample ones excluded).
+  std::vector<std::complex<double>> multipliers;
+  // The neutral multipliers set apart (their distance from 1 is the rounding of the product).
+  std::vector<std::complex<double>> neutral;
+  double largest_modulus = 0.0;  // |multipliers[0]|, 0 when there is none
+  // Stable when no physical multiplier lies outside the unit circle.
+  bool stable() const { return largest_modulus <= 1.0; }
+  int steps = 0;        // N, the steps of the period integrated
+  std::string failure;  // why no multipliers were computed (empty when they were)
+};
+
+// The Floquet multipliers of the solution y = [U; w] of `model` (a converged point).
+FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model, const Eigen::VectorXd& y);
+
+// exp(A): scaling and squaring with a diagonal Pade approximant of degree 6.
+Eigen::MatrixXd matrix_exponential(const Eigen::MatrixXd& a);
+
+}  // namespace frichb::core
