@@ -8,6 +8,7 @@
 #include <complex>
 #include <numbers>
 
+#include "frichb/core/commands/run.hpp"
 #include "frichb/core/model/harmonic_balance.hpp"
 #include "frichb/core/model/stability.hpp"
 #include "frichb/core/scene/scene.hpp"
@@ -355,6 +356,69 @@ TEST(FloquetMultipliers, HertzGapUpperBranchIsUnstableAsShootingFinds) {
   EXPECT_FALSE(f.stable());
   EXPECT_GT(largest, 1.0);
   EXPECT_NEAR(f.largest_modulus, largest, 1e-3 * largest);
+}
+
+// The whole curve of configs/stress/hertz_gap_folds.yaml with output.stability: stable up to the
+// branch point at 435 Hz on the upper branch, a fold at each turning point (the curve's own,
+// with the multiplier nearest +1 there), and stable again from the lower fold on; the table's
+// columns agree with the summary, and the highest stable point is below the branch point.
+TEST(FloquetMultipliers, HertzGapCurveNamesItsBifurcations) {
+  const std::string file = std::string(FRICHB_SOURCE_DIR) + "/configs/stress/hertz_gap_folds.yaml";
+  RunOptions options;
+  options.plots = 0;
+  options.quiet = true;
+  const RunResult run = run_scene(SceneInput{file, {{"output.stability", "true"}}, false}, options);
+  ASSERT_EQ(run.outcome.status, 0) << run.outcome.message;
+  const auto& table = run.table;
+  const auto column = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(table.header.begin(), table.header.end(), name) -
+                                    table.header.begin());
+  };
+  const std::size_t stable = column("stable"), largest = column("largest_multiplier");
+  ASSERT_LT(largest, table.header.size());
+  const auto& turning = table.turning_points.frequencies;
+  ASSERT_EQ(turning.size(), 2u);
+  std::vector<std::string> kinds;
+  for (const auto& c : table.stability_changes) {
+    kinds.push_back(c.kind);
+    std::printf("%s at point %zu, %.4f Hz: multiplier %+.6f %+.6fi, stable after: %d\n",
+                c.kind.c_str(), c.point, table.rows[c.point][1], c.multiplier.real(),
+                c.multiplier.imag(), c.stable ? 1 : 0);
+    EXPECT_EQ(table.rows[c.point][stable] == 1.0, c.stable);
+    if (c.kind == "fold") {
+      const double hz = table.rows[c.point][1];
+      EXPECT_TRUE(std::abs(hz - turning[0]) < 1e-9 * hz || std::abs(hz - turning[1]) < 1e-9 * hz)
+          << hz;
+      EXPECT_NEAR(c.multiplier.real(), 1.0, 0.03);  // the truncated orbit's (H = 5)
+    }
+  }
+  EXPECT_EQ(std::count(kinds.begin(), kinds.end(), "fold"), 2);
+  ASSERT_FALSE(table.stability_changes.empty());
+  const auto& first = table.stability_changes.front();
+  EXPECT_EQ(first.kind, "branch_point");
+  EXPECT_NEAR(table.rows[first.point][1], 435.0, 1.0);
+  for (std::size_t i = 0; i < first.point; ++i) EXPECT_EQ(table.rows[i][stable], 1.0) << i;
+  EXPECT_TRUE(table.stability_changes.back().stable);
+  EXPECT_EQ(table.stability_changes.back().kind, "fold");
+  ASSERT_TRUE(table.stable_peaks[0].has_value());
+  EXPECT_LT(table.stable_peaks[0]->point, first.point);
+  EXPECT_LT(table.stable_peaks[0]->amplitude_m, run.peaks[0].amplitude_m);
+}
+
+// A cyclic scene asking for stability is refused where it asks, naming the key (the stability
+// of a sector model against other nodal diameters is not computed).
+TEST(FloquetMultipliers, CyclicSceneIsRefusedAtTheKey) {
+  const std::string file = std::string(FRICHB_SOURCE_DIR) + "/configs/bladed_disk_lumped_eo3.yaml";
+  YAML::Node document = load_scene_yaml(file);
+  document["output"]["stability"] = true;
+  try {
+    load_scene(YAML::Load(YAML::Dump(document)), file);  // with line marks
+    FAIL() << "a cyclic scene with output.stability was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.key_path(), "output.stability");
+    EXPECT_EQ(e.file(), file);
+    EXPECT_GT(e.line(), 0);
+  }
 }
 
 }  // namespace

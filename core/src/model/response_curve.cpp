@@ -39,6 +39,78 @@ TurningPoints find_turning_points(const ContinuationSummary& summary, Eigen::Ind
   return report;
 }
 
+// What the stability pass keeps of a point: whether it was computed, its stability, the number
+// of multipliers outside the unit circle, the one of them nearest it, and the real positive
+// multiplier nearest +1 (the one a fold moves through +1; 0 when there is none).
+struct PointStability {
+  bool computed = false;
+  bool stable = false;
+  int unstable_count = 0;
+  std::complex<double> nearest_unstable = 0.0;
+  double nearest_one = 0.0;
+};
+
+PointStability point_stability(const FloquetMultipliers& f) {
+  PointStability p{true, f.stable(), f.unstable_count, f.nearest_unstable, 0.0};
+  for (const auto& mu : f.multipliers)
+    if (std::abs(mu.imag()) <= 1e-9 * std::abs(mu) && mu.real() > 0 &&
+        std::abs(mu.real() - 1) < std::abs(p.nearest_one - 1))
+      p.nearest_one = mu.real();
+  return p;
+}
+
+// The bifurcations along the curve and each node's highest stable point (ResponseTable::
+// StabilityChange, StablePoint). The folds are the curve's turning points (the points between
+// which d omega / ds changes sign), each with the real multiplier nearest +1 at its two points.
+// Elsewhere, wherever the number of multipliers outside the unit circle differs between points i -
+// 1 and i, the multiplier that crossed (the nearest the circle of the point with more) names the
+// change. A real one crossing +1 within kFoldWindow of a turning point's frequency is that
+// fold's: the harmonic-balance fold (where its Jacobian is singular) and the multiplier's
+// crossing of +1 on the truncated orbit meet only as the harmonics grow.
+void summarise_stability(ResponseTable& table, const ContinuationSummary& summary, Eigen::Index n,
+                         const std::vector<PointStability>& points) {
+  table.stable_peaks.assign(table.nodes.size(), std::nullopt);
+  std::vector<double> folds;
+  const std::size_t count = std::min(points.size(), table.rows.size());
+  for (std::size_t i = 1; i < count; ++i)
+    if (summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0)
+      folds.push_back(table.rows[i][1]);
+  auto near_fold = [&](double hz) {
+    return std::any_of(folds.begin(), folds.end(),
+                       [&](double f) { return std::abs(hz - f) <= kFoldWindow * f; });
+  };
+  for (std::size_t i = 0; i < count; ++i) {
+    const PointStability& p = points[i];
+    if (!p.computed) continue;
+    table.unstable_points += p.stable ? 0 : 1;
+    const PointStability* before = i > 0 && points[i - 1].computed ? &points[i - 1] : nullptr;
+    const bool turning =
+        i > 0 && summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0;
+    if (turning) {
+      const double mu = before && std::abs(before->nearest_one - 1) < std::abs(p.nearest_one - 1)
+                            ? before->nearest_one
+                            : p.nearest_one;
+      table.stability_changes.push_back(
+          {i, p.stable, p.unstable_count, std::complex<double>(mu, 0.0), "fold"});
+    } else if (before && before->unstable_count != p.unstable_count) {
+      const std::complex<double> mu =
+          (p.unstable_count > before->unstable_count ? p : *before).nearest_unstable;
+      const bool real = std::abs(mu.imag()) <= 1e-9 * std::abs(mu);
+      if (!(real && mu.real() > 0 && near_fold(table.rows[i][1])))
+        table.stability_changes.push_back({i, p.stable, p.unstable_count, mu,
+                                           !real             ? "neimark_sacker"
+                                           : mu.real() < 0.0 ? "period_doubling"
+                                                             : "branch_point"});
+    }
+    for (std::size_t k = 0; k < table.nodes.size() && p.stable; ++k) {
+      const double amp = table.rows[i][3 + k * (1 + table.harmonics[i][k].cols())];
+      auto& best = table.stable_peaks[k];
+      if (!best || amp > best->amplitude_m)
+        best = ResponseTable::StablePoint{i, amp, table.rows[i][2]};
+    }
+  }
+}
+
 // The harmonic truncation at the curve's highest point (of the first response node, column 3
 // of `rows`); warns above kHighestHarmonicShare.
 std::optional<HarmonicTruncation> check_truncation(const Scene& scene,
@@ -221,8 +293,10 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
   }
   table.header.insert(table.header.end(), {"newton_iterations", "step", "condition"});
   if (scene.output.stability)
-    table.header.insert(table.header.end(), {"stable", "largest_multiplier"});
+    table.header.insert(table.header.end(),
+                        {"stable", "largest_multiplier", "unstable_multipliers"});
   double stability_seconds = 0.0;
+  std::vector<PointStability> multipliers(scene.output.stability ? summary.points.size() : 0);
   int stability_failures = 0;
   auto& rows = table.rows;
   const auto tabulating = std::chrono::steady_clock::now();
@@ -256,11 +330,12 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
       if (f.failure.empty()) {
         row.push_back(f.stable() ? 1.0 : 0.0);
         row.push_back(f.largest_modulus);
+        row.push_back(f.unstable_count);
+        multipliers[i] = point_stability(f);
       } else {  // reported in the table as NaN, and logged
         if (stability_failures++ == 0)
           spdlog::warn("no Floquet multipliers at point {}: {}", i, f.failure);
-        row.push_back(std::numeric_limits<double>::quiet_NaN());
-        row.push_back(std::numeric_limits<double>::quiet_NaN());
+        row.insert(row.end(), 3, std::numeric_limits<double>::quiet_NaN());
       }
     }
     rows.push_back(std::move(row));
@@ -272,24 +347,11 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
                     [](const ContinuationPoint& p) { return p.record.size() > 0; }),
       format_number(
           std::chrono::duration<double>(std::chrono::steady_clock::now() - tabulating).count()));
-  if (scene.output.stability) {
-    const std::size_t stable_column = table.header.size() - 2;
-    table.stable_peaks.assign(nodes.size(), std::nullopt);
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      const bool stable = rows[i][stable_column] == 1.0;
-      table.unstable_points += rows[i][stable_column] == 0.0 ? 1 : 0;
-      if (i > 0 && rows[i][stable_column] != rows[i - 1][stable_column])
-        table.stability_changes.push_back(i);
-      for (std::size_t k = 0; k < nodes.size() && stable; ++k) {
-        const double amp = rows[i][3 + k * (1 + harmonics.size())];
-        auto& best = table.stable_peaks[k];
-        if (!best || amp > best->amplitude_m) best = ResponseTable::StablePoint{i, amp, rows[i][2]};
-      }
-    }
-  }
+  if (scene.output.stability) summarise_stability(table, summary, n, multipliers);
+  table.stability_seconds = stability_seconds;
   if (scene.output.stability)
-    spdlog::info("Floquet multipliers of {} points in {} s ({} failed)", rows.size(),
-                 format_number(stability_seconds), stability_failures);
+    spdlog::debug("Floquet multipliers of {} points in {} s ({} failed)", rows.size(),
+                  format_number(stability_seconds), stability_failures);
   // The peak of each node's curve, solved along the curve beside its highest point.
   std::vector<bool> refined(nodes.size(), false);
   std::vector<Eigen::VectorXd> peak_y(nodes.size());

@@ -141,6 +141,11 @@ void classify(const Eigen::MatrixXd& w, Eigen::Index dropped, int neutral,
             [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
   out.multipliers = std::move(all);
   out.largest_modulus = out.multipliers.empty() ? 0.0 : std::abs(out.multipliers.front());
+  for (const auto& mu : out.multipliers)
+    if (std::abs(mu) > 1.0) {
+      ++out.unstable_count;
+      out.nearest_unstable = mu;  // largest first: the last one outside is the nearest
+    }
 }
 
 }  // namespace

@@ -139,12 +139,23 @@ nlohmann::json stability_json(const ResponseTable& table) {
           : nlohmann::json(nullptr);
   }
   nlohmann::json changes = nlohmann::json::array();
-  const std::size_t stable_column = table.header.size() - 2;
-  for (std::size_t i : table.stability_changes)
-    changes.push_back({{"point", i},
-                       {"frequency_hz", table.rows[i][1]},
-                       {"stable", table.rows[i][stable_column] == 1.0},
-                       {"largest_multiplier", table.rows[i][stable_column + 1]}});
+  for (const auto& c : table.stability_changes) {
+    nlohmann::json amplitudes = nlohmann::json::object();
+    for (const auto& node : table.nodes) {
+      const auto column =
+          std::find(table.header.begin(), table.header.end(), node.name + "_amplitude_m") -
+          table.header.begin();
+      amplitudes[node.name] = table.rows[c.point][static_cast<std::size_t>(column)];
+    }
+    changes.push_back({{"kind", c.kind},
+                       {"point", c.point},
+                       {"frequency_hz", table.rows[c.point][1]},
+                       {"amplitude_m", amplitudes},
+                       {"stable_after", c.stable},
+                       {"unstable_multipliers_after", c.unstable_count},
+                       {"multiplier", {c.multiplier.real(), c.multiplier.imag()}},
+                       {"multiplier_modulus", std::abs(c.multiplier)}});
+  }
   return {{"unstable_points", table.unstable_points},
           {"highest_stable_point", highest},
           {"changes", changes}};
@@ -635,10 +646,12 @@ void write_run(const RunResult& result, StagedOutput& out) {
   const nlohmann::json state_entries = write_contact_states(out, record, result.states, plots);
   const double writing =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  const nlohmann::json timing = {{"setup_s", result.setup_seconds},
-                                 {"continuation_s", result.continuation_seconds},
-                                 {"post_and_output_s", result.post_seconds + writing},
-                                 {"total_s", result.wall_seconds + writing}};
+  nlohmann::json timing = {{"setup_s", result.setup_seconds},
+                           {"continuation_s", result.continuation_seconds},
+                           {"post_and_output_s", result.post_seconds + writing},
+                           {"total_s", result.wall_seconds + writing}};
+  // Part of post_and_output_s: the Floquet multipliers of every point.
+  if (!result.table.stable_peaks.empty()) timing["stability_s"] = result.table.stability_seconds;
   nlohmann::json doc = run_summary(record, loop_entries, timing, result.options.study_context);
   doc["contact_states"] = state_entries;
   write_json(out.path("summary.json"), doc);

@@ -16,6 +16,7 @@
 #include <spdlog/spdlog.h>
 
 #include <Eigen/Dense>
+#include <complex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -100,6 +101,9 @@ struct NodePeak {
 // lightly damped resonance these bends fold the curve back and forth over a fraction of a
 // hertz; the clusters narrow as samples_per_period grows.
 inline constexpr double kMicroFoldWidth = 1e-3;
+// Relative frequency window within which a real multiplier's crossing of +1 is attributed to a
+// fold of the curve (ResponseTable::StabilityChange).
+inline constexpr double kFoldWindow = 1e-3;
 struct TurningPoints {
   std::vector<double> frequencies;
   int micro_folds = 0;         // turning points that belong to a cluster
@@ -136,16 +140,31 @@ struct ResponseTable {
   std::vector<std::vector<int>> contact_components;
   std::vector<std::optional<NodePeak>> peaks;
   // With output.stability (the table's columns stable and largest_multiplier): per node, its
-  // highest traced point that is stable (nullopt: none is), and the points whose stability
-  // differs from the point before them. Empty otherwise.
+  // highest traced point that is stable (nullopt: none is), and the bifurcations: the points
+  // whose stability differs from the point before them. Empty otherwise.
   struct StablePoint {
     std::size_t point = 0;
     double amplitude_m = 0.0;
     double omega_rad_s = 0.0;
   };
   std::vector<std::optional<StablePoint>> stable_peaks;
-  std::vector<std::size_t> stability_changes;
+  // A bifurcation between points `point - 1` and `point`. A fold: a turning point of the curve
+  // there (its multiplier: the real one nearest +1 at the two points). Elsewhere the number of
+  // multipliers outside the unit circle changes there, named by the multiplier that crossed
+  // (outside the circle at the point with more of them, the nearest it): real and past +1, a
+  // branch point (within kFoldWindow of a fold's frequency: that fold's); real and past -1, a
+  // period doubling; a complex pair, a Neimark-Sacker bifurcation (a torus: the response turns
+  // quasi-periodic).
+  struct StabilityChange {
+    std::size_t point = 0;
+    bool stable = false;     // the stability from `point` on
+    int unstable_count = 0;  // multipliers outside the circle from `point` on
+    std::complex<double> multiplier;
+    std::string kind;  // fold, branch_point, period_doubling or neimark_sacker
+  };
+  std::vector<StabilityChange> stability_changes;
   int unstable_points = 0;
+  double stability_seconds = 0.0;  // wall time of the multipliers of every point, s
   TurningPoints turning_points;
   std::optional<HarmonicTruncation> truncation;
 };

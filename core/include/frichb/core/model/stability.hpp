@@ -50,6 +50,10 @@ struct FloquetMultipliers {
   // The neutral multipliers set apart (their distance from 1 is the rounding of the product).
   std::vector<std::complex<double>> neutral;
   double largest_modulus = 0.0;  // |multipliers[0]|, 0 when there is none
+  // The multipliers outside the unit circle: how many, and the one of them nearest the circle
+  // (along a curve, the last to have crossed it), 0 when there is none.
+  int unstable_count = 0;
+  std::complex<double> nearest_unstable = 0.0;
   // Stable when no physical multiplier lies outside the unit circle.
   bool stable() const { return largest_modulus <= 1.0; }
   int steps = 0;        // N, the steps of the period integrated
