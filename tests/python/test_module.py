@@ -507,3 +507,20 @@ def test_contact_harmonics_of_a_stuck_3d_contact_carry_its_preload_and_stiffness
         trace = result.contact_trace("shroud", point)
         np.testing.assert_allclose(f_h[point, :, 0].real, trace["force"].mean(axis=1),
                                    rtol=0, atol=1e-12 * np.abs(trace["force"]).max())
+
+
+def test_stability_columns_and_bifurcations_are_the_programs(tmp_path):
+    scene = SOURCE / "configs" / "stress" / "hertz_gap_folds.yaml"
+    result = frichb.run(scene, set={"output.stability": True}, plots=False)
+    assert result.status == 0, result.message
+    cli = frichb_cli("run", str(scene), "-o", str(tmp_path / "cli"), "--set",
+                     "output.stability=true")
+    assert cli.returncode == 0, cli.stderr
+    header, rows = read_csv(tmp_path / "cli" / "response.csv")
+    assert result.columns[-3:] == ["stable", "largest_multiplier", "unstable_multipliers"]
+    np.testing.assert_array_equal(result.column("stable"), rows[:, header.index("stable")])
+    np.testing.assert_allclose(result.column("largest_multiplier"),
+                               rows[:, header.index("largest_multiplier")], rtol=5e-12, atol=0)
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert result.summary["stability"]["changes"] == summary["stability"]["changes"]
+    assert [c["kind"] for c in summary["stability"]["changes"]].count("fold") == 2

@@ -253,8 +253,9 @@ const std::vector<frichb_param_spec>& output_schema() {
           .defaults_to(0),
       Param::boolean("stability",
                      "Floquet multipliers of every point: response.csv gains the columns "
-                     "stable and largest_multiplier (a plain structure without residual "
-                     "flexibility)")
+                     "stable, largest_multiplier and unstable_multipliers, summary.json the "
+                     "bifurcations and the highest stable point (a plain structure without "
+                     "residual flexibility)")
           .defaults_to(0),
   };
   return s;
