@@ -60,47 +60,37 @@ PointStability point_stability(const FloquetMultipliers& f) {
 }
 
 // The bifurcations along the curve and each node's highest stable point (ResponseTable::
-// StabilityChange, StablePoint). The folds are the curve's turning points (the points between
-// which d omega / ds changes sign), each with the real multiplier nearest +1 at its two points.
-// Elsewhere, wherever the number of multipliers outside the unit circle differs between points i -
-// 1 and i, the multiplier that crossed (the nearest the circle of the point with more) names the
-// change. A real one crossing +1 within kFoldWindow of a turning point's frequency is that
-// fold's: the harmonic-balance fold (where its Jacobian is singular) and the multiplier's
-// crossing of +1 on the truncated orbit meet only as the harmonics grow.
+// StabilityChange, StablePoint). Wherever the number of multipliers outside the unit circle
+// differs between points i - 1 and i, the multiplier that crossed (the nearest the circle of
+// the point with more) names the change. The folds are the curve's turning points (the points
+// between which d omega / ds changes sign): the harmonic-balance fold, where its Jacobian is
+// singular, and the crossing of +1 by a multiplier of the truncated orbit meet only as the
+// harmonics grow, so the real crossings of +1 within kFoldWindow of a turning point's frequency
+// are that fold's: its entry takes the nearest one's multiplier (else the real multiplier
+// nearest +1 at the turning point) and the stability after the last of them (or after the
+// turning point, where they came before it).
 void summarise_stability(ResponseTable& table, const ContinuationSummary& summary, Eigen::Index n,
                          const std::vector<PointStability>& points) {
-  table.stable_peaks.assign(table.nodes.size(), std::nullopt);
-  std::vector<double> folds;
+  using Change = ResponseTable::StabilityChange;
   const std::size_t count = std::min(points.size(), table.rows.size());
-  for (std::size_t i = 1; i < count; ++i)
-    if (summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0)
-      folds.push_back(table.rows[i][1]);
-  auto near_fold = [&](double hz) {
-    return std::any_of(folds.begin(), folds.end(),
-                       [&](double f) { return std::abs(hz - f) <= kFoldWindow * f; });
-  };
+  std::vector<Change> crossings;
+  std::vector<std::size_t> turning;
+  table.stable_peaks.assign(table.nodes.size(), std::nullopt);
   for (std::size_t i = 0; i < count; ++i) {
     const PointStability& p = points[i];
     if (!p.computed) continue;
     table.unstable_points += p.stable ? 0 : 1;
+    if (i > 0 && summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0)
+      turning.push_back(i);
     const PointStability* before = i > 0 && points[i - 1].computed ? &points[i - 1] : nullptr;
-    const bool turning =
-        i > 0 && summary.points[i - 1].tangent(n) * summary.points[i].tangent(n) < 0.0;
-    if (turning) {
-      const double mu = before && std::abs(before->nearest_one - 1) < std::abs(p.nearest_one - 1)
-                            ? before->nearest_one
-                            : p.nearest_one;
-      table.stability_changes.push_back(
-          {i, p.stable, p.unstable_count, std::complex<double>(mu, 0.0), "fold"});
-    } else if (before && before->unstable_count != p.unstable_count) {
+    if (before && before->unstable_count != p.unstable_count) {
       const std::complex<double> mu =
           (p.unstable_count > before->unstable_count ? p : *before).nearest_unstable;
       const bool real = std::abs(mu.imag()) <= 1e-9 * std::abs(mu);
-      if (!(real && mu.real() > 0 && near_fold(table.rows[i][1])))
-        table.stability_changes.push_back({i, p.stable, p.unstable_count, mu,
-                                           !real             ? "neimark_sacker"
-                                           : mu.real() < 0.0 ? "period_doubling"
-                                                             : "branch_point"});
+      crossings.push_back({i, p.stable, p.unstable_count, mu,
+                           !real             ? "neimark_sacker"
+                           : mu.real() < 0.0 ? "period_doubling"
+                                             : "branch_point"});
     }
     for (std::size_t k = 0; k < table.nodes.size() && p.stable; ++k) {
       const double amp = table.rows[i][3 + k * (1 + table.harmonics[i][k].cols())];
@@ -109,6 +99,36 @@ void summarise_stability(ResponseTable& table, const ContinuationSummary& summar
         best = ResponseTable::StablePoint{i, amp, table.rows[i][2]};
     }
   }
+  for (std::size_t t : turning) {
+    const double hz = table.rows[t][1];
+    const PointStability& at = points[t];
+    const PointStability* before = points[t - 1].computed ? &points[t - 1] : nullptr;
+    Change fold{t, at.stable, at.unstable_count,
+                before && std::abs(before->nearest_one - 1) < std::abs(at.nearest_one - 1)
+                    ? before->nearest_one
+                    : at.nearest_one,
+                "fold"};
+    std::size_t nearest = count, last = t;
+    for (auto& c : crossings)
+      if (c.kind == "branch_point" && std::abs(table.rows[c.point][1] - hz) <= kFoldWindow * hz) {
+        const auto distance = [&](std::size_t i) { return i > t ? i - t : t - i; };
+        if (nearest == count || distance(c.point) < distance(nearest)) {
+          nearest = c.point;
+          fold.multiplier = c.multiplier;
+        }
+        if (c.point >= last) {
+          last = c.point;
+          fold.stable = c.stable;
+          fold.unstable_count = c.unstable_count;
+        }
+        c.kind.clear();  // the fold's
+      }
+    crossings.push_back(fold);
+  }
+  std::erase_if(crossings, [](const Change& c) { return c.kind.empty(); });
+  std::sort(crossings.begin(), crossings.end(),
+            [](const Change& a, const Change& b) { return a.point < b.point; });
+  table.stability_changes = std::move(crossings);
 }
 
 // The harmonic truncation at the curve's highest point (of the first response node, column 3

@@ -149,12 +149,13 @@ struct ResponseTable {
   };
   std::vector<std::optional<StablePoint>> stable_peaks;
   // A bifurcation between points `point - 1` and `point`. A fold: a turning point of the curve
-  // there (its multiplier: the real one nearest +1 at the two points). Elsewhere the number of
-  // multipliers outside the unit circle changes there, named by the multiplier that crossed
-  // (outside the circle at the point with more of them, the nearest it): real and past +1, a
-  // branch point (within kFoldWindow of a fold's frequency: that fold's); real and past -1, a
-  // period doubling; a complex pair, a Neimark-Sacker bifurcation (a torus: the response turns
-  // quasi-periodic).
+  // there (its multiplier: that of the nearest real crossing of +1 within kFoldWindow of its
+  // frequency, else the real one nearest +1 at the two points; its stability: after them).
+  // Elsewhere the number of multipliers outside the unit circle changes there, named by the
+  // multiplier that crossed (outside the circle at the point with more of them, the nearest it):
+  // real and past +1, a branch point (within kFoldWindow of a fold's frequency: that fold's); real
+  // and past -1, a period doubling; a complex pair, a Neimark-Sacker bifurcation (a torus: the
+  // response turns quasi-periodic).
   struct StabilityChange {
     std::size_t point = 0;
     bool stable = false;     // the stability from `point` on
