@@ -65,13 +65,16 @@ struct StepTangents {
   RowMajor df_dun, df_dup, df_dz, dz_dun, dz_dup, dz_dz, df_drn, df_drp, dz_drn, dz_drp;
 };
 
-bool contact_step_tangents(const ContactModel& contact, const ContactTrace& trace, int j,
-                           StepTangents& t, std::string* error) {
+// One step of a contact's law from `state_prev` at u_prev to u_now (local frame, 3 each; the
+// rates du/ds at both ends are read by laws that step along the motion only): its tangents
+// restricted to the used components into t, its state after the step into state_now.
+bool law_step(const ContactModel& contact, const Eigen::VectorXd& state_prev, const double* u_prev,
+              const double* u_now, const double* r_prev, const double* r_now, StepTangents& t,
+              Eigen::VectorXd& state_now, std::string* error) {
   const ContactLawInstance& law = *contact.law;
   const auto& components = contact.tracer->components();
   const auto d = static_cast<Eigen::Index>(components.size());
-  const int s = law.traits().state_size, n = static_cast<int>(trace.displacement.rows());
-  const int jp = (j + n - 1) % n;
+  const int s = law.traits().state_size;
   const int sd = std::max(s, 1);
   RowMajor fun = RowMajor::Zero(3, 3), fup = RowMajor::Zero(3, 3), fz = RowMajor::Zero(3, sd),
            zun = RowMajor::Zero(sd, 3), zup = RowMajor::Zero(sd, 3), zz = RowMajor::Zero(sd, sd),
@@ -80,24 +83,14 @@ bool contact_step_tangents(const ContactModel& contact, const ContactTrace& trac
   frichb_step_tangents tangents{fun.data(), fup.data(), fz.data(),
                                 zun.data(), zup.data(), zz.data()};
   frichb_motion_tangents motion_tangents{frp.data(), frn.data(), zrp.data(), zrn.data()};
-  double u_now[3] = {0, 0, 0}, u_prev[3] = {0, 0, 0}, r_now[3] = {0, 0, 0}, r_prev[3] = {0, 0, 0};
-  const bool along = contact.tracer->along_motion();
-  for (Eigen::Index a = 0; a < d; ++a) {
-    const int c = components[static_cast<std::size_t>(a)];
-    u_now[c] = trace.displacement(j, a);
-    u_prev[c] = trace.displacement(jp, a);
-    if (along) {
-      r_now[c] = trace.rate(j, a);
-      r_prev[c] = trace.rate(jp, a);
-    }
-  }
-  Eigen::VectorXd state_prev = trace.state.row(jp).transpose(), state_now(s);
+  state_now.resize(s);
   double force[3];
   const bool ok =
-      along ? law.step_along(state_prev.data(), u_prev, u_now,
-                             frichb_step_motion{sizeof(frichb_step_motion), r_prev, r_now}, force,
-                             state_now.data(), &tangents, &motion_tangents, nullptr, error)
-            : law.step(state_prev.data(), u_prev, u_now, force, state_now.data(), &tangents, error);
+      contact.tracer->along_motion()
+          ? law.step_along(state_prev.data(), u_prev, u_now,
+                           frichb_step_motion{sizeof(frichb_step_motion), r_prev, r_now}, force,
+                           state_now.data(), &tangents, &motion_tangents, nullptr, error)
+          : law.step(state_prev.data(), u_prev, u_now, force, state_now.data(), &tangents, error);
   if (!ok) return false;
   auto pick = [&](const RowMajor& m, bool rows_used, bool cols_used) {
     const Eigen::Index rows = rows_used ? d : s, cols = cols_used ? d : s;
@@ -120,6 +113,84 @@ bool contact_step_tangents(const ContactModel& contact, const ContactTrace& trac
   t.dz_drp = pick(zrp, false, true);
   return true;
 }
+
+// The tangents of step j of a contact's trace (from sample j - 1 to j, at its periodic state).
+bool contact_step_tangents(const ContactModel& contact, const ContactTrace& trace, int j,
+                           StepTangents& t, std::string* error) {
+  const auto& components = contact.tracer->components();
+  const int n = static_cast<int>(trace.displacement.rows());
+  const int jp = (j + n - 1) % n;
+  double u_now[3] = {0, 0, 0}, u_prev[3] = {0, 0, 0}, r_now[3] = {0, 0, 0}, r_prev[3] = {0, 0, 0};
+  const bool along = contact.tracer->along_motion();
+  for (std::size_t a = 0; a < components.size(); ++a) {
+    const int c = components[a];
+    const auto col = static_cast<Eigen::Index>(a);
+    u_now[c] = trace.displacement(j, col);
+    u_prev[c] = trace.displacement(jp, col);
+    if (along) {
+      r_now[c] = trace.rate(j, col);
+      r_prev[c] = trace.rate(jp, col);
+    }
+  }
+  const Eigen::VectorXd state_prev = trace.state.row(jp).transpose();
+  Eigen::VectorXd state_now;
+  return law_step(contact, state_prev, u_prev, u_now, r_prev, r_now, t, state_now, error);
+}
+
+// A contact's relative displacement along the period from its harmonic coefficients (the
+// harmonic balance unknowns): u and du/dphi at any phase phi (rad), local frame.
+class ContactPath {
+ public:
+  ContactPath(const HarmonicLayout& layout, const Eigen::VectorXd& y, const ContactModel& contact)
+      : layout_(layout), components_(contact.tracer->components()) {
+    const Eigen::Index c = layout.coefficient_count();
+    coefficients_ = y.segment(static_cast<Eigen::Index>(contact.offset) * c,
+                              c * static_cast<Eigen::Index>(components_.size()));
+  }
+  void at(double phi, double* u, double* du) const {
+    const Eigen::Index c = layout_.coefficient_count();
+    const auto& harmonics = layout_.harmonics();
+    for (int a = 0; a < 3; ++a) u[a] = du[a] = 0.0;
+    for (std::size_t a = 0; a < components_.size(); ++a) {
+      const double* x = coefficients_.data() + static_cast<Eigen::Index>(a) * c;
+      double value = 0.0, rate = 0.0;
+      for (std::size_t k = 0; k < harmonics.size(); ++k) {
+        const double n = harmonics[k], ac = x[layout_.cos_index(k)];
+        if (harmonics[k] == 0) {
+          value += ac;
+          continue;
+        }
+        const double as = x[layout_.sin_index(k)], cs = std::cos(n * phi), sn = std::sin(n * phi);
+        value += ac * cs + as * sn;
+        rate += n * (as * cs - ac * sn);
+      }
+      u[components_[a]] = value;
+      du[components_[a]] = rate;
+    }
+  }
+
+ private:
+  const HarmonicLayout& layout_;
+  const std::vector<int>& components_;
+  Eigen::VectorXd coefficients_;
+};
+
+// The largest entry of |a - b| relative to `scale` (0 when the scale is 0).
+double relative_change(const RowMajor& a, const RowMajor& b, double scale) {
+  return scale > 0 ? (a - b).cwiseAbs().maxCoeff() / scale : 0.0;
+}
+
+// A law switches regime inside a step (sticks, slips, opens, closes) where its tangent
+// d force / d u_now changes by more than this fraction of its largest over the period (a
+// smooth law's tangent changes by a few percent of it from one step to the next).
+constexpr double kRegimeChange = 0.25;
+// Straight sub-steps that follow the motion to a point inside a step, the bisections that
+// locate a switch, and the short steps (fractions of a step) that probe the regime at a point
+// and carry the switch itself.
+constexpr int kPathSteps = 8;
+constexpr int kBisections = 24;
+constexpr double kProbe = 1e-7;
+constexpr double kSwitchStep = 3e-7;
 
 // Multipliers of `w` split as the header says: the `dropped` smallest (force samples), the
 // `neutral` nearest 1, the rest largest first.
@@ -216,9 +287,8 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
   const double h = 2 * std::numbers::pi / w / samples;
   out.steps = samples;
 
-  const StepPropagator prop =
+  const StepPropagator full_step =
       propagate_modes(basis.frequencies, basis.damping, basis.diagonal_damping, h);
-  const Eigen::MatrixXd gamma0 = -prop.g0 * p.transpose(), gamma1 = -prop.g1 * p.transpose();
   const Eigen::Index dim = n2 + m + states;
   Eigen::MatrixXd monodromy = Eigen::MatrixXd::Identity(dim, dim);
   std::vector<Eigen::MatrixXd> own(contacts.size());  // each contact's state monodromy
@@ -228,9 +298,14 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
   }
   Eigen::MatrixXd k1(m, n2), k0(m, n2), kz(m, states), z1(states, n2), z0(states, n2),
       zz(states, states);
-  StepTangents t;
-  for (int step = 1; step <= samples; ++step) {
-    const int j = step % samples;
+  // The variational map over a fraction `length` of a step, the contacts' tangents `t`.
+  auto advance = [&](double length, const std::vector<StepTangents>& t) {
+    const StepPropagator sub = length == 1.0 ? StepPropagator{}
+                                             : propagate_modes(basis.frequencies, basis.damping,
+                                                               basis.diagonal_damping, length * h);
+    const StepPropagator& prop = length == 1.0 ? full_step : sub;
+    const Eigen::MatrixXd gamma0 = -prop.g0 * p.transpose(), gamma1 = -prop.g1 * p.transpose();
+    const double hl = length * h;
     k1.setZero();
     k0.setZero();
     kz.setZero();
@@ -238,26 +313,22 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     z0.setZero();
     zz.setZero();
     for (std::size_t c = 0; c < contacts.size(); ++c) {
-      std::string error;
-      if (!contact_step_tangents(contacts[c], traces[c], j, t, &error)) {
-        out.failure = "contact " + contacts[c].name + ": " + error;
-        return out;
-      }
-      const Eigen::Index r = contacts[c].offset, d = t.df_dun.rows(), zo = state_offset[c],
-                         s = t.dz_dz.rows();
+      const StepTangents& tc = t[c];
+      const Eigen::Index r = contacts[c].offset, d = tc.df_dun.rows(), zo = state_offset[c],
+                         s = tc.dz_dz.rows();
       const auto pc = p.middleRows(r, d);
-      // u = P q and the rates du/ds = h P q' at the step's ends.
-      k1.block(r, 0, d, modes) = t.df_dun * pc;
-      k1.block(r, modes, d, modes) = h * t.df_drn * pc;
-      k0.block(r, 0, d, modes) = t.df_dup * pc;
-      k0.block(r, modes, d, modes) = h * t.df_drp * pc;
-      kz.block(r, zo, d, s) = t.df_dz;
-      z1.block(zo, 0, s, modes) = t.dz_dun * pc;
-      z1.block(zo, modes, s, modes) = h * t.dz_drn * pc;
-      z0.block(zo, 0, s, modes) = t.dz_dup * pc;
-      z0.block(zo, modes, s, modes) = h * t.dz_drp * pc;
-      zz.block(zo, zo, s, s) = t.dz_dz;
-      own[c] = t.dz_dz * own[c];
+      // u = P q and the rates du/ds = hl P q' at the step's ends.
+      k1.block(r, 0, d, modes) = tc.df_dun * pc;
+      k1.block(r, modes, d, modes) = hl * tc.df_drn * pc;
+      k0.block(r, 0, d, modes) = tc.df_dup * pc;
+      k0.block(r, modes, d, modes) = hl * tc.df_drp * pc;
+      kz.block(r, zo, d, s) = tc.df_dz;
+      z1.block(zo, 0, s, modes) = tc.dz_dun * pc;
+      z1.block(zo, modes, s, modes) = hl * tc.dz_drn * pc;
+      z0.block(zo, 0, s, modes) = tc.dz_dup * pc;
+      z0.block(zo, modes, s, modes) = hl * tc.dz_drp * pc;
+      zz.block(zo, zo, s, s) = tc.dz_dz;
+      own[c] = tc.dz_dz * own[c];
     }
     const auto x = monodromy.topRows(n2);
     const auto f = monodromy.middleRows(n2, m);
@@ -269,6 +340,137 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     const Eigen::MatrixXd x_next = predicted + gamma1 * f_next;
     const Eigen::MatrixXd z_next = z1 * x_next + z0 * x + zz * z;
     monodromy << x_next, f_next, z_next;
+  };
+
+  // The tangents of every step at the traced states.
+  std::vector<std::vector<StepTangents>> steps(static_cast<std::size_t>(samples),
+                                               std::vector<StepTangents>(contacts.size()));
+  for (int j = 0; j < samples; ++j)
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      std::string error;
+      if (!contact_step_tangents(contacts[c], traces[c], j, steps[static_cast<std::size_t>(j)][c],
+                                 &error)) {
+        out.failure = "contact " + contacts[c].name + ": " + error;
+        return out;
+      }
+    }
+
+  // A law that switches regime inside a step makes the force's linearisation jump there (a
+  // contact that starts to slip loses its stiffness at once), which a straight line between
+  // the step's samples smears over the step: an error of the order of the step, not its
+  // square. Such steps are split where the law switches: located by bisection on the regime at
+  // a point (the tangent of a short step from it, the law's state followed along the motion
+  // from the step's start), and crossed by a short step of its own.
+  std::vector<ContactPath> paths;
+  for (const auto& contact : contacts) paths.emplace_back(layout, y, contact);
+  const double phase_step = 2 * std::numbers::pi / samples;
+  struct Motion {
+    double u[3], rate[3];  // rate: du/ds over a sub-step of fraction `length`
+  };
+  auto motion_at = [&](std::size_t c, int jp, double s, double length) {
+    Motion mo{};
+    paths[c].at(phase_step * jp + phase_step * s, mo.u, mo.rate);
+    for (double& r : mo.rate) r *= phase_step * length;
+    return mo;
+  };
+  // The law's state at fraction s of step j (from sample jp), followed from the traced state.
+  auto state_at = [&](std::size_t c, int jp, double s, Eigen::VectorXd& state, std::string* error) {
+    state = traces[c].state.row(jp).transpose();
+    if (s <= 0) return true;
+    StepTangents t;
+    Eigen::VectorXd next;
+    for (int i = 0; i < kPathSteps; ++i) {
+      const double a = s * i / kPathSteps, b = s * (i + 1) / kPathSteps;
+      const Motion from = motion_at(c, jp, a, b - a), to = motion_at(c, jp, b, b - a);
+      if (!law_step(contacts[c], state, from.u, to.u, from.rate, to.rate, t, next, error))
+        return false;
+      state = next;
+    }
+    return true;
+  };
+  // The regime at fraction s: d force / d u_now of a short step from there.
+  auto regime_at = [&](std::size_t c, int jp, double s, RowMajor& regime, std::string* error) {
+    Eigen::VectorXd state, next;
+    if (!state_at(c, jp, s, state, error)) return false;
+    StepTangents t;
+    const Motion from = motion_at(c, jp, s, kProbe), to = motion_at(c, jp, s + kProbe, kProbe);
+    if (!law_step(contacts[c], state, from.u, to.u, from.rate, to.rate, t, next, error))
+      return false;
+    regime = t.df_dun;
+    return true;
+  };
+  // Each contact's largest tangent over the period: the scale of a switch.
+  std::vector<double> tangent_scale(contacts.size(), 0.0);
+  for (const auto& step_tangents : steps)
+    for (std::size_t c = 0; c < contacts.size(); ++c)
+      tangent_scale[c] = std::max(tangent_scale[c], step_tangents[c].df_dun.cwiseAbs().maxCoeff());
+  // Where contact c switches inside step j, or -1.
+  auto locate_switch = [&](std::size_t c, int j, double& where, std::string* error) {
+    where = -1.0;
+    const int jp = (j + samples - 1) % samples;
+    const double scale = tangent_scale[c];
+    const auto& now = steps[static_cast<std::size_t>(j)][c].df_dun;
+    const auto& before = steps[static_cast<std::size_t>(jp)][c].df_dun;
+    const auto& after = steps[static_cast<std::size_t>((j + 1) % samples)][c].df_dun;
+    if (relative_change(now, before, scale) <= kRegimeChange &&
+        relative_change(now, after, scale) <= kRegimeChange)
+      return true;
+    RowMajor start, end, middle;
+    if (!regime_at(c, jp, 0.0, start, error) || !regime_at(c, jp, 1.0, end, error)) return false;
+    if (relative_change(start, end, scale) <= kRegimeChange) return true;
+    double lo = 0.0, hi = 1.0;
+    for (int i = 0; i < kBisections; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      if (!regime_at(c, jp, mid, middle, error)) return false;
+      ((middle - start).cwiseAbs().maxCoeff() <= (middle - end).cwiseAbs().maxCoeff() ? lo : hi) =
+          mid;
+    }
+    where = lo;
+    return true;
+  };
+
+  std::vector<StepTangents> sub_tangents(contacts.size());
+  std::vector<Eigen::VectorXd> sub_states(contacts.size());
+  for (int step = 1; step <= samples; ++step) {
+    const int j = step % samples, jp = step - 1;
+    std::vector<double> cuts;
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      std::string error;
+      double where = -1.0;
+      if (!locate_switch(c, j, where, &error)) {
+        out.failure = "contact " + contacts[c].name + ": " + error;
+        return out;
+      }
+      if (where < 0) continue;
+      if (where > kSwitchStep) cuts.push_back(where);
+      if (where + kSwitchStep < 1.0 - kSwitchStep) cuts.push_back(where + kSwitchStep);
+    }
+    if (cuts.empty()) {
+      advance(1.0, steps[static_cast<std::size_t>(j)]);
+      continue;
+    }
+    ++out.split_steps;
+    std::sort(cuts.begin(), cuts.end());
+    cuts.push_back(1.0);
+    for (std::size_t c = 0; c < contacts.size(); ++c)
+      sub_states[c] = traces[c].state.row(jp).transpose();
+    double a = 0.0;
+    for (const double b : cuts) {
+      if (b - a <= 0.0) continue;
+      for (std::size_t c = 0; c < contacts.size(); ++c) {
+        std::string error;
+        const Motion from = motion_at(c, jp, a, b - a), to = motion_at(c, jp, b, b - a);
+        Eigen::VectorXd next;
+        if (!law_step(contacts[c], sub_states[c], from.u, to.u, from.rate, to.rate, sub_tangents[c],
+                      next, &error)) {
+          out.failure = "contact " + contacts[c].name + ": " + error;
+          return out;
+        }
+        sub_states[c] = next;
+      }
+      advance(b - a, sub_tangents);
+      a = b;
+    }
   }
   if (!monodromy.allFinite()) {
     out.failure = "the monodromy matrix is not finite";

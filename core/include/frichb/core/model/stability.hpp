@@ -26,8 +26,15 @@
 //    of d state / d state_prev over the period, the motion held) within kNeutralTolerance
 //    of 1; as many multipliers nearest 1 are set apart in `neutral`.
 //
-// Convergence: the force between samples is linear, so the multipliers carry an error of
-// order h^2 on top of the harmonic truncation of the orbit (measured in tests/test_stability).
+// A law that switches regime inside a step (starts or stops slipping, opens, closes) makes the
+// linearised force jump there, which no straight line between samples represents: such a step
+// (its tangent d force / d u_now changes by more than a quarter from a neighbouring step's,
+// and a short step from its start and from its end confirm it) is split where the law
+// switches, located by bisection to 6e-8 of the step with the law's state followed along the
+// harmonic motion, and the switch is crossed by a short step of its own.
+// Convergence: the force between samples and switches is linear, so the multipliers carry an
+// error of order h^2 on top of the harmonic truncation of the orbit (measured in
+// tests/test_stability).
 // Scope: a plain structure (no cyclic symmetry), real modes, no residual flexibility: the
 // result's `failure` says so otherwise. Threading: reads the model, whose tracers are not
 // thread-safe; one model per thread.
@@ -57,6 +64,7 @@ struct FloquetMultipliers {
   // Stable when no physical multiplier lies outside the unit circle.
   bool stable() const { return largest_modulus <= 1.0; }
   int steps = 0;        // N, the steps of the period integrated
+  int split_steps = 0;  // of those, the steps split where a law switches regime
   std::string failure;  // why no multipliers were computed (empty when they were)
 };
 
