@@ -680,7 +680,8 @@ TEST(FloquetMultipliers, HertzGapUpperBranchIsUnstableAsShootingFinds) {
 
 // The whole curve of configs/stress/hertz_gap_folds.yaml with output.stability: stable up to the
 // branch point at 435 Hz on the upper branch, a fold at each turning point (the curve's own,
-// with the multiplier nearest +1 there), and stable again from the lower fold on; the table's
+// with the multiplier nearest +1 there), and stable again from the lower fold on; the branch
+// points located between their points where a multiplier crosses the unit circle; the table's
 // columns agree with the summary, and the highest stable point is below the branch point.
 TEST(FloquetMultipliers, HertzGapCurveNamesItsBifurcations) {
   const std::string file = std::string(FRICHB_SOURCE_DIR) + "/configs/stress/hertz_gap_folds.yaml";
@@ -705,6 +706,20 @@ TEST(FloquetMultipliers, HertzGapCurveNamesItsBifurcations) {
                 c.kind.c_str(), c.point, table.rows[c.point][1], c.multiplier.real(),
                 c.multiplier.imag(), c.stable ? 1 : 0);
     EXPECT_EQ(table.rows[c.point][stable] == 1.0, c.stable);
+    if (c.kind != "fold") {
+      // Located by bisection between its two points, where the multiplier crosses the circle.
+      ASSERT_TRUE(c.located.has_value());
+      const double hz = c.located->omega_rad_s / (2 * std::numbers::pi);
+      const double a = table.rows[c.point - 1][1], b = table.rows[c.point][1];
+      std::printf("  located at %.4f Hz (between %.4f and %.4f): |multiplier| %.7f\n", hz, a, b,
+                  std::abs(c.located->multiplier));
+      EXPECT_GE(hz, std::min(a, b));
+      EXPECT_LE(hz, std::max(a, b));
+      EXPECT_GE(std::abs(c.located->multiplier), 1.0);
+      EXPECT_LT(std::abs(c.located->multiplier), 1.0 + 1e-4);
+    } else {
+      EXPECT_FALSE(c.located.has_value());
+    }
     if (c.kind == "fold") {
       const double hz = table.rows[c.point][1];
       EXPECT_TRUE(std::abs(hz - turning[0]) < 1e-9 * hz || std::abs(hz - turning[1]) < 1e-9 * hz)

@@ -90,7 +90,8 @@ void summarise_stability(ResponseTable& table, const ContinuationSummary& summar
       crossings.push_back({i, p.stable, p.unstable_count, mu,
                            !real             ? "neimark_sacker"
                            : mu.real() < 0.0 ? "period_doubling"
-                                             : "branch_point"});
+                                             : "branch_point",
+                           std::nullopt});
     }
     for (std::size_t k = 0; k < table.nodes.size() && p.stable; ++k) {
       const double amp = table.rows[i][3 + k * (1 + table.harmonics[i][k].cols())];
@@ -103,11 +104,14 @@ void summarise_stability(ResponseTable& table, const ContinuationSummary& summar
     const double hz = table.rows[t][1];
     const PointStability& at = points[t];
     const PointStability* before = points[t - 1].computed ? &points[t - 1] : nullptr;
-    Change fold{t, at.stable, at.unstable_count,
+    Change fold{t,
+                at.stable,
+                at.unstable_count,
                 before && std::abs(before->nearest_one - 1) < std::abs(at.nearest_one - 1)
                     ? before->nearest_one
                     : at.nearest_one,
-                "fold"};
+                "fold",
+                std::nullopt};
     std::size_t nearest = count, last = t;
     for (auto& c : crossings)
       if (c.kind == "branch_point" && std::abs(table.rows[c.point][1] - hz) <= kFoldWindow * hz) {
@@ -129,6 +133,51 @@ void summarise_stability(ResponseTable& table, const ContinuationSummary& summar
   std::sort(crossings.begin(), crossings.end(),
             [](const Change& a, const Change& b) { return a.point < b.point; });
   table.stability_changes = std::move(crossings);
+}
+
+// Bisection on the chord between points `point` - 1 and `point` of `summary` for where the
+// number of multipliers outside the unit circle leaves `before` (ResponseTable::LocatedChange);
+// nullopt where a solve or the multipliers fail.
+std::optional<ResponseTable::LocatedChange> locate_change(const HarmonicBalanceModel& model,
+                                                          ChordSolver& chord,
+                                                          const ContinuationSummary& summary,
+                                                          std::size_t point, int before,
+                                                          const std::vector<ResponseNode>& nodes,
+                                                          AmplitudeSampler& sampler) {
+  const Eigen::VectorXd& a = summary.points[point - 1].y;
+  const Eigen::VectorXd& b = summary.points[point].y;
+  double lo = 0.0, hi = 1.0;
+  Eigen::VectorXd y_lo = a, y_hi = b;
+  FloquetMultipliers at_lo, at_hi;
+  for (int i = 0; i < kLocateBisections; ++i) {
+    const double theta = 0.5 * (lo + hi);
+    const ChordPoint p = chord.solve(a, b, theta, y_lo + (y_hi - y_lo) * 0.5);
+    if (!p.converged) return std::nullopt;
+    FloquetMultipliers f = floquet_multipliers(model, p.y);
+    if (!f.failure.empty()) return std::nullopt;
+    if (f.unstable_count == before) {
+      lo = theta;
+      y_lo = p.y;
+      at_lo = std::move(f);
+    } else {
+      hi = theta;
+      y_hi = p.y;
+      at_hi = std::move(f);
+    }
+  }
+  // The side with more multipliers outside the circle names the crossing one.
+  if (at_lo.steps == 0) at_lo = floquet_multipliers(model, y_lo);
+  if (at_hi.steps == 0) at_hi = floquet_multipliers(model, y_hi);
+  if (!at_lo.failure.empty() || !at_hi.failure.empty()) return std::nullopt;
+  const bool after_more = at_hi.unstable_count > at_lo.unstable_count;
+  const Eigen::VectorXd& y = after_more ? y_hi : y_lo;
+  ResponseTable::LocatedChange out;
+  out.omega_rad_s = y(model.equation_count());
+  out.multiplier = (after_more ? at_hi : at_lo).nearest_unstable;
+  out.theta = after_more ? hi : lo;
+  const auto x = model.kept_response(y);
+  for (const auto& node : nodes) out.amplitude_m.push_back(sampler.peak_amplitude(x, node.kept));
+  return out;
 }
 
 // The harmonic truncation at the curve's highest point (of the first response node, column 3
@@ -367,7 +416,24 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
                     [](const ContinuationPoint& p) { return p.record.size() > 0; }),
       format_number(
           std::chrono::duration<double>(std::chrono::steady_clock::now() - tabulating).count()));
-  if (scene.output.stability) summarise_stability(table, summary, n, multipliers);
+  std::unique_ptr<ChordSolver> chord;
+  if (scene.output.stability) {
+    summarise_stability(table, summary, n, multipliers);
+    const auto started = std::chrono::steady_clock::now();
+    for (auto& change : table.stability_changes) {
+      if (change.kind == "fold" || options.newton.stop.stop_requested()) continue;
+      if (!chord) chord = std::make_unique<ChordSolver>(model, options);
+      change.located = locate_change(model, *chord, summary, change.point,
+                                     multipliers[change.point - 1].unstable_count, nodes, sampler);
+      if (!change.located)
+        spdlog::warn(
+            "{}: the {} between points {} and {} was not located; the point after it is "
+            "reported",
+            scene.file.string(), change.kind, change.point - 1, change.point);
+    }
+    stability_seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  }
   table.stability_seconds = stability_seconds;
   if (scene.output.stability)
     spdlog::debug("Floquet multipliers of {} points in {} s ({} failed)", rows.size(),
@@ -375,7 +441,6 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
   // The peak of each node's curve, solved along the curve beside its highest point.
   std::vector<bool> refined(nodes.size(), false);
   std::vector<Eigen::VectorXd> peak_y(nodes.size());
-  std::unique_ptr<ChordSolver> chord;
   for (std::size_t k = 0; k < nodes.size(); ++k) {
     if (rows.empty() || options.newton.stop.stop_requested()) break;
     const std::size_t column = 3 + k * (1 + harmonics.size());

@@ -114,6 +114,20 @@ bool law_step(const ContactModel& contact, const Eigen::VectorXd& state_prev, co
   return true;
 }
 
+// The same step, value only: the state after it.
+bool law_state_step(const ContactModel& contact, const Eigen::VectorXd& state_prev,
+                    const double* u_prev, const double* u_now, const double* r_prev,
+                    const double* r_now, Eigen::VectorXd& state_now, std::string* error) {
+  const ContactLawInstance& law = *contact.law;
+  state_now.resize(law.traits().state_size);
+  double force[3];
+  return contact.tracer->along_motion()
+             ? law.step_along(state_prev.data(), u_prev, u_now,
+                              frichb_step_motion{sizeof(frichb_step_motion), r_prev, r_now}, force,
+                              state_now.data(), nullptr, nullptr, nullptr, error)
+             : law.step(state_prev.data(), u_prev, u_now, force, state_now.data(), nullptr, error);
+}
+
 // The tangents of step j of a contact's trace (from sample j - 1 to j, at its periodic state).
 bool contact_step_tangents(const ContactModel& contact, const ContactTrace& trace, int j,
                            StepTangents& t, std::string* error) {
@@ -188,9 +202,9 @@ constexpr double kRegimeChange = 0.25;
 // locate a switch, and the short steps (fractions of a step) that probe the regime at a point
 // and carry the switch itself.
 constexpr int kPathSteps = 8;
-constexpr int kBisections = 24;
+constexpr int kBisections = 16;
 constexpr double kProbe = 1e-7;
-constexpr double kSwitchStep = 3e-7;
+constexpr double kSwitchStep = 3e-5;
 
 // Multipliers of `w` split as the header says: the `dropped` smallest (force samples), the
 // `neutral` nearest 1, the rest largest first.
@@ -373,29 +387,28 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     for (double& r : mo.rate) r *= phase_step * length;
     return mo;
   };
-  // The law's state at fraction s of step j (from sample jp), followed from the traced state.
-  auto state_at = [&](std::size_t c, int jp, double s, Eigen::VectorXd& state, std::string* error) {
-    state = traces[c].state.row(jp).transpose();
-    if (s <= 0) return true;
-    StepTangents t;
+  // The law's state at fraction s of step j (from sample jp), followed along the motion from
+  // its state `state` at fraction `from` (value-only steps).
+  auto follow = [&](std::size_t c, int jp, double from, double s, Eigen::VectorXd& state,
+                    std::string* error) {
     Eigen::VectorXd next;
     for (int i = 0; i < kPathSteps; ++i) {
-      const double a = s * i / kPathSteps, b = s * (i + 1) / kPathSteps;
-      const Motion from = motion_at(c, jp, a, b - a), to = motion_at(c, jp, b, b - a);
-      if (!law_step(contacts[c], state, from.u, to.u, from.rate, to.rate, t, next, error))
+      const double a = from + (s - from) * i / kPathSteps,
+                   b = from + (s - from) * (i + 1) / kPathSteps;
+      const Motion m0 = motion_at(c, jp, a, b - a), m1 = motion_at(c, jp, b, b - a);
+      if (!law_state_step(contacts[c], state, m0.u, m1.u, m0.rate, m1.rate, next, error))
         return false;
       state = next;
     }
     return true;
   };
-  // The regime at fraction s: d force / d u_now of a short step from there.
-  auto regime_at = [&](std::size_t c, int jp, double s, RowMajor& regime, std::string* error) {
-    Eigen::VectorXd state, next;
-    if (!state_at(c, jp, s, state, error)) return false;
+  // The regime at fraction s, the law's state there `state`: d force / d u_now of a short step.
+  auto regime_at = [&](std::size_t c, int jp, double s, const Eigen::VectorXd& state,
+                       RowMajor& regime, std::string* error) {
+    Eigen::VectorXd next;
     StepTangents t;
-    const Motion from = motion_at(c, jp, s, kProbe), to = motion_at(c, jp, s + kProbe, kProbe);
-    if (!law_step(contacts[c], state, from.u, to.u, from.rate, to.rate, t, next, error))
-      return false;
+    const Motion m0 = motion_at(c, jp, s, kProbe), m1 = motion_at(c, jp, s + kProbe, kProbe);
+    if (!law_step(contacts[c], state, m0.u, m1.u, m0.rate, m1.rate, t, next, error)) return false;
     regime = t.df_dun;
     return true;
   };
@@ -415,15 +428,25 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     if (relative_change(now, before, scale) <= kRegimeChange &&
         relative_change(now, after, scale) <= kRegimeChange)
       return true;
+    const Eigen::VectorXd traced = traces[c].state.row(jp).transpose();
+    Eigen::VectorXd at_end = traced, at_lo = traced;
     RowMajor start, end, middle;
-    if (!regime_at(c, jp, 0.0, start, error) || !regime_at(c, jp, 1.0, end, error)) return false;
+    if (!regime_at(c, jp, 0.0, traced, start, error) || !follow(c, jp, 0.0, 1.0, at_end, error) ||
+        !regime_at(c, jp, 1.0, at_end, end, error))
+      return false;
     if (relative_change(start, end, scale) <= kRegimeChange) return true;
     double lo = 0.0, hi = 1.0;
     for (int i = 0; i < kBisections; ++i) {
       const double mid = 0.5 * (lo + hi);
-      if (!regime_at(c, jp, mid, middle, error)) return false;
-      ((middle - start).cwiseAbs().maxCoeff() <= (middle - end).cwiseAbs().maxCoeff() ? lo : hi) =
-          mid;
+      Eigen::VectorXd at_mid = at_lo;
+      if (!follow(c, jp, lo, mid, at_mid, error) || !regime_at(c, jp, mid, at_mid, middle, error))
+        return false;
+      if ((middle - start).cwiseAbs().maxCoeff() <= (middle - end).cwiseAbs().maxCoeff()) {
+        lo = mid;
+        at_lo = at_mid;
+      } else {
+        hi = mid;
+      }
     }
     where = lo;
     return true;

@@ -140,21 +140,28 @@ nlohmann::json stability_json(const ResponseTable& table) {
   }
   nlohmann::json changes = nlohmann::json::array();
   for (const auto& c : table.stability_changes) {
+    // A located change is given where it was located; a fold (or a change not located) at the
+    // point after it.
     nlohmann::json amplitudes = nlohmann::json::object();
-    for (const auto& node : table.nodes) {
+    for (std::size_t k = 0; k < table.nodes.size(); ++k) {
+      const auto& node = table.nodes[k];
       const auto column =
           std::find(table.header.begin(), table.header.end(), node.name + "_amplitude_m") -
           table.header.begin();
-      amplitudes[node.name] = table.rows[c.point][static_cast<std::size_t>(column)];
+      amplitudes[node.name] = c.located ? c.located->amplitude_m[k]
+                                        : table.rows[c.point][static_cast<std::size_t>(column)];
     }
+    const std::complex<double> mu = c.located ? c.located->multiplier : c.multiplier;
     changes.push_back({{"kind", c.kind},
                        {"point", c.point},
-                       {"frequency_hz", table.rows[c.point][1]},
+                       {"located", c.located.has_value()},
+                       {"frequency_hz", c.located ? c.located->omega_rad_s / (2 * std::numbers::pi)
+                                                  : table.rows[c.point][1]},
                        {"amplitude_m", amplitudes},
                        {"stable_after", c.stable},
                        {"unstable_multipliers_after", c.unstable_count},
-                       {"multiplier", {c.multiplier.real(), c.multiplier.imag()}},
-                       {"multiplier_modulus", std::abs(c.multiplier)}});
+                       {"multiplier", {mu.real(), mu.imag()}},
+                       {"multiplier_modulus", std::abs(mu)}});
   }
   return {{"unstable_points", table.unstable_points},
           {"highest_stable_point", highest},

@@ -104,6 +104,8 @@ inline constexpr double kMicroFoldWidth = 1e-3;
 // Relative frequency window within which a real multiplier's crossing of +1 is attributed to a
 // fold of the curve (ResponseTable::StabilityChange).
 inline constexpr double kFoldWindow = 1e-3;
+// Halvings of the chord between two points that locate a bifurcation other than a fold.
+inline constexpr int kLocateBisections = 12;
 struct TurningPoints {
   std::vector<double> frequencies;
   int micro_folds = 0;         // turning points that belong to a cluster
@@ -156,12 +158,23 @@ struct ResponseTable {
   // real and past +1, a branch point (within kFoldWindow of a fold's frequency: that fold's); real
   // and past -1, a period doubling; a complex pair, a Neimark-Sacker bifurcation (a torus: the
   // response turns quasi-periodic).
+  // A change other than a fold is then located between the two points by bisection (on the
+  // planes across the chord between them, kLocateBisections halvings): where the number of
+  // multipliers outside the circle changes, its frequency, each node's amplitude and the
+  // multiplier that crossed there (its modulus within the bisection's reach of 1).
+  struct LocatedChange {
+    double omega_rad_s = 0.0;
+    std::vector<double> amplitude_m;  // per node, as `nodes`
+    std::complex<double> multiplier;
+    double theta = 0.0;  // its place on the chord, 0 at point - 1 and 1 at point
+  };
   struct StabilityChange {
     std::size_t point = 0;
     bool stable = false;     // the stability from `point` on
     int unstable_count = 0;  // multipliers outside the circle from `point` on
     std::complex<double> multiplier;
-    std::string kind;  // fold, branch_point, period_doubling or neimark_sacker
+    std::string kind;                      // fold, branch_point, period_doubling or neimark_sacker
+    std::optional<LocatedChange> located;  // empty for a fold, or where a solve failed
   };
   std::vector<StabilityChange> stability_changes;
   int unstable_points = 0;

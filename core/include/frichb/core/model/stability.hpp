@@ -27,11 +27,12 @@
 //    of 1; as many multipliers nearest 1 are set apart in `neutral`.
 //
 // A law that switches regime inside a step (starts or stops slipping, opens, closes) makes the
-// linearised force jump there, which no straight line between samples represents: such a step
-// (its tangent d force / d u_now changes by more than a quarter from a neighbouring step's,
-// and a short step from its start and from its end confirm it) is split where the law
-// switches, located by bisection to 6e-8 of the step with the law's state followed along the
-// harmonic motion, and the switch is crossed by a short step of its own.
+// linearised force jump there, which no straight line between samples represents. Such a step
+// is split where the law switches: a candidate where its tangent d force / d u_now differs
+// from a neighbouring step's by more than a quarter of its largest over the period, confirmed
+// by the regimes at its two ends (the tangents of short steps from there), the switch located
+// by bisection to 2e-5 of the step with the law's state followed along the harmonic motion,
+// and crossed by a short step of its own.
 // Convergence: the force between samples and switches is linear, so the multipliers carry an
 // error of order h^2 on top of the harmonic truncation of the orbit (measured in
 // tests/test_stability).
