@@ -312,6 +312,35 @@ TEST(StudyRun, RunsMatchHandEditedScenesAndLinearLimits) {
   EXPECT_EQ(index["optimum"]["run"], "0001");
 }
 
+// With output.stability the overlay draws each run's stable points solid over its whole curve
+// dashed: on the Hertz gap scene at two friction coefficients, both runs have unstable points,
+// and the overlay's script reads their `stable` column.
+TEST(StudyRun, OverlayDashesEachRunsUnstableBranches) {
+  TempDir dir;
+  std::string text = read_text(fs::path(FRICHB_SOURCE_DIR) / "configs/stress/hertz_gap_folds.yaml");
+  text = std::regex_replace(text, std::regex("plots: false"), "plots: true");
+  const auto file =
+      dir.write("gap.yaml", text +
+                                "study:\n  sweep:\n    - {path: contacts.shroud.params.mu, values: "
+                                "[0.3, 0.25]}\n");
+  StudyCommunicator serial;
+  ASSERT_EQ(study_into(file, dir.path() / "study", 1, serial), kExitOk);
+  const std::string gp = read_text(dir.path() / "study" / "overlay.gp");
+  for (const char* run : {"0000", "0001"}) {
+    const std::string csv = std::string("'runs/") + run + "/response.csv'";
+    EXPECT_NE(gp.find(csv + " using 2:(column('stable') > 0.5 ? "), std::string::npos) << gp;
+    const auto rows = read_csv(dir.path() / "study" / "runs" / run / "response.csv");
+    const auto stable = std::find(rows[0].begin(), rows[0].end(), "stable") - rows[0].begin();
+    ASSERT_LT(static_cast<std::size_t>(stable), rows[0].size());
+    EXPECT_TRUE(
+        std::any_of(rows.begin() + 1, rows.end(),
+                    [&](const auto& row) { return row[static_cast<std::size_t>(stable)] == "0"; }))
+        << run << " has no unstable point";
+  }
+  EXPECT_NE(gp.find("title 'unstable (dashed)'"), std::string::npos);
+  EXPECT_TRUE(fs::is_regular_file(dir.path() / "study" / "overlay.png"));
+}
+
 // The quick-start scene with its normal load and name taken from the variable n0.
 fs::path quickstart_with_variable(const TempDir& dir, const std::string& study,
                                   const std::string& name = "variables.yaml") {

@@ -665,6 +665,7 @@ StudyResult run_study(const StudyRequest& request, StudyCommunicator& comm) {
   result.unit = scene.continuation.unit;
   result.response = scene.output.response;
   result.plots = scene.output.plots;
+  result.stability = scene.output.stability;
   result.amplitude_axis = scene.output.amplitude_axis;
   result.processes = comm.size();
   result.threads = threads;

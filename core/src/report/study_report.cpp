@@ -169,7 +169,9 @@ ValueSpan peak_span(const StudyResult& r, bool written) {
 
 // overlay.gp/png: the response curves of study.node, one line per run that wrote its output
 // (nothing when none did). The amplitude axis is logarithmic when the runs' peaks span more
-// than a decade (or as output.amplitude_axis says).
+// than a decade (or as output.amplitude_axis says). With output.stability each curve's
+// stable points are drawn solid over the whole curve dashed, so that its unstable branches
+// show dashed, as in response.png.
 void write_overlay_plot(const StudyResult& r, const std::string& title, StagedOutput& out) {
   const StudySpec& study = r.study;
   const auto& runs = r.runs;
@@ -192,12 +194,20 @@ void write_overlay_plot(const StudyResult& r, const std::string& title, StagedOu
     std::string label;
     for (std::size_t s = 0; s < study.sweeps.size(); ++s)
       label += (s ? ", " : "") + value_label(displays[s], run.values[s]);
-    gp << (curve ? ", \\\n     " : "") << gnuplot_string("runs/" + run.id + "/response.csv")
-       << " using " << xcol << ":(column(" << gnuplot_string(study.node + "_amplitude_m") << ")*"
-       << scale_factor_text(scale) << ") with lines lt " << curve + 1 << " title "
-       << gnuplot_string(label);
+    const std::string file = gnuplot_string("runs/" + run.id + "/response.csv");
+    const std::string amplitude =
+        "column(" + gnuplot_string(study.node + "_amplitude_m") + ")*" + scale_factor_text(scale);
+    gp << (curve ? ", \\\n     " : "") << file << " using " << xcol << ":";
+    if (r.stability)
+      gp << "(" << amplitude << ") with lines lt " << curve + 1 << " dt 2 lw 1 notitle, \\\n     "
+         << file << " using " << xcol << ":(column('stable') > 0.5 ? " << amplitude << " : NaN)";
+    else
+      gp << "(" << amplitude << ")";
+    gp << " with lines lt " << curve + 1 << " title " << gnuplot_string(label);
     ++curve;
   }
+  if (r.stability && curve > 0)
+    gp << ", \\\n     NaN with lines lc rgb 'black' dt 2 title 'unstable (dashed)'";
   gp << "\n";
   if (curve > 0) {
     write_text(out.path("overlay.gp"), gp.str());

@@ -133,6 +133,7 @@ struct StudyResult {
   FrequencyUnit unit = FrequencyUnit::kHz;                  // of the scene's sweep
   std::vector<std::string> response;                        // the scene's output.response nodes
   bool plots = true;                                        // the scene's output.plots
+  bool stability = false;                                   // the scene's output.stability
   AmplitudeAxis amplitude_axis = AmplitudeAxis::automatic;  // the scene's output.amplitude_axis
   StudySpec study;
   std::vector<StudyRunRow> runs;  // by run index
