@@ -164,19 +164,31 @@ class ContactPath {
   void at(double phi, double* u, double* du) const {
     const Eigen::Index c = layout_.coefficient_count();
     const auto& harmonics = layout_.harmonics();
+    // cos(n phi) and sin(n phi) by rotation from n = 0 to the highest harmonic.
+    const auto highest = static_cast<std::size_t>(layout_.max_harmonic());
+    cos_.resize(highest + 1);
+    sin_.resize(highest + 1);
+    const double c1 = std::cos(phi), s1 = std::sin(phi);
+    cos_[0] = 1.0;
+    sin_[0] = 0.0;
+    for (std::size_t n = 1; n <= highest; ++n) {
+      cos_[n] = cos_[n - 1] * c1 - sin_[n - 1] * s1;
+      sin_[n] = sin_[n - 1] * c1 + cos_[n - 1] * s1;
+    }
     for (int a = 0; a < 3; ++a) u[a] = du[a] = 0.0;
     for (std::size_t a = 0; a < components_.size(); ++a) {
       const double* x = coefficients_.data() + static_cast<Eigen::Index>(a) * c;
       double value = 0.0, rate = 0.0;
       for (std::size_t k = 0; k < harmonics.size(); ++k) {
-        const double n = harmonics[k], ac = x[layout_.cos_index(k)];
+        const double ac = x[layout_.cos_index(k)];
         if (harmonics[k] == 0) {
           value += ac;
           continue;
         }
-        const double as = x[layout_.sin_index(k)], cs = std::cos(n * phi), sn = std::sin(n * phi);
+        const auto n = static_cast<std::size_t>(harmonics[k]);
+        const double as = x[layout_.sin_index(k)], cs = cos_[n], sn = sin_[n];
         value += ac * cs + as * sn;
-        rate += n * (as * cs - ac * sn);
+        rate += static_cast<double>(n) * (as * cs - ac * sn);
       }
       u[components_[a]] = value;
       du[components_[a]] = rate;
@@ -187,6 +199,7 @@ class ContactPath {
   const HarmonicLayout& layout_;
   const std::vector<int>& components_;
   Eigen::VectorXd coefficients_;
+  mutable std::vector<double> cos_, sin_;  // scratch of at()
 };
 
 // The largest entry of |a - b| relative to `scale` (0 when the scale is 0).
@@ -201,10 +214,10 @@ constexpr double kRegimeChange = 0.25;
 // Straight sub-steps that follow the motion to a point inside a step, the bisections that
 // locate a switch, and the short steps (fractions of a step) that probe the regime at a point
 // and carry the switch itself.
-constexpr int kPathSteps = 8;
-constexpr int kBisections = 16;
+constexpr int kPathSteps = 4;
+constexpr int kBisections = 12;
 constexpr double kProbe = 1e-7;
-constexpr double kSwitchStep = 3e-5;
+constexpr double kSwitchStep = 5e-4;
 
 // Multipliers of `w` split as the header says: the `dropped` smallest (force samples), the
 // `neutral` nearest 1, the rest largest first.
