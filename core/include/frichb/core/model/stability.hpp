@@ -31,7 +31,7 @@
 // is split where the law switches: a candidate where its tangent d force / d u_now differs
 // from a neighbouring step's by more than a quarter of its largest over the period, confirmed
 // by the regimes at its two ends (the tangents of short steps from there), the switch located
-// by bisection to 2e-5 of the step with the law's state followed along the harmonic motion,
+// by bisection to 2.4e-4 of the step with the law's state followed along the harmonic motion,
 // and crossed by a short step of its own.
 // Convergence: the force between samples and switches is linear, so the multipliers carry an
 // error of order h^2 on top of the harmonic truncation of the orbit (measured in
