@@ -335,6 +335,7 @@ class ShootingOracle {
     const auto x = model_.kept_response(y);
     const double dt = 2 * std::numbers::pi / w_ / steps_;
     std::vector<OrbitPoint> orbit;
+    orbit.reserve(static_cast<std::size_t>(steps_));
     for (int k = 0; k < steps_; ++k) orbit.push_back(orbit_at(x, k * dt));
     Eigen::VectorXd s = start_, f;
     std::vector<Eigen::VectorXd> forces(static_cast<std::size_t>(steps_));

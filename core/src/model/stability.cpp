@@ -389,6 +389,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
   // a point (the tangent of a short step from it, the law's state followed along the motion
   // from the step's start), and crossed by a short step of its own.
   std::vector<ContactPath> paths;
+  paths.reserve(contacts.size());
   for (const auto& contact : contacts) paths.emplace_back(layout, y, contact);
   const double phase_step = 2 * std::numbers::pi / samples;
   struct Motion {
