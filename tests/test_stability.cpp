@@ -741,6 +741,32 @@ TEST(FloquetMultipliers, HertzGapCurveNamesItsBifurcations) {
   EXPECT_LT(table.stable_peaks[0]->amplitude_m, run.peaks[0].amplitude_m);
 }
 
+// configs/stress/gap_closing_folds.yaml as shipped (coupled law, a gap closing, 128 samples):
+// the stability changes at the curve's two turning points alone, the branch between them
+// unstable, with no change of stability from point to point on the upper branch (a contact
+// that sticks, slips and opens there: the steps are split at its switches).
+TEST(FloquetMultipliers, GapClosingCurveChangesStabilityAtItsFoldsAlone) {
+  const std::string file =
+      std::string(FRICHB_SOURCE_DIR) + "/configs/stress/gap_closing_folds.yaml";
+  RunOptions options;
+  options.plots = 0;
+  options.quiet = true;
+  const RunResult run = run_scene(SceneInput{file, {}, false}, options);
+  ASSERT_EQ(run.outcome.status, 0) << run.outcome.message;
+  const auto& table = run.table;
+  ASSERT_EQ(table.turning_points.frequencies.size(), 2u);
+  ASSERT_EQ(table.stability_changes.size(), 2u);
+  for (const auto& c : table.stability_changes) {
+    std::printf("%s at point %zu, %.4f Hz: multiplier %+.6f, stable after: %d\n", c.kind.c_str(),
+                c.point, table.rows[c.point][1], c.multiplier.real(), c.stable ? 1 : 0);
+    EXPECT_EQ(c.kind, "fold");
+  }
+  EXPECT_FALSE(table.stability_changes[0].stable);
+  EXPECT_TRUE(table.stability_changes[1].stable);
+  EXPECT_GT(table.unstable_points, 0);
+  std::printf("%d unstable points of %zu\n", table.unstable_points, table.rows.size());
+}
+
 // A cyclic scene asking for stability is refused where it asks, naming the key (the stability
 // of a sector model against other nodal diameters is not computed).
 TEST(FloquetMultipliers, CyclicSceneIsRefusedAtTheKey) {
