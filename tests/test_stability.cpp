@@ -303,7 +303,8 @@ class ShootingOracle {
       std::string error;
       EXPECT_TRUE(model_.trace_contact(c, y, trace, &error)) << error;
       const auto n = static_cast<Eigen::Index>(trace.state.cols());
-      s.segment(state_offset_[c], n) = trace.state.row(trace.state.rows() - 1).transpose();
+      if (n > 0)
+        s.segment(state_offset_[c], n) = trace.state.row(trace.state.rows() - 1).transpose();
       s.segment<3>(prev_offset_[c]) = local_motion(c, s.head(modes_));
     }
     Eigen::VectorXd probe = s, f;

@@ -128,6 +128,12 @@ bool law_state_step(const ContactModel& contact, const Eigen::VectorXd& state_pr
              : law.step(state_prev.data(), u_prev, u_now, force, state_now.data(), nullptr, error);
 }
 
+// The traced state after sample j (empty for a law without state, whose rows have no entries).
+Eigen::VectorXd traced_state(const ContactTrace& trace, int j) {
+  if (trace.state.cols() == 0) return {};
+  return trace.state.row(j).transpose();
+}
+
 // The tangents of step j of a contact's trace (from sample j - 1 to j, at its periodic state).
 bool contact_step_tangents(const ContactModel& contact, const ContactTrace& trace, int j,
                            StepTangents& t, std::string* error) {
@@ -146,7 +152,7 @@ bool contact_step_tangents(const ContactModel& contact, const ContactTrace& trac
       r_prev[c] = trace.rate(jp, col);
     }
   }
-  const Eigen::VectorXd state_prev = trace.state.row(jp).transpose();
+  const Eigen::VectorXd state_prev = traced_state(trace, jp);
   Eigen::VectorXd state_now;
   return law_step(contact, state_prev, u_prev, u_now, r_prev, r_now, t, state_now, error);
 }
@@ -442,7 +448,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     if (relative_change(now, before, scale) <= kRegimeChange &&
         relative_change(now, after, scale) <= kRegimeChange)
       return true;
-    const Eigen::VectorXd traced = traces[c].state.row(jp).transpose();
+    const Eigen::VectorXd traced = traced_state(traces[c], jp);
     Eigen::VectorXd at_end = traced, at_lo = traced;
     RowMajor start, end, middle;
     if (!regime_at(c, jp, 0.0, traced, start, error) || !follow(c, jp, 0.0, 1.0, at_end, error) ||
@@ -489,8 +495,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     ++out.split_steps;
     std::sort(cuts.begin(), cuts.end());
     cuts.push_back(1.0);
-    for (std::size_t c = 0; c < contacts.size(); ++c)
-      sub_states[c] = traces[c].state.row(jp).transpose();
+    for (std::size_t c = 0; c < contacts.size(); ++c) sub_states[c] = traced_state(traces[c], jp);
     double a = 0.0;
     for (const double b : cuts) {
       if (b - a <= 0.0) continue;

@@ -210,7 +210,7 @@ bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& sta
       monodromy->swap(mnext);
     }
     for (int a = 0; a < d; ++a) force(j, a) = f[components_[a]];
-    states.row(j) = next.transpose();
+    if (s > 0) states.row(j) = next.transpose();  // a law without state has no columns
     if (derivative) {
       // Chain rule: u_now depends on U through basis row j, u_prev through row j-1, and the
       // rates (laws that step along the motion) through the basis' derivative rows.
@@ -412,7 +412,8 @@ bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& 
   out.passes = 1;
   // The caller then traces this same pass again, from the same start, with the derivative: it
   // counts once.
-  if ((out.state.rowwise() - start.transpose()).cwiseAbs().colwise().maxCoeff().minCoeff() == 0.0) {
+  if (out.state.cols() == 0 ||
+      (out.state.rowwise() - start.transpose()).cwiseAbs().colwise().maxCoeff().minCoeff() == 0.0) {
     out.passes = 0;
     return true;
   }
