@@ -180,6 +180,26 @@ std::optional<ResponseTable::LocatedChange> locate_change(const HarmonicBalanceM
   return out;
 }
 
+// Every change of `table` other than a fold located by locate_change (warned where it is
+// not), the chord solver made on first use.
+void locate_changes(const Scene& scene, const HarmonicBalanceModel& model,
+                    const ContinuationOptions& options, const ContinuationSummary& summary,
+                    const std::vector<PointStability>& multipliers, AmplitudeSampler& sampler,
+                    std::unique_ptr<ChordSolver>& chord, ResponseTable& table) {
+  for (auto& change : table.stability_changes) {
+    if (change.kind == "fold" || options.newton.stop.stop_requested()) continue;
+    if (!chord) chord = std::make_unique<ChordSolver>(model, options);
+    change.located =
+        locate_change(model, *chord, summary, change.point,
+                      multipliers[change.point - 1].unstable_count, table.nodes, sampler);
+    if (!change.located)
+      spdlog::warn(
+          "{}: the {} between points {} and {} was not located; the point after it is "
+          "reported",
+          scene.file.string(), change.kind, change.point - 1, change.point);
+  }
+}
+
 // The harmonic truncation at the curve's highest point (of the first response node, column 3
 // of `rows`); warns above kHighestHarmonicShare.
 std::optional<HarmonicTruncation> check_truncation(const Scene& scene,
@@ -420,17 +440,7 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
   if (scene.output.stability) {
     summarise_stability(table, summary, n, multipliers);
     const auto started = std::chrono::steady_clock::now();
-    for (auto& change : table.stability_changes) {
-      if (change.kind == "fold" || options.newton.stop.stop_requested()) continue;
-      if (!chord) chord = std::make_unique<ChordSolver>(model, options);
-      change.located = locate_change(model, *chord, summary, change.point,
-                                     multipliers[change.point - 1].unstable_count, nodes, sampler);
-      if (!change.located)
-        spdlog::warn(
-            "{}: the {} between points {} and {} was not located; the point after it is "
-            "reported",
-            scene.file.string(), change.kind, change.point - 1, change.point);
-    }
+    locate_changes(scene, model, options, summary, multipliers, sampler, chord, table);
     stability_seconds +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   }
