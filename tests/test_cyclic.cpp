@@ -7,12 +7,15 @@
 #include <complex>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
 
+#include "cyclic_disk.hpp"
 #include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/model/stability.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/solver/continuation.hpp"
 #include "test_support.hpp"
@@ -38,66 +41,11 @@ TEST(Cyclic, ThesisTable51HarmonicIndexAndNodalDiameter) {
   }
 }
 
-constexpr int kSectors = 6, kEngineOrder = 2;
-
-std::string cyclic_scene() {
-  return R"(
-cyclic: {sectors: 6, engine_order: 2}
-structure:
-  provider: lumped_cyclic
-  params:
-    sectors: 6
-    masses: [0.5, 0.1]
-    springs: [{between: [ground, 0], k: 2.0e6}, {between: [0, 1], k: 4.0e5}]
-    coupling: [{between: [0, 0], k: 1.0e5}]
-    modal_damping: [0.01]
-  dofs: {disk: 0, blade: 1}
-excitation: [{dof: blade, amplitude: 2.0}]
-contacts:
-  - name: shroud
-    law: jenkins_1d
-    between: [{node: blade, sector: 0}, {node: blade, sector: 1}]
-    params: {kt: 1.0e5, mu: 0.5, normal_load: 5.0}
-harmonic_balance: {harmonics: [0, 1, 2, 3], samples_per_period: 96}
-continuation: {frequency: {from: 200, to: 400}}
-output: {response: [blade, disk]}
-)";
-}
-
-// 96 samples per period: a multiple of nb, so that the time shift between neighbouring
-// sectors (m/nb of a period) is a whole number of samples and the sampled stick-slip traces
-// of the full disk are exact shifts of the reference one (otherwise the two agree only to the
-// AFT's time-discretisation error, about 1e-3 here).
-
-// The same disk with every sector assembled, a contact between each pair of neighbouring
-// blades, and the engine-order excitation as phase-shifted forces on every blade.
-std::string full_scene() {
-  std::ostringstream s;
-  s << "structure:\n  provider: lumped\n  params:\n    masses: [";
-  for (int k = 0; k < kSectors; ++k) s << (k ? ", " : "") << "0.5, 0.1";
-  s << "]\n    springs:\n";
-  for (int k = 0; k < kSectors; ++k) {
-    const int disk = 2 * k, blade = 2 * k + 1, next_disk = 2 * ((k + 1) % kSectors);
-    s << "      - {between: [ground, " << disk << "], k: 2.0e6}\n"
-      << "      - {between: [" << disk << ", " << blade << "], k: 4.0e5}\n"
-      << "      - {between: [" << disk << ", " << next_disk << "], k: 1.0e5}\n";
-  }
-  s << "    modal_damping: [0.01]\n  dofs: {";
-  for (int k = 0; k < kSectors; ++k)
-    s << (k ? ", " : "") << "disk" << k << ": " << 2 * k << ", blade" << k << ": " << 2 * k + 1;
-  s << "}\nexcitation:\n";
-  // Sector k is forced like the reference delayed by k Delta t: phase -k m 360 / nb degrees.
-  for (int k = 0; k < kSectors; ++k)
-    s << "  - {dof: blade" << k
-      << ", amplitude: 2.0, phase_deg: " << -360.0 * k * kEngineOrder / kSectors << "}\n";
-  s << "contacts:\n";
-  for (int k = 0; k < kSectors; ++k)
-    s << "  - {name: shroud" << k << ", law: jenkins_1d, between: [blade" << k << ", blade"
-      << (k + 1) % kSectors << "], params: {kt: 1.0e5, mu: 0.5, normal_load: 5.0}}\n";
-  s << "harmonic_balance: {harmonics: [0, 1, 2, 3], samples_per_period: 96}\n"
-    << "continuation: {frequency: {from: 200, to: 400}}\noutput: {response: [blade0, disk0]}\n";
-  return s.str();
-}
+// The disk's samples per period (96) are a multiple of nb, so that the time shift between
+// neighbouring sectors (m/nb of a period) is a whole number of samples and the sampled
+// stick-slip traces of the full disk are exact shifts of the reference one (otherwise the two
+// agree only to the AFT's time-discretisation error, about 1e-3 here).
+constexpr int kSectors = test::kDiskSectors;
 
 struct Built {
   Scene scene;
@@ -119,8 +67,8 @@ TEST(Cyclic, OneSectorReductionEqualsTheFullyAssembledDisk) {
   const Registry registry({FRICHB_PLUGIN_DIR});
   if (!registry.contains("lumped_cyclic")) GTEST_SKIP() << "lumped_cyclic not built";
   test::TempDir dir;
-  Built cyc = build(dir.write("cyclic.yaml", cyclic_scene()), registry);
-  Built full = build(dir.write("full.yaml", full_scene()), registry);
+  Built cyc = build(dir.write("cyclic.yaml", test::cyclic_disk_scene()), registry);
+  Built full = build(dir.write("full.yaml", test::full_disk_scene()), registry);
   const Eigen::Index n = cyc.model->equation_count();
   ASSERT_EQ(full.model->equation_count(), kSectors * n);
 
@@ -128,23 +76,10 @@ TEST(Cyclic, OneSectorReductionEqualsTheFullyAssembledDisk) {
   ASSERT_TRUE(curve.reached_end()) << curve.message;
 
   const auto& layout = cyc.model->layout();
-  const int c = layout.coefficient_count();
-  const double phi = 2 * std::numbers::pi / kSectors;
   double worst_residual = 0, worst_response = 0, scale = 0;
   bool slipped = false;
   for (const auto& p : curve.points) {
-    // Contact k of the full disk is the reference contact delayed by k Delta t.
-    Eigen::VectorXd y(kSectors * n + 1);
-    for (int k = 0; k < kSectors; ++k)
-      for (std::size_t h = 0; h < layout.harmonics().size(); ++h) {
-        const int nh = layout.harmonics()[h];
-        const int ci = layout.cos_index(h), si = layout.sin_index(h);
-        const std::complex<double> x(p.y(ci), nh ? -p.y(si) : 0.0);
-        const std::complex<double> shifted = x * std::polar(1.0, -nh * kEngineOrder * phi * k);
-        y(k * c + ci) = shifted.real();
-        if (nh) y(k * c + si) = -shifted.imag();
-      }
-    y(kSectors * n) = p.y(n);
+    const Eigen::VectorXd y = test::full_disk_unknowns(layout, p.y);
     Eigen::VectorXd e;
     std::string message;
     ASSERT_TRUE(full.model->evaluate(y, e, nullptr, &message)) << message;
@@ -255,6 +190,196 @@ TEST(Cyclic, BladedDiskPeakConvergesWithTheNumberOfHarmonics) {
   // The peak settles as harmonics are added (thesis case study 1: the 1F peak barely moves).
   EXPECT_LT(std::abs(peak[5] - peak[10]), 1e-3 * peak[10]);
   EXPECT_LT(std::abs(peak[5] - peak[10]), std::abs(peak[1] - peak[10]));
+}
+
+// The Floquet multipliers of nodal diameter h of the disk with its shrouds stuck (a spring kt
+// between neighbouring blades): the Bloch wave of h, q'' + C q' + (W^2 + kt P^H P) q = 0 with
+// P = G_h Phi_h and G_h = sum over sector offsets o of W_o e^{-i h phi o}; exp(lambda T) of
+// its eigenvalues (Eigen's complex solver), each twice for 0 < h < nb/2 (h and nb - h).
+std::vector<std::complex<double>> bloch_wave_multipliers(const HarmonicBalanceModel& model, int h,
+                                                         double kt, double period) {
+  const auto& b = model.structure().basis(h);
+  const double phi = 2 * std::numbers::pi / kSectors;
+  Eigen::MatrixXcd g = Eigen::MatrixXcd::Zero(model.component_count(), b.rows.rows());
+  for (int o = -1; o <= 1; ++o)
+    g += Eigen::MatrixXd(model.side_gather(o)).cast<std::complex<double>>() *
+         std::polar(1.0, -h * phi * o);
+  const Eigen::MatrixXcd p = g * b.rows;
+  const Eigen::Index r = b.rows.cols();
+  Eigen::MatrixXcd a = Eigen::MatrixXcd::Zero(2 * r, 2 * r);
+  a.topRightCorner(r, r).setIdentity();
+  Eigen::MatrixXcd stiffness = kt * p.adjoint() * p;
+  stiffness.diagonal() += b.frequencies.array().square().matrix().cast<std::complex<double>>();
+  a.bottomLeftCorner(r, r) = -stiffness;
+  a.bottomRightCorner(r, r) = -b.damping.cast<std::complex<double>>();
+  const Eigen::VectorXcd lambda = Eigen::ComplexEigenSolver<Eigen::MatrixXcd>(a).eigenvalues();
+  std::vector<std::complex<double>> out;
+  for (int copy = 0; copy < (h == 0 || 2 * h == kSectors ? 1 : 2); ++copy)
+    for (Eigen::Index i = 0; i < lambda.size(); ++i) out.push_back(std::exp(lambda(i) * period));
+  return out;
+}
+
+// The distance from mu to the nearest of `set`, relative to |mu|.
+double nearest_relative(std::complex<double> mu, const std::vector<std::complex<double>>& set) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& s : set) best = std::min(best, std::abs(mu - s) / std::abs(mu));
+  return best;
+}
+
+// With the shrouds stuck (mu N far above any spring force) the disk is linear: its multipliers
+// are those of the Bloch waves of every nodal diameter, each one where its diameter's linear
+// system puts it, and each sector's slider offset is neutral. The cyclic stability labels
+// every multiplier by its nodal diameter: the label must name the diameter whose closed form
+// holds it (the diameters' multipliers are 0.05 rad apart or more here, the step's error
+// 1e-3).
+TEST(CyclicStability, StuckShroudsGiveEveryNodalDiametersBlochWave) {
+  const Registry registry({FRICHB_PLUGIN_DIR});
+  if (!registry.contains("lumped_cyclic")) GTEST_SKIP() << "lumped_cyclic not built";
+  test::TempDir dir;
+  test::DiskOptions o;
+  o.params = "{kt: 1.0e5, mu: 0.5, normal_load: 1.0e6}";
+  o.samples = 192;
+  o.stability = true;
+  o.from_hz = 290;
+  o.to_hz = 300;
+  Built cyc = build(dir.write("cyclic.yaml", test::cyclic_disk_scene(o)), registry);
+  const auto curve = test::trace_hz(*cyc.model, o.from_hz, o.to_hz, 2.0);
+  ASSERT_TRUE(curve.reached_end()) << curve.message;
+  const Eigen::VectorXd& y = curve.points.back().y;
+  const double period = 2 * std::numbers::pi / y(y.size() - 1);
+  const FloquetMultipliers f = floquet_multipliers(*cyc.model, y);
+  ASSERT_TRUE(f.failure.empty()) << f.failure;
+  EXPECT_EQ(f.neutral.size(), std::size_t{kSectors});  // each sector's slider
+  ASSERT_EQ(f.multipliers.size(), 24u);                // 12 modes of the disk, twice
+  ASSERT_EQ(f.nodal_diameters.size(), f.multipliers.size());
+  std::vector<std::vector<std::complex<double>>> exact;
+  for (int h = 0; 2 * h <= kSectors; ++h)
+    exact.push_back(bloch_wave_multipliers(*cyc.model, h, 1.0e5, period));
+  double worst = 0, separation = std::numeric_limits<double>::infinity();
+  std::vector<std::size_t> count(exact.size(), 0);
+  for (std::size_t k = 0; k < f.multipliers.size(); ++k) {
+    const int h = f.nodal_diameters[k];
+    ASSERT_GE(h, 0);
+    ASSERT_LT(h, static_cast<int>(exact.size()));
+    ++count[static_cast<std::size_t>(h)];
+    worst = std::max(worst, nearest_relative(f.multipliers[k], exact[static_cast<std::size_t>(h)]));
+    for (std::size_t other = 0; other < exact.size(); ++other)
+      if (static_cast<int>(other) != h)
+        separation = std::min(separation, nearest_relative(f.multipliers[k], exact[other]));
+  }
+  for (std::size_t h = 0; h < exact.size(); ++h)
+    EXPECT_EQ(count[h], exact[h].size()) << "nodal diameter " << h;
+  std::printf(
+      "stuck shrouds: multipliers vs their nodal diameter's Bloch wave %.2e, vs the "
+      "nearest of another diameter %.2e\n",
+      worst, separation);
+  EXPECT_LT(worst, 2e-3);
+  EXPECT_GT(separation, 10 * worst);
+  EXPECT_TRUE(f.stable());
+}
+
+// The cyclic stability against the whole disk assembled (lumped, every sector's shroud its own
+// contact, no symmetry used) at the same orbit: the disk's multipliers and neutral ones agree
+// point by point along the curve, through stick and slip, to rounding (1.1e-14; the degenerate
+// standing pairs of nodal diameters 1 and 2 among them).
+TEST(CyclicStability, SlippingShroudsAgreeWithTheFullyAssembledDisk) {
+  const Registry registry({FRICHB_PLUGIN_DIR});
+  if (!registry.contains("lumped_cyclic")) GTEST_SKIP() << "lumped_cyclic not built";
+  test::TempDir dir;
+  test::DiskOptions o;
+  o.stability = true;
+  Built cyc = build(dir.write("cyclic.yaml", test::cyclic_disk_scene(o)), registry);
+  Built full = build(dir.write("full.yaml", test::full_disk_scene(o)), registry);
+  const auto curve = test::trace_hz(*cyc.model, o.from_hz, o.to_hz, 2.0);
+  ASSERT_TRUE(curve.reached_end()) << curve.message;
+  const auto& layout = cyc.model->layout();
+  double worst = 0;
+  int slipping = 0, compared = 0, split = 0;
+  for (std::size_t i = 0; i < curve.points.size(); i += 7) {
+    const Eigen::VectorXd& y = curve.points[i].y;
+    const FloquetMultipliers fc = floquet_multipliers(*cyc.model, y);
+    const FloquetMultipliers ff =
+        floquet_multipliers(*full.model, test::full_disk_unknowns(layout, y));
+    ASSERT_TRUE(fc.failure.empty()) << fc.failure;
+    ASSERT_TRUE(ff.failure.empty()) << ff.failure;
+    ASSERT_EQ(fc.multipliers.size(), ff.multipliers.size()) << "point " << i;
+    ASSERT_EQ(fc.neutral.size(), ff.neutral.size()) << "point " << i;
+    // Absolute: the multipliers that slip makes tiny (1e-10 and less) are rounding apart.
+    for (const auto& mu : fc.multipliers)
+      worst = std::max(worst, nearest_relative(mu, ff.multipliers) * std::abs(mu));
+    for (const auto& mu : ff.multipliers)
+      worst = std::max(worst, nearest_relative(mu, fc.multipliers) * std::abs(mu));
+    EXPECT_EQ(fc.stable(), ff.stable());
+    slipping += fc.split_steps > 0 ? 1 : 0;
+    split = std::max(split, fc.split_steps);
+    ++compared;
+  }
+  std::printf(
+      "cyclic vs full disk multipliers over %d points (%d with slip switches, up to %d "
+      "split steps): %.2e\n",
+      compared, slipping, split, worst);
+  EXPECT_GT(slipping, 3);
+  EXPECT_LT(worst, 1e-12);
+}
+
+// A hardening shroud (f = k3 u^3 between neighbouring blades, a test plugin) bends the disk's
+// resonance and folds its curve. Before the first fold the engine-order-2 wave (nodal
+// diameters 0 and 2 in its harmonics) loses stability to a perturbation of nodal diameter 1,
+// which its response never holds (the shroud's stiffness, modulated by the wave, pumps the
+// standing pair of diameter 1): a real multiplier crosses +1 at 263.5 Hz. The cyclic stability
+// finds it and names its diameter, and the whole disk assembled gives the same multipliers on
+// both sides of the crossing.
+TEST(CyclicStability, HardeningShroudLosesStabilityInTheNodalDiameterTheFullDiskConfirms) {
+  const Registry registry({FRICHB_PLUGIN_DIR, FRICHB_TEST_PLUGIN_DIR});
+  if (!registry.contains("lumped_cyclic") || !registry.contains("hardening_spring"))
+    GTEST_SKIP() << "lumped_cyclic or hardening_spring not built";
+  test::TempDir dir;
+  test::DiskOptions o;
+  o.law = "hardening_spring";
+  o.params = "{k: 0.0, k3: 2.0e12}";
+  o.harmonics = "[1, 3, 5]";
+  o.stability = true;
+  o.from_hz = 250;
+  o.to_hz = 450;
+  Built cyc = build(dir.write("cyclic.yaml", test::cyclic_disk_scene(o)), registry);
+  Built full = build(dir.write("full.yaml", test::full_disk_scene(o)), registry);
+  const auto curve = test::trace_hz(*cyc.model, o.from_hz, o.to_hz, 2.0);
+  ASSERT_TRUE(curve.reached_end()) << curve.message;
+  const Eigen::Index n = cyc.model->equation_count();
+  std::size_t first_unstable = 0, first_turn = 0;
+  int diameter = -1;
+  for (std::size_t i = 1; i < curve.points.size(); ++i) {
+    if (first_turn == 0 && curve.points[i - 1].tangent(n) * curve.points[i].tangent(n) < 0)
+      first_turn = i;
+    const FloquetMultipliers f = floquet_multipliers(*cyc.model, curve.points[i].y);
+    ASSERT_TRUE(f.failure.empty()) << f.failure;
+    if (!f.stable()) {
+      first_unstable = i;
+      diameter = f.nearest_unstable_nodal_diameter;
+      break;
+    }
+  }
+  ASSERT_GT(first_unstable, 0u) << "the curve never lost stability";
+  const double hz = curve.points[first_unstable].y(n) / (2 * std::numbers::pi);
+  std::printf(
+      "hardening shroud: first unstable at point %zu (%.3f Hz; first turning point %zu), "
+      "nodal diameter %d\n",
+      first_unstable, hz, first_turn, diameter);
+  EXPECT_EQ(first_turn, 0u) << "the loss of stability comes before the first fold";
+  EXPECT_EQ(diameter, 1);
+  const auto& layout = cyc.model->layout();
+  for (const std::size_t i : {first_unstable - 1, first_unstable}) {
+    const Eigen::VectorXd& y = curve.points[i].y;
+    const FloquetMultipliers fc = floquet_multipliers(*cyc.model, y);
+    const FloquetMultipliers ff =
+        floquet_multipliers(*full.model, test::full_disk_unknowns(layout, y));
+    ASSERT_TRUE(ff.failure.empty()) << ff.failure;
+    EXPECT_EQ(fc.stable(), ff.stable()) << "point " << i;
+    EXPECT_EQ(fc.unstable_count, ff.unstable_count) << "point " << i;
+    EXPECT_NEAR(fc.largest_modulus, ff.largest_modulus, 1e-10) << "point " << i;
+    std::printf("  point %zu: largest |mu| %.9f cyclic, %.9f full disk\n", i, fc.largest_modulus,
+                ff.largest_modulus);
+  }
 }
 
 }  // namespace

@@ -770,17 +770,24 @@ TEST(FloquetMultipliers, GapClosingCurveChangesStabilityAtItsFoldsAlone) {
 
 // A cyclic scene asking for stability is refused where it asks, naming the key (the stability
 // of a sector model against other nodal diameters is not computed).
-TEST(FloquetMultipliers, CyclicSceneIsRefusedAtTheKey) {
+// The stability of a cyclic scene delays each sector's copy of the contacts by s m / nb of the
+// period: a period's samples times the engine order that is not a multiple of the sectors is
+// refused at the key.
+TEST(FloquetMultipliers, CyclicSceneWhoseSectorDelaysAreNotWholeSamplesIsRefusedAtTheKey) {
   const std::string file = std::string(FRICHB_SOURCE_DIR) + "/configs/bladed_disk_lumped_eo3.yaml";
   YAML::Node document = load_scene_yaml(file);
   document["output"]["stability"] = true;
+  load_scene(YAML::Load(YAML::Dump(document)), file);  // 256 samples, m 3, nb 8: accepted
+  document["harmonic_balance"]["samples_per_period"] = 100;
   try {
     load_scene(YAML::Load(YAML::Dump(document)), file);  // with line marks
-    FAIL() << "a cyclic scene with output.stability was accepted";
+    FAIL() << "a cyclic scene with sector delays of fractional samples was accepted";
   } catch (const SceneError& e) {
     EXPECT_EQ(e.key_path(), "output.stability");
     EXPECT_EQ(e.file(), file);
     EXPECT_GT(e.line(), 0);
+    EXPECT_NE(std::string(e.what()).find("multiple of cyclic.sectors"), std::string::npos)
+        << e.what();
   }
 }
 

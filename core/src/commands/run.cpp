@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/model/stability.hpp"
 #include "frichb/core/scene/plugin_checks.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/support/interrupt.hpp"
@@ -271,6 +272,23 @@ PreparedRun prepare_run(const Scene& scene, int contact_threads) {
         ctx.fail(root["output"]["stability"], "output.stability",
                  "the stability of a structure with a residual flexibility is not computed "
                  "(its flexibility has no mass behind it); turn one of them off");
+  if (scene.output.stability && scene.cyclic.enabled()) {
+    // The whole disk's variational system (model/stability.hpp).
+    const int nb = scene.cyclic.sectors;
+    Eigen::Index modes = 0, states = 0;
+    for (int h = 0; 2 * h <= nb; ++h)
+      modes += static_cast<Eigen::Index>(model->structure().mode_count(h)) *
+               (h == 0 || 2 * h == nb ? 1 : 2);
+    for (const auto& contact : model->contacts()) states += contact.law->traits().state_size;
+    const Eigen::Index unknowns = 2 * modes + nb * (model->component_count() + states);
+    if (unknowns > kMaxStabilityDimension)
+      ctx.fail(root["output"]["stability"], "output.stability",
+               "the stability of this cyclic scene integrates the whole disk: " +
+                   std::to_string(unknowns) +
+                   " unknowns (modes twice, contact components and "
+                   "states of every sector), above the " +
+                   std::to_string(kMaxStabilityDimension) + " its dense monodromy allows");
+  }
   if (std::string warning = few_samples_warning(scene, *model); !warning.empty()) {
     spdlog::warn("{}", warning);
     start.warnings.push_back(std::move(warning));

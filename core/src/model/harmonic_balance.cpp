@@ -76,13 +76,18 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
         "HarmonicBalanceModel: the structure models " + std::to_string(structure.sector_count()) +
         " sectors, the scene's cyclic section " + std::to_string(scene.cyclic.sectors));
   kept_dofs_ = collect_kept_dofs(scene);
-  // Harmonic index of each kept temporal harmonic; only the indices they excite are built.
+  cyclic_ = scene.cyclic;
+  // Harmonic index of each kept temporal harmonic; only the indices they excite are built,
+  // and for the stability of a cyclic scene every nodal diameter's (model/stability.hpp).
   std::vector<int> indices;
   for (int n : layout_.harmonics()) {
     harmonic_index_.push_back(scene.cyclic.harmonic_index(n));
     if (std::find(indices.begin(), indices.end(), harmonic_index_.back()) == indices.end())
       indices.push_back(harmonic_index_.back());
   }
+  if (scene.cyclic.enabled() && scene.output.stability)
+    for (int h = 0; 2 * h <= scene.cyclic.sectors; ++h)
+      if (std::find(indices.begin(), indices.end(), h) == indices.end()) indices.push_back(h);
   const auto kept = static_cast<Eigen::Index>(kept_dofs_.size());
   // Gather weights of the sides in the reference sector (offset 0) and in its neighbours
   // (offsets -1, +1) as (row, kept DOF, weight), combined per harmonic with the cyclic phase
@@ -126,6 +131,10 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   // displacement is the reference's times e^{-i n m phi o} (thesis eqs. 2.7, 2.16-2.17). The
   // force on a neighbour's node reaches the reference sector through the conjugate factor,
   // hence G^H for forces (Newton's third law with cyclic symmetry, thesis eq. 2.13).
+  for (std::size_t slot = 0; slot < 3; ++slot) {
+    side_gather_[slot].resize(components_, kept);
+    side_gather_[slot].setFromTriplets(by_offset[slot].begin(), by_offset[slot].end());
+  }
   const double phi = scene.cyclic.enabled() ? 2.0 * std::numbers::pi / scene.cyclic.sectors : 0.0;
   for (int n : layout_.harmonics()) {
     std::vector<Eigen::Triplet<std::complex<double>>> entries;

@@ -41,21 +41,34 @@ TurningPoints find_turning_points(const ContinuationSummary& summary, Eigen::Ind
 
 // What the stability pass keeps of a point: whether it was computed, its stability, the number
 // of multipliers outside the unit circle, the one of them nearest it, and the real positive
-// multiplier nearest +1 (the one a fold moves through +1; 0 when there is none).
+// multiplier nearest +1 (the one a fold moves through +1; 0 when there is none); for a cyclic
+// structure the nodal diameters of those two (else -1).
 struct PointStability {
   bool computed = false;
   bool stable = false;
   int unstable_count = 0;
   std::complex<double> nearest_unstable = 0.0;
   double nearest_one = 0.0;
+  int nearest_unstable_nodal_diameter = -1;
+  int nearest_one_nodal_diameter = -1;
 };
 
 PointStability point_stability(const FloquetMultipliers& f) {
-  PointStability p{true, f.stable(), f.unstable_count, f.nearest_unstable, 0.0};
-  for (const auto& mu : f.multipliers)
+  PointStability p{true,
+                   f.stable(),
+                   f.unstable_count,
+                   f.nearest_unstable,
+                   0.0,
+                   f.nearest_unstable_nodal_diameter,
+                   -1};
+  for (std::size_t k = 0; k < f.multipliers.size(); ++k) {
+    const auto& mu = f.multipliers[k];
     if (std::abs(mu.imag()) <= 1e-9 * std::abs(mu) && mu.real() > 0 &&
-        std::abs(mu.real() - 1) < std::abs(p.nearest_one - 1))
+        std::abs(mu.real() - 1) < std::abs(p.nearest_one - 1)) {
       p.nearest_one = mu.real();
+      p.nearest_one_nodal_diameter = f.nodal_diameters.empty() ? -1 : f.nodal_diameters[k];
+    }
+  }
   return p;
 }
 
@@ -84,14 +97,14 @@ void summarise_stability(ResponseTable& table, const ContinuationSummary& summar
       turning.push_back(i);
     const PointStability* before = i > 0 && points[i - 1].computed ? &points[i - 1] : nullptr;
     if (before && before->unstable_count != p.unstable_count) {
-      const std::complex<double> mu =
-          (p.unstable_count > before->unstable_count ? p : *before).nearest_unstable;
+      const PointStability& more = p.unstable_count > before->unstable_count ? p : *before;
+      const std::complex<double> mu = more.nearest_unstable;
       const bool real = std::abs(mu.imag()) <= 1e-9 * std::abs(mu);
       crossings.push_back({i, p.stable, p.unstable_count, mu,
                            !real             ? "neimark_sacker"
                            : mu.real() < 0.0 ? "period_doubling"
                                              : "branch_point",
-                           std::nullopt});
+                           std::nullopt, more.nearest_unstable_nodal_diameter});
     }
     for (std::size_t k = 0; k < table.nodes.size() && p.stable; ++k) {
       const double amp = table.rows[i][3 + k * (1 + table.harmonics[i][k].cols())];
@@ -104,14 +117,15 @@ void summarise_stability(ResponseTable& table, const ContinuationSummary& summar
     const double hz = table.rows[t][1];
     const PointStability& at = points[t];
     const PointStability* before = points[t - 1].computed ? &points[t - 1] : nullptr;
+    const PointStability& nearer =
+        before && std::abs(before->nearest_one - 1) < std::abs(at.nearest_one - 1) ? *before : at;
     Change fold{t,
                 at.stable,
                 at.unstable_count,
-                before && std::abs(before->nearest_one - 1) < std::abs(at.nearest_one - 1)
-                    ? before->nearest_one
-                    : at.nearest_one,
+                nearer.nearest_one,
                 "fold",
-                std::nullopt};
+                std::nullopt,
+                nearer.nearest_one_nodal_diameter};
     std::size_t nearest = count, last = t;
     for (auto& c : crossings)
       if (c.kind == "branch_point" && std::abs(table.rows[c.point][1] - hz) <= kFoldWindow * hz) {
@@ -119,6 +133,7 @@ void summarise_stability(ResponseTable& table, const ContinuationSummary& summar
         if (nearest == count || distance(c.point) < distance(nearest)) {
           nearest = c.point;
           fold.multiplier = c.multiplier;
+          fold.nodal_diameter = c.nodal_diameter;
         }
         if (c.point >= last) {
           last = c.point;
@@ -174,6 +189,7 @@ std::optional<ResponseTable::LocatedChange> locate_change(const HarmonicBalanceM
   ResponseTable::LocatedChange out;
   out.omega_rad_s = y(model.equation_count());
   out.multiplier = (after_more ? at_hi : at_lo).nearest_unstable;
+  out.nodal_diameter = (after_more ? at_hi : at_lo).nearest_unstable_nodal_diameter;
   out.theta = after_more ? hi : lo;
   const auto x = model.kept_response(y);
   for (const auto& node : nodes) out.amplitude_m.push_back(sampler.peak_amplitude(x, node.kept));
@@ -384,6 +400,8 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
   if (scene.output.stability)
     table.header.insert(table.header.end(),
                         {"stable", "largest_multiplier", "unstable_multipliers"});
+  const bool nodal_diameters = scene.output.stability && scene.cyclic.enabled();
+  if (nodal_diameters) table.header.emplace_back("largest_multiplier_nodal_diameter");
   double stability_seconds = 0.0;
   std::vector<PointStability> multipliers(scene.output.stability ? summary.points.size() : 0);
   int stability_failures = 0;
@@ -420,11 +438,14 @@ ResponseTable tabulate_response(const Scene& scene, const HarmonicBalanceModel& 
         row.push_back(f.stable() ? 1.0 : 0.0);
         row.push_back(f.largest_modulus);
         row.push_back(f.unstable_count);
+        if (nodal_diameters)
+          row.push_back(f.nodal_diameters.empty() ? std::numeric_limits<double>::quiet_NaN()
+                                                  : f.nodal_diameters.front());
         multipliers[i] = point_stability(f);
       } else {  // reported in the table as NaN, and logged
         if (stability_failures++ == 0)
           spdlog::warn("no Floquet multipliers at point {}: {}", i, f.failure);
-        row.insert(row.end(), 3, std::numeric_limits<double>::quiet_NaN());
+        row.insert(row.end(), nodal_diameters ? 4 : 3, std::numeric_limits<double>::quiet_NaN());
       }
     }
     rows.push_back(std::move(row));

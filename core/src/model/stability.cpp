@@ -225,30 +225,211 @@ constexpr int kBisections = 12;
 constexpr double kProbe = 1e-7;
 constexpr double kSwitchStep = 5e-4;
 
+// The linear structure of the variational equations: real modes (mass-normalised), their
+// modal damping and P = G Phi over the contacts' copies; for a cyclic structure, the whole
+// disk's modes and the nodal diameter of each.
+struct VariationalStructure {
+  Eigen::VectorXd frequencies;
+  Eigen::MatrixXd damping;
+  bool diagonal = true;
+  Eigen::MatrixXd p;                // copies' components x modes
+  std::vector<int> nodal_diameter;  // per mode; empty without cyclic symmetry
+};
+
+// A contact as the variational equations see it: the model's contact `contact` in a sector
+// whose motion is the reference sector's delayed by `shift` samples; its first row in P and
+// its first state.
+struct ContactCopy {
+  std::size_t contact = 0;
+  int shift = 0;
+  Eigen::Index row = 0;
+  Eigen::Index state = 0;
+};
+
+// A plain structure: its modes as the model holds them, each contact once.
+bool plain_structure(const HarmonicBalanceModel& model, VariationalStructure& vs,
+                     std::vector<ContactCopy>& copies, std::string& failure) {
+  const auto& basis = model.structure().basis(0);
+  if (basis.rows.size() > 0 && basis.rows.imag().cwiseAbs().maxCoeff() > 0) {
+    failure = "stability needs real modes";
+    return false;
+  }
+  vs.frequencies = basis.frequencies;
+  vs.damping = basis.damping;
+  vs.diagonal = basis.diagonal_damping;
+  vs.p = Eigen::MatrixXd(Eigen::MatrixXcd(model.gather(0)).real()) * basis.rows.real();
+  Eigen::Index states = 0;
+  for (std::size_t c = 0; c < model.contacts().size(); ++c) {
+    copies.push_back({c, 0, model.contacts()[c].offset, states});
+    states += model.contacts()[c].law->traits().state_size;
+  }
+  return true;
+}
+
+// A cyclic structure: the whole disk. Its real modes are built from the sector's modes of every
+// nodal diameter h <= nb/2: sector s of the complex mode v = Phi_h e^{-i h phi s} / sqrt(nb)
+// (the sign of the model's cyclic gather), mass-normalised over the disk when Phi_h is over
+// the sector; for 0 < h < nb/2 its real and imaginary parts times sqrt(2) (the standing pair
+// of h and nb - h), for h = 0 and nb/2 the mode itself, real up to a phase. Each contact is
+// copied into every sector, delayed by s m / nb of the period: a whole number of samples.
+bool cyclic_structure(const HarmonicBalanceModel& model, int samples, VariationalStructure& vs,
+                      std::vector<ContactCopy>& copies, std::string& failure) {
+  const CyclicSpec& cyclic = model.cyclic();
+  const int nb = cyclic.sectors;
+  const long long delay = static_cast<long long>(samples) * cyclic.engine_order;
+  if (delay % nb != 0) {
+    failure = "the cyclic stability needs the samples of a period (" + std::to_string(samples) +
+              ") times the engine order to be a multiple of the sector count (" +
+              std::to_string(nb) + ")";
+    return false;
+  }
+  const auto kept = static_cast<Eigen::Index>(model.structure().kept_dofs().size());
+  const double phi = 2 * std::numbers::pi / nb;
+  std::vector<Eigen::VectorXd> columns;
+  std::vector<double> frequencies, damping;
+  for (int h = 0; 2 * h <= nb; ++h) {
+    const auto& basis = model.structure().basis(h);
+    if (!basis.diagonal_damping || basis.has_residual_flexibility()) {
+      failure =
+          "the cyclic stability needs diagonal modal damping and no residual flexibility "
+          "(nodal diameter " +
+          std::to_string(h) + ")";
+      return false;
+    }
+    for (Eigen::Index r = 0; r < basis.rows.cols(); ++r) {
+      Eigen::VectorXcd v(nb * kept);
+      for (int s = 0; s < nb; ++s)
+        v.segment(s * kept, kept) =
+            basis.rows.col(r) * std::polar(1.0 / std::sqrt(double(nb)), -h * phi * s);
+      auto add = [&](const Eigen::VectorXd& column) {
+        columns.push_back(column);
+        frequencies.push_back(basis.frequencies(r));
+        damping.push_back(basis.damping(r, r));
+        vs.nodal_diameter.push_back(h);
+      };
+      if (h == 0 || 2 * h == nb) {
+        Eigen::Index i = 0;
+        basis.rows.col(r).cwiseAbs().maxCoeff(&i);
+        const std::complex<double> a = basis.rows(i, r);
+        add((v * (std::abs(a) > 0 ? std::conj(a) / std::abs(a) : 1.0)).real());
+      } else {
+        add(std::sqrt(2.0) * v.real());
+        add(std::sqrt(2.0) * v.imag());
+      }
+    }
+  }
+  const auto modes = static_cast<Eigen::Index>(columns.size());
+  Eigen::MatrixXd shapes(nb * kept, modes);
+  for (Eigen::Index r = 0; r < modes; ++r) shapes.col(r) = columns[static_cast<std::size_t>(r)];
+  vs.frequencies = Eigen::Map<const Eigen::VectorXd>(frequencies.data(), modes);
+  vs.damping = Eigen::Map<const Eigen::VectorXd>(damping.data(), modes).asDiagonal();
+  vs.diagonal = true;
+  const Eigen::Index m = model.component_count();
+  vs.p = Eigen::MatrixXd::Zero(nb * m, modes);
+  for (int offset = -1; offset <= 1; ++offset)
+    for (int s = 0; s < nb; ++s)
+      vs.p.middleRows(s * m, m) +=
+          model.side_gather(offset) * shapes.middleRows(((s + offset + nb) % nb) * kept, kept);
+  Eigen::Index states = 0;
+  for (int s = 0; s < nb; ++s)
+    for (std::size_t c = 0; c < model.contacts().size(); ++c) {
+      copies.push_back({c, static_cast<int>((s * delay / nb) % samples),
+                        s * m + model.contacts()[c].offset, states});
+      states += model.contacts()[c].law->traits().state_size;
+    }
+  return true;
+}
+
+// Balances `a` in place by a diagonal similarity a <- D^-1 a D (powers of 2, so exact), with
+// D returned in `scale`: the rows and columns of each index brought to comparable norms
+// (Parlett and Reinsch). The monodromy mixes modal displacements, velocities, forces and slider
+// offsets whose scales differ by many orders; unbalanced, the rounding of its Schur form
+// splits a double multiplier (a cyclic disk's standing pair) by 1e-6.
+void balance(Eigen::MatrixXd& a, Eigen::VectorXd& scale) {
+  constexpr double radix = 2.0;
+  const Eigen::Index n = a.rows();
+  scale = Eigen::VectorXd::Ones(n);
+  for (bool done = false; !done;) {
+    done = true;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      double c = a.col(i).cwiseAbs().sum() - std::abs(a(i, i));
+      double r = a.row(i).cwiseAbs().sum() - std::abs(a(i, i));
+      if (c == 0.0 || r == 0.0) continue;
+      const double total = c + r;
+      double f = 1.0;
+      while (c < r / radix) {
+        f *= radix;
+        c *= radix * radix;
+      }
+      while (c > r * radix) {
+        f /= radix;
+        c /= radix * radix;
+      }
+      if ((c + r) / f < 0.95 * total) {
+        done = false;
+        scale(i) *= f;
+        a.row(i) /= f;
+        a.col(i) *= f;
+      }
+    }
+  }
+}
+
 // Multipliers of `w` split as the header says: the `dropped` smallest (force samples), the
-// `neutral` nearest 1, the rest largest first.
+// `neutral` nearest 1, the rest largest first. With `nodal_diameter` (per mode, cyclic), each
+// multiplier's nodal diameter: the one holding most of its Floquet mode's modal energy
+// (w^2 |dq|^2 + |dq'|^2 over the modes of that diameter; the first 2 x modes rows of w).
 void classify(const Eigen::MatrixXd& w, Eigen::Index dropped, int neutral,
-              FloquetMultipliers& out) {
-  Eigen::EigenSolver<Eigen::MatrixXd> solver(w, false);
-  std::vector<std::complex<double>> all(solver.eigenvalues().begin(), solver.eigenvalues().end());
-  std::sort(all.begin(), all.end(),
-            [](const auto& a, const auto& b) { return std::abs(a) < std::abs(b); });
+              const VariationalStructure& vs, FloquetMultipliers& out) {
+  const bool cyclic = !vs.nodal_diameter.empty();
+  Eigen::MatrixXd balanced = w;
+  Eigen::VectorXd scale;
+  balance(balanced, scale);
+  Eigen::EigenSolver<Eigen::MatrixXd> solver(balanced, cyclic);
+  struct Multiplier {
+    std::complex<double> value;
+    int nodal_diameter = -1;
+  };
+  std::vector<Multiplier> all;
+  const Eigen::Index modes = vs.frequencies.size();
+  const int diameters =
+      cyclic ? *std::max_element(vs.nodal_diameter.begin(), vs.nodal_diameter.end()) + 1 : 0;
+  for (Eigen::Index k = 0; k < w.rows(); ++k) {
+    Multiplier mu{solver.eigenvalues()(k), -1};
+    if (cyclic) {
+      const Eigen::VectorXcd v = scale.asDiagonal() * solver.eigenvectors().col(k);
+      std::vector<double> energy(static_cast<std::size_t>(diameters), 0.0);
+      for (Eigen::Index r = 0; r < modes; ++r)
+        energy[static_cast<std::size_t>(vs.nodal_diameter[static_cast<std::size_t>(r)])] +=
+            std::norm(vs.frequencies(r) * v(r)) + std::norm(v(modes + r));
+      mu.nodal_diameter =
+          static_cast<int>(std::max_element(energy.begin(), energy.end()) - energy.begin());
+    }
+    all.push_back(mu);
+  }
+  auto by_modulus = [](const Multiplier& a, const Multiplier& b) {
+    return std::abs(a.value) < std::abs(b.value);
+  };
+  std::sort(all.begin(), all.end(), by_modulus);
   all.erase(all.begin(), all.begin() + std::min<std::ptrdiff_t>(dropped, std::ssize(all)));
   for (int k = 0; k < neutral && !all.empty(); ++k) {
     const auto nearest = std::min_element(all.begin(), all.end(), [](const auto& a, const auto& b) {
-      return std::abs(a - 1.0) < std::abs(b - 1.0);
+      return std::abs(a.value - 1.0) < std::abs(b.value - 1.0);
     });
-    out.neutral.push_back(*nearest);
+    out.neutral.push_back(nearest->value);
     all.erase(nearest);
   }
-  std::sort(all.begin(), all.end(),
-            [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
-  out.multipliers = std::move(all);
+  std::sort(all.rbegin(), all.rend(), by_modulus);
+  for (const auto& mu : all) {
+    out.multipliers.push_back(mu.value);
+    if (cyclic) out.nodal_diameters.push_back(mu.nodal_diameter);
+  }
   out.largest_modulus = out.multipliers.empty() ? 0.0 : std::abs(out.multipliers.front());
-  for (const auto& mu : out.multipliers)
-    if (std::abs(mu) > 1.0) {
+  for (const auto& mu : all)
+    if (std::abs(mu.value) > 1.0) {
       ++out.unstable_count;
-      out.nearest_unstable = mu;  // largest first: the last one outside is the nearest
+      out.nearest_unstable = mu.value;  // largest first: the last one outside is the nearest
+      out.nearest_unstable_nodal_diameter = mu.nodal_diameter;
     }
 }
 
@@ -278,29 +459,16 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
                                        const Eigen::VectorXd& y) {
   FloquetMultipliers out;
   const auto& layout = model.layout();
-  const auto& forms = model.receptance_forms();
-  for (const auto& form : forms)
-    if (form.harmonic_index != 0 || form.residual_flexibility) {
-      out.failure = "stability is computed for a plain structure without residual flexibility only";
+  for (const auto& form : model.receptance_forms())
+    if (form.residual_flexibility) {
+      out.failure = "stability is computed for a structure without residual flexibility only";
       return out;
     }
-  const auto& basis = model.structure().basis(0);
-  if (basis.rows.imag().cwiseAbs().maxCoeff() > 0) {
-    out.failure = "stability needs real modes";
-    return out;
-  }
-  const Eigen::Index modes = basis.rows.cols();
-  const Eigen::Index m = model.component_count(), n2 = 2 * modes;
-  // P = G Phi: contact components x modes.
-  const Eigen::MatrixXd p =
-      Eigen::MatrixXd(Eigen::MatrixXcd(model.gather(0)).real()) * basis.rows.real();
   const double w = y(y.size() - 1);
 
-  // The contacts' traces at y, their state offsets and the tracing grid.
+  // The contacts' traces at y and the tracing grid.
   const auto& contacts = model.contacts();
   std::vector<ContactTrace> traces(contacts.size());
-  std::vector<Eigen::Index> state_offset(contacts.size());
-  Eigen::Index states = 0;
   int samples = 0;
   for (std::size_t c = 0; c < contacts.size(); ++c) {
     std::string error;
@@ -312,30 +480,45 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
       out.failure = "contact " + contacts[c].name + ": its law gives no tangents";
       return out;
     }
-    state_offset[c] = states;
-    states += contacts[c].law->traits().state_size;
     samples = static_cast<int>(traces[c].displacement.rows());
   }
   if (samples == 0) samples = layout.samples();
   const double h = 2 * std::numbers::pi / w / samples;
   out.steps = samples;
 
-  const StepPropagator full_step =
-      propagate_modes(basis.frequencies, basis.damping, basis.diagonal_damping, h);
+  VariationalStructure vs;
+  std::vector<ContactCopy> copies;
+  if (!(model.cyclic().enabled() ? cyclic_structure(model, samples, vs, copies, out.failure)
+                                 : plain_structure(model, vs, copies, out.failure)))
+    return out;
+  const Eigen::MatrixXd& p = vs.p;
+  const Eigen::Index modes = vs.frequencies.size();
+  const Eigen::Index m = p.rows(), n2 = 2 * modes;
+  Eigen::Index states = 0;
+  for (const auto& copy : copies) states += contacts[copy.contact].law->traits().state_size;
   const Eigen::Index dim = n2 + m + states;
+  if (dim > kMaxStabilityDimension) {
+    out.failure = "the variational system has " + std::to_string(dim) +
+                  " unknowns (modes twice, contact components, contact states); the dense "
+                  "monodromy is limited to " +
+                  std::to_string(kMaxStabilityDimension);
+    return out;
+  }
+
+  const StepPropagator full_step = propagate_modes(vs.frequencies, vs.damping, vs.diagonal, h);
   Eigen::MatrixXd monodromy = Eigen::MatrixXd::Identity(dim, dim);
-  std::vector<Eigen::MatrixXd> own(contacts.size());  // each contact's state monodromy
-  for (std::size_t c = 0; c < contacts.size(); ++c) {
-    const int s = contacts[c].law->traits().state_size;
-    own[c] = Eigen::MatrixXd::Identity(s, s);
+  std::vector<Eigen::MatrixXd> own(copies.size());  // each copy's state monodromy
+  for (std::size_t k = 0; k < copies.size(); ++k) {
+    const int s = contacts[copies[k].contact].law->traits().state_size;
+    own[k] = Eigen::MatrixXd::Identity(s, s);
   }
   Eigen::MatrixXd k1(m, n2), k0(m, n2), kz(m, states), z1(states, n2), z0(states, n2),
       zz(states, states);
-  // The variational map over a fraction `length` of a step, the contacts' tangents `t`.
-  auto advance = [&](double length, const std::vector<StepTangents>& t) {
-    const StepPropagator sub = length == 1.0 ? StepPropagator{}
-                                             : propagate_modes(basis.frequencies, basis.damping,
-                                                               basis.diagonal_damping, length * h);
+  // The variational map over a fraction `length` of a step, each copy's tangents `t`.
+  auto advance = [&](double length, const std::vector<const StepTangents*>& t) {
+    const StepPropagator sub =
+        length == 1.0 ? StepPropagator{}
+                      : propagate_modes(vs.frequencies, vs.damping, vs.diagonal, length * h);
     const StepPropagator& prop = length == 1.0 ? full_step : sub;
     const Eigen::MatrixXd gamma0 = -prop.g0 * p.transpose(), gamma1 = -prop.g1 * p.transpose();
     const double hl = length * h;
@@ -345,9 +528,9 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     z1.setZero();
     z0.setZero();
     zz.setZero();
-    for (std::size_t c = 0; c < contacts.size(); ++c) {
-      const StepTangents& tc = t[c];
-      const Eigen::Index r = contacts[c].offset, d = tc.df_dun.rows(), zo = state_offset[c],
+    for (std::size_t k = 0; k < copies.size(); ++k) {
+      const StepTangents& tc = *t[k];
+      const Eigen::Index r = copies[k].row, d = tc.df_dun.rows(), zo = copies[k].state,
                          s = tc.dz_dz.rows();
       const auto pc = p.middleRows(r, d);
       // u = P q and the rates du/ds = hl P q' at the step's ends.
@@ -361,7 +544,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
       z0.block(zo, 0, s, modes) = tc.dz_dup * pc;
       z0.block(zo, modes, s, modes) = hl * tc.dz_drp * pc;
       zz.block(zo, zo, s, s) = tc.dz_dz;
-      own[c] = tc.dz_dz * own[c];
+      own[k] = tc.dz_dz * own[k];
     }
     const auto x = monodromy.topRows(n2);
     const auto f = monodromy.middleRows(n2, m);
@@ -375,7 +558,8 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     monodromy << x_next, f_next, z_next;
   };
 
-  // The tangents of every step at the traced states.
+  // The tangents of every step of each model contact at the traced states (a copy's step j is
+  // its contact's step j - shift).
   std::vector<std::vector<StepTangents>> steps(static_cast<std::size_t>(samples),
                                                std::vector<StepTangents>(contacts.size()));
   for (int j = 0; j < samples; ++j)
@@ -471,46 +655,61 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     where = lo;
     return true;
   };
-
-  std::vector<StepTangents> sub_tangents(contacts.size());
-  std::vector<Eigen::VectorXd> sub_states(contacts.size());
-  for (int step = 1; step <= samples; ++step) {
-    const int j = step % samples, jp = step - 1;
-    std::vector<double> cuts;
-    for (std::size_t c = 0; c < contacts.size(); ++c) {
+  std::vector<std::vector<double>> switches(contacts.size(),
+                                            std::vector<double>(static_cast<std::size_t>(samples)));
+  for (std::size_t c = 0; c < contacts.size(); ++c)
+    for (int j = 0; j < samples; ++j) {
       std::string error;
-      double where = -1.0;
-      if (!locate_switch(c, j, where, &error)) {
+      if (!locate_switch(c, j, switches[c][static_cast<std::size_t>(j)], &error)) {
         out.failure = "contact " + contacts[c].name + ": " + error;
         return out;
       }
+    }
+
+  std::vector<StepTangents> sub_tangents(copies.size());
+  std::vector<const StepTangents*> tangents(copies.size());
+  std::vector<Eigen::VectorXd> sub_states(copies.size());
+  // Copy k's own step and sample index for the disk's step or sample j.
+  auto own_index = [&](std::size_t k, int j) { return (j - copies[k].shift + samples) % samples; };
+  for (int step = 1; step <= samples; ++step) {
+    const int j = step % samples, jp = step - 1;
+    std::vector<double> cuts;
+    for (std::size_t k = 0; k < copies.size(); ++k) {
+      const double where = switches[copies[k].contact][static_cast<std::size_t>(own_index(k, j))];
       if (where < 0) continue;
       if (where > kSwitchStep) cuts.push_back(where);
       if (where + kSwitchStep < 1.0 - kSwitchStep) cuts.push_back(where + kSwitchStep);
     }
     if (cuts.empty()) {
-      advance(1.0, steps[static_cast<std::size_t>(j)]);
+      for (std::size_t k = 0; k < copies.size(); ++k)
+        tangents[k] = &steps[static_cast<std::size_t>(own_index(k, j))][copies[k].contact];
+      advance(1.0, tangents);
       continue;
     }
     ++out.split_steps;
     std::sort(cuts.begin(), cuts.end());
     cuts.push_back(1.0);
-    for (std::size_t c = 0; c < contacts.size(); ++c) sub_states[c] = traced_state(traces[c], jp);
+    for (std::size_t k = 0; k < copies.size(); ++k)
+      sub_states[k] = traced_state(traces[copies[k].contact], own_index(k, jp));
     double a = 0.0;
     for (const double b : cuts) {
       if (b - a <= 0.0) continue;
-      for (std::size_t c = 0; c < contacts.size(); ++c) {
+      for (std::size_t k = 0; k < copies.size(); ++k) {
+        const std::size_t c = copies[k].contact;
+        const int from_sample = own_index(k, jp);
         std::string error;
-        const Motion from = motion_at(c, jp, a, b - a), to = motion_at(c, jp, b, b - a);
+        const Motion from = motion_at(c, from_sample, a, b - a),
+                     to = motion_at(c, from_sample, b, b - a);
         Eigen::VectorXd next;
-        if (!law_step(contacts[c], sub_states[c], from.u, to.u, from.rate, to.rate, sub_tangents[c],
+        if (!law_step(contacts[c], sub_states[k], from.u, to.u, from.rate, to.rate, sub_tangents[k],
                       next, &error)) {
           out.failure = "contact " + contacts[c].name + ": " + error;
           return out;
         }
-        sub_states[c] = next;
+        sub_states[k] = next;
+        tangents[k] = &sub_tangents[k];
       }
-      advance(b - a, sub_tangents);
+      advance(b - a, tangents);
       a = b;
     }
   }
@@ -525,7 +724,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     for (Eigen::Index k = 0; k < mu.size(); ++k)
       if (std::abs(mu(k) - 1.0) <= kNeutralTolerance) ++neutral;
   }
-  classify(monodromy, m, neutral, out);
+  classify(monodromy, m, neutral, vs, out);
   return out;
 }
 

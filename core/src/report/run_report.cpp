@@ -152,16 +152,20 @@ nlohmann::json stability_json(const ResponseTable& table) {
                                         : table.rows[c.point][static_cast<std::size_t>(column)];
     }
     const std::complex<double> mu = c.located ? c.located->multiplier : c.multiplier;
-    changes.push_back({{"kind", c.kind},
-                       {"point", c.point},
-                       {"located", c.located.has_value()},
-                       {"frequency_hz", c.located ? c.located->omega_rad_s / (2 * std::numbers::pi)
-                                                  : table.rows[c.point][1]},
-                       {"amplitude_m", amplitudes},
-                       {"stable_after", c.stable},
-                       {"unstable_multipliers_after", c.unstable_count},
-                       {"multiplier", {mu.real(), mu.imag()}},
-                       {"multiplier_modulus", std::abs(mu)}});
+    nlohmann::json change = {
+        {"kind", c.kind},
+        {"point", c.point},
+        {"located", c.located.has_value()},
+        {"frequency_hz",
+         c.located ? c.located->omega_rad_s / (2 * std::numbers::pi) : table.rows[c.point][1]},
+        {"amplitude_m", amplitudes},
+        {"stable_after", c.stable},
+        {"unstable_multipliers_after", c.unstable_count},
+        {"multiplier", {mu.real(), mu.imag()}},
+        {"multiplier_modulus", std::abs(mu)}};
+    if (const int nd = c.located ? c.located->nodal_diameter : c.nodal_diameter; nd >= 0)
+      change["nodal_diameter"] = nd;
+    changes.push_back(std::move(change));
   }
   return {{"unstable_points", table.unstable_points},
           {"highest_stable_point", highest},

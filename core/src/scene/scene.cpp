@@ -254,8 +254,9 @@ const std::vector<frichb_param_spec>& output_schema() {
       Param::boolean("stability",
                      "Floquet multipliers of every point: response.csv gains the columns "
                      "stable, largest_multiplier and unstable_multipliers, summary.json the "
-                     "bifurcations and the highest stable point (a plain structure without "
-                     "residual flexibility)")
+                     "bifurcations and the highest stable point; for a cyclic scene, perturbed in "
+                     "every nodal diameter, also the nodal diameter of each point's largest "
+                     "multiplier (no residual flexibility)")
           .defaults_to(0),
   };
   return s;
@@ -1073,9 +1074,20 @@ void read_output(Scene& scene, YAML::Node root, const YamlContext& ctx) {
                                                    : AmplitudeAxis::automatic;
   scene.output.contact_forces = o.boolean("contact_forces");
   scene.output.stability = o.boolean("stability");
-  if (scene.output.stability && scene.cyclic.enabled())
-    ctx.fail(on["stability"], "output.stability",
-             "the stability of a cyclic scene is not computed: a plain structure only");
+  // The stability of a cyclic scene copies the contacts' traces into every sector, delayed by
+  // s m / nb of the period: a whole number of the traces' samples (model/stability.hpp).
+  if (const auto& hb = scene.harmonic_balance; scene.output.stability && scene.cyclic.enabled()) {
+    const long long samples = static_cast<long long>(hb.samples_per_period) * hb.trace_oversampling;
+    if (samples * scene.cyclic.engine_order % scene.cyclic.sectors != 0)
+      ctx.fail(on["stability"], "output.stability",
+               "the stability of a cyclic scene needs harmonic_balance.samples_per_period (" +
+                   std::to_string(hb.samples_per_period) + ") times trace_oversampling (" +
+                   std::to_string(hb.trace_oversampling) + ") times cyclic.engine_order (" +
+                   std::to_string(scene.cyclic.engine_order) +
+                   ") to be a multiple of cyclic.sectors (" + std::to_string(scene.cyclic.sectors) +
+                   "): each sector's motion is the reference's delayed by a whole number of "
+                   "samples");
+  }
   scene.core_values["output"] = ov.to_json(output_schema());
 }
 

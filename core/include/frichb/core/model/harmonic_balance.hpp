@@ -14,6 +14,7 @@
 
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
+#include <array>
 #include <complex>
 #include <memory>
 #include <string>
@@ -121,6 +122,15 @@ class HarmonicBalanceModel final : public CurveProblem {
   // u_n = G_n x_n of kept harmonic k (components x kept DOFs; real without cyclic symmetry),
   // sparse: a row holds the frame direction's entries at the DOFs of the contact's two sides.
   const SparseGather& gather(std::size_t k) const { return gather_[k]; }
+  // The cyclic symmetry of the scene (sectors 1 without it).
+  const CyclicSpec& cyclic() const { return cyclic_; }
+  // The gather of the contact sides in the sector at `offset` (-1, 0, +1) from the reference
+  // one: u = sum over offsets of W_offset x_(s + offset), real (components x kept DOFs). G_n of
+  // harmonic n is their sum with the phase factors e^{-i n m phi offset}.
+  const Eigen::SparseMatrix<double, Eigen::RowMajor>& side_gather(int offset) const {
+    const int slot = offset + 1;
+    return side_gather_.at(static_cast<std::size_t>(slot));
+  }
   // G F G^H of kept harmonic k (components x components, Hermitian) where its modal damping is
   // diagonal and the structure has a residual flexibility F, else empty (F itself is reduced
   // to it at construction: ReducedStructure::FlexibilityUse).
@@ -175,6 +185,8 @@ class HarmonicBalanceModel final : public CurveProblem {
   // sides in neighbouring sectors; real and equal for all n without them.
   std::vector<SparseGather> gather_;
   std::vector<int> harmonic_index_;  // per kept harmonic
+  CyclicSpec cyclic_;
+  std::array<Eigen::SparseMatrix<double, Eigen::RowMajor>, 3> side_gather_;
   // Per kept harmonic, the receptance seen by the contacts, precomputed where the modal
   // damping is diagonal: G R(W) G^H = P diag(1 / z(W)) P^H + G F G^H with P = G Phi (contact
   // components x modes), and the contact-free response G R(W) f = P (q / z(W)) + G F f with

@@ -166,7 +166,8 @@ struct ResponseTable {
     double omega_rad_s = 0.0;
     std::vector<double> amplitude_m;  // per node, as `nodes`
     std::complex<double> multiplier;
-    double theta = 0.0;  // its place on the chord, 0 at point - 1 and 1 at point
+    double theta = 0.0;       // its place on the chord, 0 at point - 1 and 1 at point
+    int nodal_diameter = -1;  // the multiplier's, for a cyclic structure (else -1)
   };
   struct StabilityChange {
     std::size_t point = 0;
@@ -175,6 +176,7 @@ struct ResponseTable {
     std::complex<double> multiplier;
     std::string kind;                      // fold, branch_point, period_doubling or neimark_sacker
     std::optional<LocatedChange> located;  // empty for a fold, or where a solve failed
+    int nodal_diameter = -1;               // the multiplier's, for a cyclic structure (else -1)
   };
   std::vector<StabilityChange> stability_changes;
   int unstable_points = 0;

@@ -13,7 +13,9 @@
 // the rates du/ds of laws that step along the motion, and the state before the step), taken
 // at the traced periodic state; the new force sample solves the step's small implicit
 // system (I - K1 G1) df_j = ... (model/stability.cpp). The product of the N step maps is the
-// monodromy; its eigenvalues are the multipliers.
+// monodromy; its eigenvalues are the multipliers, computed after a diagonal balancing (its
+// displacements, velocities, forces and slider offsets differ in scale by many orders, which
+// unbalanced splits a double multiplier by 1e-6).
 //
 // Two kinds are set apart from the physical multipliers:
 //  - the force samples' own: df_j is a function of the state at sample j for the laws
@@ -36,9 +38,18 @@
 // Convergence: the force between samples and switches is linear, so the multipliers carry an
 // error of order h^2 on top of the harmonic truncation of the orbit (measured in
 // tests/test_stability).
-// Scope: a plain structure (no cyclic symmetry), real modes, no residual flexibility: the
-// result's `failure` says so otherwise. Threading: reads the model, whose tracers are not
-// thread-safe; one model per thread.
+// A cyclic structure (one sector modelled) under engine-order excitation is perturbed in every
+// nodal diameter, not only in those its response holds: the variational equations are those
+// of the whole tuned disk, built from the sector's modes of every nodal diameter (their
+// standing pairs, real) and the reference contacts copied into every sector, sector s delayed
+// by s m / nb of the period (m the engine order, nb the sectors; the period's samples times m
+// must be a multiple of nb). Its multipliers are those of the disk's Floquet-Bloch families
+// together; each is named by the nodal diameter that holds most of its Floquet mode's modal
+// energy. The dense monodromy costs (2 modes + components + states)^3 per step over the
+// whole disk: beyond kMaxStabilityDimension unknowns the result's `failure` says so.
+// Scope: real modes for a plain structure, diagonal modal damping for a cyclic one, no
+// residual flexibility: the result's `failure` says so otherwise. Threading: reads the model,
+// whose tracers are not thread-safe; one model per thread.
 #pragma once
 
 #include <Eigen/Dense>
@@ -51,10 +62,14 @@
 namespace frichb::core {
 
 inline constexpr double kNeutralTolerance = 1e-9;
+// The largest monodromy dimension computed (2 modes + contact components + contact states).
+inline constexpr Eigen::Index kMaxStabilityDimension = 2000;
 
 struct FloquetMultipliers {
   // Physical multipliers, largest modulus first (neutral and force-sample ones excluded).
   std::vector<std::complex<double>> multipliers;
+  // Cyclic structures: the nodal diameter of each multiplier (as `multipliers`); else empty.
+  std::vector<int> nodal_diameters;
   // The neutral multipliers set apart (their distance from 1 is the rounding of the product).
   std::vector<std::complex<double>> neutral;
   double largest_modulus = 0.0;  // |multipliers[0]|, 0 when there is none
@@ -62,6 +77,7 @@ struct FloquetMultipliers {
   // (along a curve, the last to have crossed it), 0 when there is none.
   int unstable_count = 0;
   std::complex<double> nearest_unstable = 0.0;
+  int nearest_unstable_nodal_diameter = -1;  // cyclic structures; -1 otherwise or when stable
   // Stable when no physical multiplier lies outside the unit circle.
   bool stable() const { return largest_modulus <= 1.0; }
   int steps = 0;        // N, the steps of the period integrated
