@@ -1,5 +1,5 @@
-// A lumped tuned bladed disk of 6 sectors under engine order 2 (per sector a disk mass of
-// 0.5 kg on 2e6 N/m and a blade of 0.1 kg on 4e5 N/m; neighbouring disks coupled by 1e5 N/m),
+// A lumped tuned bladed disk of 6 sectors under engine order 2 by default (per sector a disk mass
+// of 0.5 kg on 2e6 N/m and a blade of 0.1 kg on 4e5 N/m; neighbouring disks coupled by 1e5 N/m),
 // with a contact between neighbouring blades (a shroud), in two forms: one sector with cyclic
 // symmetry, and the whole disk assembled (every sector, a contact between each pair of
 // neighbouring blades, the engine-order excitation as phase-shifted forces on every blade).
@@ -18,9 +18,10 @@
 
 namespace frichb::test {
 
-inline constexpr int kDiskSectors = 6, kDiskEngineOrder = 2;
+inline constexpr int kDiskSectors = 6;
 
 struct DiskOptions {
+  int engine_order = 2;
   std::string law = "jenkins_1d";
   std::string params = "{kt: 1.0e5, mu: 0.5, normal_load: 5.0}";
   std::string harmonics = "[0, 1, 2, 3]";
@@ -40,7 +41,7 @@ inline std::string harmonic_balance_and_rest(const DiskOptions& o, const std::st
 
 inline std::string cyclic_disk_scene(const DiskOptions& o = {}) {
   std::ostringstream s;
-  s << "cyclic: {sectors: " << kDiskSectors << ", engine_order: " << kDiskEngineOrder << "}\n"
+  s << "cyclic: {sectors: " << kDiskSectors << ", engine_order: " << o.engine_order << "}\n"
     << "structure:\n  provider: lumped_cyclic\n  params:\n    sectors: " << kDiskSectors << "\n"
     << "    masses: [0.5, 0.1]\n"
     << "    springs: [{between: [ground, 0], k: 2.0e6}, {between: [0, 1], k: 4.0e5}]\n"
@@ -72,7 +73,7 @@ inline std::string full_disk_scene(const DiskOptions& o = {}) {
   // Sector k is forced like the reference delayed by k Delta t: phase -k m 360 / nb degrees.
   for (int k = 0; k < kDiskSectors; ++k)
     s << "  - {dof: blade" << k << ", amplitude: " << o.amplitude
-      << ", phase_deg: " << -360.0 * k * kDiskEngineOrder / kDiskSectors << "}\n";
+      << ", phase_deg: " << -360.0 * k * o.engine_order / kDiskSectors << "}\n";
   s << "contacts:\n";
   for (int k = 0; k < kDiskSectors; ++k)
     s << "  - {name: shroud" << k << ", law: " << o.law << ", between: [blade" << k << ", blade"
@@ -85,7 +86,8 @@ inline std::string full_disk_scene(const DiskOptions& o = {}) {
 // reference contact delayed by k Delta t (harmonic n's complex amplitude times
 // e^{-i n m phi k}).
 inline Eigen::VectorXd full_disk_unknowns(const core::HarmonicLayout& layout,
-                                          const Eigen::VectorXd& y) {
+                                          const Eigen::VectorXd& y,
+                                          int engine_order = DiskOptions{}.engine_order) {
   const Eigen::Index c = layout.coefficient_count(), n = y.size() - 1;
   const double phi = 2 * std::numbers::pi / kDiskSectors;
   Eigen::VectorXd out(kDiskSectors * n + 1);
@@ -96,7 +98,7 @@ inline Eigen::VectorXd full_disk_unknowns(const core::HarmonicLayout& layout,
         const Eigen::Index ci = block * c + layout.cos_index(h),
                            si = block * c + layout.sin_index(h);
         const std::complex<double> x(y(ci), nh ? -y(si) : 0.0);
-        const std::complex<double> shifted = x * std::polar(1.0, -nh * kDiskEngineOrder * phi * k);
+        const std::complex<double> shifted = x * std::polar(1.0, -nh * engine_order * phi * k);
         out(k * n + ci) = shifted.real();
         if (nh) out(k * n + si) = -shifted.imag();
       }

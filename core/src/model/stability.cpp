@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <numeric>
 
 namespace frichb::core {
 
@@ -234,6 +235,9 @@ struct VariationalStructure {
   bool diagonal = true;
   Eigen::MatrixXd p;                // copies' components x modes
   std::vector<int> nodal_diameter;  // per mode; empty without cyclic symmetry
+  // Cyclic, per mode: 0 alone (h = 0, or h = nb/2 whose sign flips from sector to sector), 1
+  // the real part of a standing pair (the imaginary part, 2, next).
+  std::vector<int> pair_role;
 };
 
 // A contact as the variational equations see it: the model's contact `contact` in a sector
@@ -301,20 +305,21 @@ bool cyclic_structure(const HarmonicBalanceModel& model, int samples, Variationa
       for (int s = 0; s < nb; ++s)
         v.segment(s * kept, kept) =
             basis.rows.col(r) * std::polar(1.0 / std::sqrt(double(nb)), -h * phi * s);
-      auto add = [&](const Eigen::VectorXd& column) {
+      auto add = [&](const Eigen::VectorXd& column, int role) {
         columns.push_back(column);
         frequencies.push_back(basis.frequencies(r));
         damping.push_back(basis.damping(r, r));
         vs.nodal_diameter.push_back(h);
+        vs.pair_role.push_back(role);
       };
       if (h == 0 || 2 * h == nb) {
         Eigen::Index i = 0;
         basis.rows.col(r).cwiseAbs().maxCoeff(&i);
         const std::complex<double> a = basis.rows(i, r);
-        add((v * (std::abs(a) > 0 ? std::conj(a) / std::abs(a) : 1.0)).real());
+        add((v * (std::abs(a) > 0 ? std::conj(a) / std::abs(a) : 1.0)).real(), 0);
       } else {
-        add(std::sqrt(2.0) * v.real());
-        add(std::sqrt(2.0) * v.imag());
+        add(std::sqrt(2.0) * v.real(), 1);
+        add(std::sqrt(2.0) * v.imag(), 2);
       }
     }
   }
@@ -338,6 +343,52 @@ bool cyclic_structure(const HarmonicBalanceModel& model, int samples, Variationa
       states += model.contacts()[c].law->traits().state_size;
     }
   return true;
+}
+
+// The rows of a disk's modal coordinates (modes x columns) as the disk turned by `by` sectors
+// sees them: (Q x)_s = x_(s + by). Sector s of mode pair v = Phi_h e^{-i h phi s} / sqrt(nb)
+// turns into e^{-i h phi by} v, so the coordinates (a, b) of its real and imaginary parts turn
+// by theta = h phi by: a' = a cos theta - b sin theta, b' = a sin theta + b cos theta; a mode
+// of h = nb/2 changes sign with an odd `by`, one of h = 0 is unchanged.
+void turn_modes(Eigen::Ref<Eigen::MatrixXd> rows, const VariationalStructure& vs, int nb, int by) {
+  const double phi = 2 * std::numbers::pi / nb;
+  for (Eigen::Index r = 0; r < rows.rows(); ++r) {
+    const auto i = static_cast<std::size_t>(r);
+    const int h = vs.nodal_diameter[i];
+    if (vs.pair_role[i] == 0) {
+      if (2 * h == nb && by % 2 != 0) rows.row(r) *= -1.0;
+      continue;
+    }
+    if (vs.pair_role[i] != 1) continue;
+    const double theta = h * phi * by, c = std::cos(theta), s = std::sin(theta);
+    const Eigen::RowVectorXd a = rows.row(r), b = rows.row(r + 1);
+    rows.row(r) = c * a - s * b;
+    rows.row(r + 1) = s * a + c * b;
+  }
+}
+
+// Rows held sector after sector (the same count each) as the disk turned by `by` sectors sees
+// them: sector s takes sector s + by's.
+void turn_sectors(Eigen::Ref<Eigen::MatrixXd> rows, int nb, int by) {
+  if (rows.size() == 0) return;
+  const Eigen::Index per = rows.rows() / nb;
+  const Eigen::MatrixXd old = rows;
+  for (int s = 0; s < nb; ++s)
+    rows.middleRows(s * per, per) = old.middleRows(((s + by) % nb) * per, per);
+}
+
+// a^k for k >= 1, by squaring.
+Eigen::MatrixXd matrix_power(const Eigen::MatrixXd& a, int k) {
+  Eigen::MatrixXd result, base = a;
+  bool first = true;
+  for (; k > 0; k /= 2) {
+    if (k % 2 != 0) {
+      result = first ? base : Eigen::MatrixXd(base * result);
+      first = false;
+    }
+    if (k > 1) base = base * base;
+  }
+  return result;
 }
 
 // Balances `a` in place by a diagonal similarity a <- D^-1 a D (powers of 2, so exact), with
@@ -505,6 +556,18 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     return out;
   }
 
+  // A travelling wave repeats itself after tau = g T / nb turned by r0 sectors (g = gcd(m, nb),
+  // r0 m = g mod nb): sector s moves over [tau, 2 tau] as sector s - r0 did over [0, tau].
+  // Hence Phi(T) = Q^-k (Q A)^k with A = Phi(tau), k = nb / g and Q the turn by r0 sectors:
+  // only the first g N / nb steps of the period are integrated.
+  const CyclicSpec& cyclic = model.cyclic();
+  const bool turned = !vs.nodal_diameter.empty();
+  const int repeats = turned ? cyclic.sectors / std::gcd(cyclic.engine_order, cyclic.sectors) : 1;
+  const int segment = samples / repeats;
+  int turn = 0;
+  if (turned)
+    while ((turn * cyclic.engine_order - cyclic.sectors / repeats) % cyclic.sectors != 0) ++turn;
+
   const StepPropagator full_step = propagate_modes(vs.frequencies, vs.damping, vs.diagonal, h);
   Eigen::MatrixXd monodromy = Eigen::MatrixXd::Identity(dim, dim);
   std::vector<Eigen::MatrixXd> own(copies.size());  // each copy's state monodromy
@@ -671,7 +734,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
   std::vector<Eigen::VectorXd> sub_states(copies.size());
   // Copy k's own step and sample index for the disk's step or sample j.
   auto own_index = [&](std::size_t k, int j) { return (j - copies[k].shift + samples) % samples; };
-  for (int step = 1; step <= samples; ++step) {
+  for (int step = 1; step <= segment; ++step) {
     const int j = step % samples, jp = step - 1;
     std::vector<double> cuts;
     for (std::size_t k = 0; k < copies.size(); ++k) {
@@ -713,16 +776,42 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
       a = b;
     }
   }
-  if (!monodromy.allFinite()) {
-    out.failure = "the monodromy matrix is not finite";
-    return out;
-  }
   int neutral = 0;
-  for (const auto& mc : own) {
-    if (mc.size() == 0) continue;
+  auto count_neutral = [&](const Eigen::MatrixXd& mc) {
+    if (mc.size() == 0) return;
     const Eigen::VectorXcd mu = mc.eigenvalues();
     for (Eigen::Index k = 0; k < mu.size(); ++k)
       if (std::abs(mu(k) - 1.0) <= kNeutralTolerance) ++neutral;
+  };
+  if (repeats > 1) {
+    const int nb = cyclic.sectors, back = (nb - (turn * repeats) % nb) % nb;
+    auto turn_state = [&](Eigen::MatrixXd& rows, int by) {
+      turn_modes(rows.topRows(modes), vs, nb, by);
+      turn_modes(rows.middleRows(modes, modes), vs, nb, by);
+      turn_sectors(rows.middleRows(n2, m), nb, by);
+      turn_sectors(rows.bottomRows(states), nb, by);
+    };
+    turn_state(monodromy, turn);
+    monodromy = matrix_power(monodromy, repeats);
+    turn_state(monodromy, back);
+    // The contacts' own state monodromies, the same way.
+    if (states > 0) {
+      Eigen::MatrixXd own_all = Eigen::MatrixXd::Zero(states, states);
+      for (std::size_t k = 0; k < copies.size(); ++k)
+        if (own[k].size() > 0)
+          own_all.block(copies[k].state, copies[k].state, own[k].rows(), own[k].cols()) = own[k];
+      turn_sectors(own_all, nb, turn);
+      own_all = matrix_power(own_all, repeats);
+      turn_sectors(own_all, nb, back);
+      count_neutral(own_all);
+    }
+    out.split_steps *= repeats;
+  } else {
+    for (const auto& mc : own) count_neutral(mc);
+  }
+  if (!monodromy.allFinite()) {
+    out.failure = "the monodromy matrix is not finite";
+    return out;
   }
   classify(monodromy, m, neutral, vs, out);
   return out;
