@@ -484,176 +484,44 @@ void classify(const Eigen::MatrixXd& w, Eigen::Index dropped, int neutral,
     }
 }
 
-}  // namespace
-
-Eigen::MatrixXd matrix_exponential(const Eigen::MatrixXd& a) {
-  const Eigen::Index n = a.rows();
-  const double norm = a.cwiseAbs().rowwise().sum().maxCoeff();
-  const int squarings = norm > 0.5 ? static_cast<int>(std::ceil(std::log2(norm / 0.5))) : 0;
-  const Eigen::MatrixXd x = a / std::ldexp(1.0, squarings);
-  constexpr int q = 6;
-  double c = 0.5;
-  const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(n, n);
-  Eigen::MatrixXd numerator = identity + c * x, denominator = identity - c * x, power = x;
-  for (int k = 2; k <= q; ++k) {
-    c *= static_cast<double>(q - k + 1) / static_cast<double>(k * (2 * q - k + 1));
-    power = x * power;
-    numerator += c * power;
-    denominator += (k % 2 == 0 ? c : -c) * power;
-  }
-  Eigen::MatrixXd e = denominator.partialPivLu().solve(numerator);
-  for (int k = 0; k < squarings; ++k) e = e * e;
-  return e;
-}
-
-FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
-                                       const Eigen::VectorXd& y) {
-  FloquetMultipliers out;
-  const auto& layout = model.layout();
-  for (const auto& form : model.receptance_forms())
-    if (form.residual_flexibility) {
-      out.failure = "stability is computed for a structure without residual flexibility only";
-      return out;
-    }
-  const double w = y(y.size() - 1);
-
-  // The contacts' traces at y and the tracing grid.
-  const auto& contacts = model.contacts();
-  std::vector<ContactTrace> traces(contacts.size());
-  int samples = 0;
-  for (std::size_t c = 0; c < contacts.size(); ++c) {
-    std::string error;
-    if (!model.trace_contact(c, y, traces[c], &error)) {
-      out.failure = "contact " + contacts[c].name + ": " + error;
-      return out;
-    }
-    if (!contacts[c].law->traits().provides_tangent) {
-      out.failure = "contact " + contacts[c].name + ": its law gives no tangents";
-      return out;
-    }
-    samples = static_cast<int>(traces[c].displacement.rows());
-  }
-  if (samples == 0) samples = layout.samples();
-  const double h = 2 * std::numbers::pi / w / samples;
-  out.steps = samples;
-
-  VariationalStructure vs;
-  std::vector<ContactCopy> copies;
-  if (!(model.cyclic().enabled() ? cyclic_structure(model, samples, vs, copies, out.failure)
-                                 : plain_structure(model, vs, copies, out.failure)))
-    return out;
-  const Eigen::MatrixXd& p = vs.p;
-  const Eigen::Index modes = vs.frequencies.size();
-  const Eigen::Index m = p.rows(), n2 = 2 * modes;
-  Eigen::Index states = 0;
-  for (const auto& copy : copies) states += contacts[copy.contact].law->traits().state_size;
-  const Eigen::Index dim = n2 + m + states;
-  if (dim > kMaxStabilityDimension) {
-    out.failure = "the variational system has " + std::to_string(dim) +
-                  " unknowns (modes twice, contact components, contact states); the dense "
-                  "monodromy is limited to " +
-                  std::to_string(kMaxStabilityDimension);
-    return out;
-  }
-
-  // A travelling wave repeats itself after tau = g T / nb turned by r0 sectors (g = gcd(m, nb),
-  // r0 m = g mod nb): sector s moves over [tau, 2 tau] as sector s - r0 did over [0, tau].
-  // Hence Phi(T) = Q^-k (Q A)^k with A = Phi(tau), k = nb / g and Q the turn by r0 sectors:
-  // only the first g N / nb steps of the period are integrated.
-  const CyclicSpec& cyclic = model.cyclic();
-  const bool turned = !vs.nodal_diameter.empty();
-  const int repeats = turned ? cyclic.sectors / std::gcd(cyclic.engine_order, cyclic.sectors) : 1;
-  const int segment = samples / repeats;
-  int turn = 0;
-  if (turned)
-    while ((turn * cyclic.engine_order - cyclic.sectors / repeats) % cyclic.sectors != 0) ++turn;
-
-  const StepPropagator full_step = propagate_modes(vs.frequencies, vs.damping, vs.diagonal, h);
-  Eigen::MatrixXd monodromy = Eigen::MatrixXd::Identity(dim, dim);
-  std::vector<Eigen::MatrixXd> own(copies.size());  // each copy's state monodromy
-  for (std::size_t k = 0; k < copies.size(); ++k) {
-    const int s = contacts[copies[k].contact].law->traits().state_size;
-    own[k] = Eigen::MatrixXd::Identity(s, s);
-  }
-  Eigen::MatrixXd k1(m, n2), k0(m, n2), kz(m, states), z1(states, n2), z0(states, n2),
-      zz(states, states);
-  // The variational map over a fraction `length` of a step, each copy's tangents `t`.
-  auto advance = [&](double length, const std::vector<const StepTangents*>& t) {
-    const StepPropagator sub =
-        length == 1.0 ? StepPropagator{}
-                      : propagate_modes(vs.frequencies, vs.damping, vs.diagonal, length * h);
-    const StepPropagator& prop = length == 1.0 ? full_step : sub;
-    const Eigen::MatrixXd gamma0 = -prop.g0 * p.transpose(), gamma1 = -prop.g1 * p.transpose();
-    const double hl = length * h;
-    k1.setZero();
-    k0.setZero();
-    kz.setZero();
-    z1.setZero();
-    z0.setZero();
-    zz.setZero();
-    for (std::size_t k = 0; k < copies.size(); ++k) {
-      const StepTangents& tc = *t[k];
-      const Eigen::Index r = copies[k].row, d = tc.df_dun.rows(), zo = copies[k].state,
-                         s = tc.dz_dz.rows();
-      const auto pc = p.middleRows(r, d);
-      // u = P q and the rates du/ds = hl P q' at the step's ends.
-      k1.block(r, 0, d, modes) = tc.df_dun * pc;
-      k1.block(r, modes, d, modes) = hl * tc.df_drn * pc;
-      k0.block(r, 0, d, modes) = tc.df_dup * pc;
-      k0.block(r, modes, d, modes) = hl * tc.df_drp * pc;
-      kz.block(r, zo, d, s) = tc.df_dz;
-      z1.block(zo, 0, s, modes) = tc.dz_dun * pc;
-      z1.block(zo, modes, s, modes) = hl * tc.dz_drn * pc;
-      z0.block(zo, 0, s, modes) = tc.dz_dup * pc;
-      z0.block(zo, modes, s, modes) = hl * tc.dz_drp * pc;
-      zz.block(zo, zo, s, s) = tc.dz_dz;
-      own[k] = tc.dz_dz * own[k];
-    }
-    const auto x = monodromy.topRows(n2);
-    const auto f = monodromy.middleRows(n2, m);
-    const auto z = monodromy.bottomRows(states);
-    const Eigen::MatrixXd predicted = prop.e * x + gamma0 * f;
-    const Eigen::MatrixXd rhs = k1 * predicted + k0 * x + kz * z;
-    const Eigen::MatrixXd system = Eigen::MatrixXd::Identity(m, m) - k1 * gamma1;
-    const Eigen::MatrixXd f_next = system.partialPivLu().solve(rhs);
-    const Eigen::MatrixXd x_next = predicted + gamma1 * f_next;
-    const Eigen::MatrixXd z_next = z1 * x_next + z0 * x + zz * z;
-    monodromy << x_next, f_next, z_next;
-  };
-
-  // The tangents of every step of each model contact at the traced states (a copy's step j is
-  // its contact's step j - shift).
-  std::vector<std::vector<StepTangents>> steps(static_cast<std::size_t>(samples),
-                                               std::vector<StepTangents>(contacts.size()));
-  for (int j = 0; j < samples; ++j)
-    for (std::size_t c = 0; c < contacts.size(); ++c) {
-      std::string error;
-      if (!contact_step_tangents(contacts[c], traces[c], j, steps[static_cast<std::size_t>(j)][c],
-                                 &error)) {
-        out.failure = "contact " + contacts[c].name + ": " + error;
-        return out;
-      }
-    }
-
-  // A law that switches regime inside a step makes the force's linearisation jump there (a
-  // contact that starts to slip loses its stiffness at once), which a straight line between
-  // the step's samples smears over the step: an error of the order of the step, not its
-  // square. Such steps are split where the law switches: located by bisection on the regime at
-  // a point (the tangent of a short step from it, the law's state followed along the motion
-  // from the step's start), and crossed by a short step of its own.
-  std::vector<ContactPath> paths;
-  paths.reserve(contacts.size());
-  for (const auto& contact : contacts) paths.emplace_back(layout, y, contact);
-  const double phase_step = 2 * std::numbers::pi / samples;
+// The relative displacement of the model's contacts along the period from their harmonic
+// coefficients, on the tracing grid's phases: at fraction s of the step from sample jp, and
+// its rate du/ds over a sub-step of fraction `length`.
+class ContactMotions {
+ public:
   struct Motion {
-    double u[3], rate[3];  // rate: du/ds over a sub-step of fraction `length`
+    double u[3], rate[3];
   };
-  auto motion_at = [&](std::size_t c, int jp, double s, double length) {
+  ContactMotions(const HarmonicBalanceModel& model, const Eigen::VectorXd& y, int samples)
+      : phase_step_(2 * std::numbers::pi / samples) {
+    paths_.reserve(model.contacts().size());
+    for (const auto& contact : model.contacts()) paths_.emplace_back(model.layout(), y, contact);
+  }
+  Motion at(std::size_t c, int jp, double s, double length) const {
     Motion mo{};
-    paths[c].at(phase_step * jp + phase_step * s, mo.u, mo.rate);
-    for (double& r : mo.rate) r *= phase_step * length;
+    paths_[c].at(phase_step_ * jp + phase_step_ * s, mo.u, mo.rate);
+    for (double& r : mo.rate) r *= phase_step_ * length;
     return mo;
-  };
+  }
+
+ private:
+  std::vector<ContactPath> paths_;
+  double phase_step_;
+};
+
+// A law that switches regime inside a step makes the force's linearisation jump there (a
+// contact that starts to slip loses its stiffness at once), which a straight line between
+// the step's samples smears over the step: an error of the order of the step, not its
+// square. Where each model contact switches inside each step (switches[c][j], the fraction of
+// step j from sample j - 1, or -1): located by bisection on the regime at a point (the tangent
+// of a short step from it, the law's state followed along the motion from the step's start).
+bool locate_switches(const std::vector<ContactModel>& contacts,
+                     const std::vector<ContactTrace>& traces,
+                     const std::vector<std::vector<StepTangents>>& steps,
+                     const ContactMotions& motions, std::vector<std::vector<double>>& switches,
+                     std::string& failure) {
+  const int samples = static_cast<int>(steps.size());
+  using Motion = ContactMotions::Motion;
   // The law's state at fraction s of step j (from sample jp), followed along the motion from
   // its state `state` at fraction `from` (value-only steps).
   auto follow = [&](std::size_t c, int jp, double from, double s, Eigen::VectorXd& state,
@@ -662,7 +530,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     for (int i = 0; i < kPathSteps; ++i) {
       const double a = from + (s - from) * i / kPathSteps,
                    b = from + (s - from) * (i + 1) / kPathSteps;
-      const Motion m0 = motion_at(c, jp, a, b - a), m1 = motion_at(c, jp, b, b - a);
+      const Motion m0 = motions.at(c, jp, a, b - a), m1 = motions.at(c, jp, b, b - a);
       if (!law_state_step(contacts[c], state, m0.u, m1.u, m0.rate, m1.rate, next, error))
         return false;
       state = next;
@@ -674,7 +542,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
                        RowMajor& regime, std::string* error) {
     Eigen::VectorXd next;
     StepTangents t;
-    const Motion m0 = motion_at(c, jp, s, kProbe), m1 = motion_at(c, jp, s + kProbe, kProbe);
+    const Motion m0 = motions.at(c, jp, s, kProbe), m1 = motions.at(c, jp, s + kProbe, kProbe);
     if (!law_step(contacts[c], state, m0.u, m1.u, m0.rate, m1.rate, t, next, error)) return false;
     regime = t.df_dun;
     return true;
@@ -718,17 +586,248 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     where = lo;
     return true;
   };
-  std::vector<std::vector<double>> switches(contacts.size(),
-                                            std::vector<double>(static_cast<std::size_t>(samples)));
+  switches.assign(contacts.size(), std::vector<double>(static_cast<std::size_t>(samples)));
   for (std::size_t c = 0; c < contacts.size(); ++c)
     for (int j = 0; j < samples; ++j) {
       std::string error;
       if (!locate_switch(c, j, switches[c][static_cast<std::size_t>(j)], &error)) {
+        failure = "contact " + contacts[c].name + ": " + error;
+        return false;
+      }
+    }
+  return true;
+}
+
+// The product of the variational step maps: the monodromy of the state (dq, dq', df, dz) and
+// each contact copy's own state monodromy (d state / d state_prev, the motion held).
+class VariationalMap {
+ public:
+  VariationalMap(const VariationalStructure& vs, const std::vector<ContactCopy>& copies,
+                 const std::vector<int>& state_sizes, Eigen::Index states, double h)
+      : vs_(vs),
+        copies_(copies),
+        h_(h),
+        modes_(vs.frequencies.size()),
+        m_(vs.p.rows()),
+        states_(states),
+        full_step_(propagate_modes(vs.frequencies, vs.damping, vs.diagonal, h)),
+        k1_(m_, 2 * modes_),
+        k0_(m_, 2 * modes_),
+        kz_(m_, states),
+        z1_(states, 2 * modes_),
+        z0_(states, 2 * modes_),
+        zz_(states, states) {
+    const Eigen::Index dim = 2 * modes_ + m_ + states;
+    monodromy = Eigen::MatrixXd::Identity(dim, dim);
+    for (const int s : state_sizes) own.push_back(Eigen::MatrixXd::Identity(s, s));
+  }
+
+  // The map over a fraction `length` of a step, each copy's tangents `t`: the new force sample
+  // solves (I - K1 G1) df_j = K1 (E x + G0 df_{j-1}) + K0 x + Kz dz.
+  void advance(double length, const std::vector<const StepTangents*>& t) {
+    const StepPropagator sub =
+        length == 1.0 ? StepPropagator{}
+                      : propagate_modes(vs_.frequencies, vs_.damping, vs_.diagonal, length * h_);
+    const StepPropagator& prop = length == 1.0 ? full_step_ : sub;
+    const Eigen::MatrixXd& p = vs_.p;
+    const Eigen::MatrixXd gamma0 = -prop.g0 * p.transpose(), gamma1 = -prop.g1 * p.transpose();
+    const double hl = length * h_;
+    const Eigen::Index modes = modes_, n2 = 2 * modes_;
+    k1_.setZero();
+    k0_.setZero();
+    kz_.setZero();
+    z1_.setZero();
+    z0_.setZero();
+    zz_.setZero();
+    for (std::size_t k = 0; k < copies_.size(); ++k) {
+      const StepTangents& tc = *t[k];
+      const Eigen::Index r = copies_[k].row, d = tc.df_dun.rows(), zo = copies_[k].state,
+                         s = tc.dz_dz.rows();
+      const auto pc = p.middleRows(r, d);
+      // u = P q and the rates du/ds = hl P q' at the step's ends.
+      k1_.block(r, 0, d, modes) = tc.df_dun * pc;
+      k1_.block(r, modes, d, modes) = hl * tc.df_drn * pc;
+      k0_.block(r, 0, d, modes) = tc.df_dup * pc;
+      k0_.block(r, modes, d, modes) = hl * tc.df_drp * pc;
+      kz_.block(r, zo, d, s) = tc.df_dz;
+      z1_.block(zo, 0, s, modes) = tc.dz_dun * pc;
+      z1_.block(zo, modes, s, modes) = hl * tc.dz_drn * pc;
+      z0_.block(zo, 0, s, modes) = tc.dz_dup * pc;
+      z0_.block(zo, modes, s, modes) = hl * tc.dz_drp * pc;
+      zz_.block(zo, zo, s, s) = tc.dz_dz;
+      own[k] = tc.dz_dz * own[k];
+    }
+    const auto x = monodromy.topRows(n2);
+    const auto f = monodromy.middleRows(n2, m_);
+    const auto z = monodromy.bottomRows(states_);
+    const Eigen::MatrixXd predicted = prop.e * x + gamma0 * f;
+    const Eigen::MatrixXd rhs = k1_ * predicted + k0_ * x + kz_ * z;
+    const Eigen::MatrixXd system = Eigen::MatrixXd::Identity(m_, m_) - k1_ * gamma1;
+    const Eigen::MatrixXd f_next = system.partialPivLu().solve(rhs);
+    const Eigen::MatrixXd x_next = predicted + gamma1 * f_next;
+    const Eigen::MatrixXd z_next = z1_ * x_next + z0_ * x + zz_ * z;
+    monodromy << x_next, f_next, z_next;
+  }
+
+  Eigen::MatrixXd monodromy;
+  std::vector<Eigen::MatrixXd> own;  // per copy
+
+ private:
+  const VariationalStructure& vs_;
+  const std::vector<ContactCopy>& copies_;
+  double h_;
+  Eigen::Index modes_, m_, states_;
+  StepPropagator full_step_;
+  Eigen::MatrixXd k1_, k0_, kz_, z1_, z0_, zz_;
+};
+
+// The multipliers of the contacts' own state monodromies within kNeutralTolerance of 1.
+int neutral_count(const std::vector<Eigen::MatrixXd>& own) {
+  int neutral = 0;
+  for (const auto& mc : own) {
+    if (mc.size() == 0) continue;
+    const Eigen::VectorXcd mu = mc.eigenvalues();
+    for (Eigen::Index k = 0; k < mu.size(); ++k)
+      if (std::abs(mu(k) - 1.0) <= kNeutralTolerance) ++neutral;
+  }
+  return neutral;
+}
+
+// The period's monodromy from that of its first 1 / `repeats` (a cyclic disk's, A = Phi(tau)):
+// Phi(T) = Q^-k (Q A)^k with k = repeats and Q the turn by `turn` sectors; the contacts' own
+// state monodromies the same way, into one over all copies (map.own then holds it alone).
+void complete_by_turning(VariationalMap& map, const VariationalStructure& vs,
+                         const std::vector<ContactCopy>& copies, int nb, int repeats, int turn) {
+  const Eigen::Index modes = vs.frequencies.size(), n2 = 2 * modes, m = vs.p.rows();
+  const Eigen::Index states = map.monodromy.rows() - n2 - m;
+  const int back = (nb - (turn * repeats) % nb) % nb;
+  auto turn_state = [&](Eigen::MatrixXd& rows, int by) {
+    turn_modes(rows.topRows(modes), vs, nb, by);
+    turn_modes(rows.middleRows(modes, modes), vs, nb, by);
+    turn_sectors(rows.middleRows(n2, m), nb, by);
+    turn_sectors(rows.bottomRows(states), nb, by);
+  };
+  turn_state(map.monodromy, turn);
+  map.monodromy = matrix_power(map.monodromy, repeats);
+  turn_state(map.monodromy, back);
+  Eigen::MatrixXd own_all = Eigen::MatrixXd::Zero(states, states);
+  if (states > 0) {
+    for (std::size_t k = 0; k < copies.size(); ++k)
+      if (map.own[k].size() > 0)
+        own_all.block(copies[k].state, copies[k].state, map.own[k].rows(), map.own[k].cols()) =
+            map.own[k];
+    turn_sectors(own_all, nb, turn);
+    own_all = matrix_power(own_all, repeats);
+    turn_sectors(own_all, nb, back);
+  }
+  map.own = {own_all};
+}
+
+}  // namespace
+
+Eigen::MatrixXd matrix_exponential(const Eigen::MatrixXd& a) {
+  const Eigen::Index n = a.rows();
+  const double norm = a.cwiseAbs().rowwise().sum().maxCoeff();
+  const int squarings = norm > 0.5 ? static_cast<int>(std::ceil(std::log2(norm / 0.5))) : 0;
+  const Eigen::MatrixXd x = a / std::ldexp(1.0, squarings);
+  constexpr int q = 6;
+  double c = 0.5;
+  const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(n, n);
+  Eigen::MatrixXd numerator = identity + c * x, denominator = identity - c * x, power = x;
+  for (int k = 2; k <= q; ++k) {
+    c *= static_cast<double>(q - k + 1) / static_cast<double>(k * (2 * q - k + 1));
+    power = x * power;
+    numerator += c * power;
+    denominator += (k % 2 == 0 ? c : -c) * power;
+  }
+  Eigen::MatrixXd e = denominator.partialPivLu().solve(numerator);
+  for (int k = 0; k < squarings; ++k) e = e * e;
+  return e;
+}
+
+FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
+                                       const Eigen::VectorXd& y) {
+  FloquetMultipliers out;
+  for (const auto& form : model.receptance_forms())
+    if (form.residual_flexibility) {
+      out.failure = "stability is computed for a structure without residual flexibility only";
+      return out;
+    }
+  const double w = y(y.size() - 1);
+
+  // The contacts' traces at y and the tracing grid.
+  const auto& contacts = model.contacts();
+  std::vector<ContactTrace> traces(contacts.size());
+  int samples = 0;
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    std::string error;
+    if (!model.trace_contact(c, y, traces[c], &error)) {
+      out.failure = "contact " + contacts[c].name + ": " + error;
+      return out;
+    }
+    if (!contacts[c].law->traits().provides_tangent) {
+      out.failure = "contact " + contacts[c].name + ": its law gives no tangents";
+      return out;
+    }
+    samples = static_cast<int>(traces[c].displacement.rows());
+  }
+  if (samples == 0) samples = model.layout().samples();
+  out.steps = samples;
+
+  VariationalStructure vs;
+  std::vector<ContactCopy> copies;
+  if (!(model.cyclic().enabled() ? cyclic_structure(model, samples, vs, copies, out.failure)
+                                 : plain_structure(model, vs, copies, out.failure)))
+    return out;
+  const Eigen::Index modes = vs.frequencies.size();
+  const Eigen::Index m = vs.p.rows(), n2 = 2 * modes;
+  Eigen::Index states = 0;
+  std::vector<int> state_sizes;
+  for (const auto& copy : copies) {
+    state_sizes.push_back(contacts[copy.contact].law->traits().state_size);
+    states += state_sizes.back();
+  }
+  const Eigen::Index dim = n2 + m + states;
+  if (dim > kMaxStabilityDimension) {
+    out.failure = "the variational system has " + std::to_string(dim) +
+                  " unknowns (modes twice, contact components, contact states); the dense "
+                  "monodromy is limited to " +
+                  std::to_string(kMaxStabilityDimension);
+    return out;
+  }
+
+  // The tangents of every step of each model contact at the traced states (a copy's step j is
+  // its contact's step j - shift), and where each switches regime inside a step.
+  std::vector<std::vector<StepTangents>> steps(static_cast<std::size_t>(samples),
+                                               std::vector<StepTangents>(contacts.size()));
+  for (int j = 0; j < samples; ++j)
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      std::string error;
+      if (!contact_step_tangents(contacts[c], traces[c], j, steps[static_cast<std::size_t>(j)][c],
+                                 &error)) {
         out.failure = "contact " + contacts[c].name + ": " + error;
         return out;
       }
     }
+  const ContactMotions motions(model, y, samples);
+  std::vector<std::vector<double>> switches;
+  if (!locate_switches(contacts, traces, steps, motions, switches, out.failure)) return out;
 
+  // A travelling wave repeats itself after tau = g T / nb turned by r0 sectors (g = gcd(m, nb),
+  // r0 m = g mod nb): sector s moves over [tau, 2 tau] as sector s - r0 did over [0, tau].
+  // Hence Phi(T) = Q^-k (Q A)^k with A = Phi(tau), k = nb / g and Q the turn by r0 sectors:
+  // only the first g N / nb steps of the period are integrated.
+  const CyclicSpec& cyclic = model.cyclic();
+  const bool turned = !vs.nodal_diameter.empty();
+  const int repeats = turned ? cyclic.sectors / std::gcd(cyclic.engine_order, cyclic.sectors) : 1;
+  const int segment = samples / repeats;
+  int turn = 0;
+  if (turned)
+    while ((turn * cyclic.engine_order - cyclic.sectors / repeats) % cyclic.sectors != 0) ++turn;
+
+  // The steps, each split where a copy's law switches regime: up to the switch, across it (a
+  // short step of its own) and after it, each sub-step with the laws' tangents of its own.
+  VariationalMap map(vs, copies, state_sizes, states, 2 * std::numbers::pi / w / samples);
   std::vector<StepTangents> sub_tangents(copies.size());
   std::vector<const StepTangents*> tangents(copies.size());
   std::vector<Eigen::VectorXd> sub_states(copies.size());
@@ -746,7 +845,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     if (cuts.empty()) {
       for (std::size_t k = 0; k < copies.size(); ++k)
         tangents[k] = &steps[static_cast<std::size_t>(own_index(k, j))][copies[k].contact];
-      advance(1.0, tangents);
+      map.advance(1.0, tangents);
       continue;
     }
     ++out.split_steps;
@@ -761,8 +860,8 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
         const std::size_t c = copies[k].contact;
         const int from_sample = own_index(k, jp);
         std::string error;
-        const Motion from = motion_at(c, from_sample, a, b - a),
-                     to = motion_at(c, from_sample, b, b - a);
+        const auto from = motions.at(c, from_sample, a, b - a),
+                   to = motions.at(c, from_sample, b, b - a);
         Eigen::VectorXd next;
         if (!law_step(contacts[c], sub_states[k], from.u, to.u, from.rate, to.rate, sub_tangents[k],
                       next, &error)) {
@@ -772,48 +871,19 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
         sub_states[k] = next;
         tangents[k] = &sub_tangents[k];
       }
-      advance(b - a, tangents);
+      map.advance(b - a, tangents);
       a = b;
     }
   }
-  int neutral = 0;
-  auto count_neutral = [&](const Eigen::MatrixXd& mc) {
-    if (mc.size() == 0) return;
-    const Eigen::VectorXcd mu = mc.eigenvalues();
-    for (Eigen::Index k = 0; k < mu.size(); ++k)
-      if (std::abs(mu(k) - 1.0) <= kNeutralTolerance) ++neutral;
-  };
   if (repeats > 1) {
-    const int nb = cyclic.sectors, back = (nb - (turn * repeats) % nb) % nb;
-    auto turn_state = [&](Eigen::MatrixXd& rows, int by) {
-      turn_modes(rows.topRows(modes), vs, nb, by);
-      turn_modes(rows.middleRows(modes, modes), vs, nb, by);
-      turn_sectors(rows.middleRows(n2, m), nb, by);
-      turn_sectors(rows.bottomRows(states), nb, by);
-    };
-    turn_state(monodromy, turn);
-    monodromy = matrix_power(monodromy, repeats);
-    turn_state(monodromy, back);
-    // The contacts' own state monodromies, the same way.
-    if (states > 0) {
-      Eigen::MatrixXd own_all = Eigen::MatrixXd::Zero(states, states);
-      for (std::size_t k = 0; k < copies.size(); ++k)
-        if (own[k].size() > 0)
-          own_all.block(copies[k].state, copies[k].state, own[k].rows(), own[k].cols()) = own[k];
-      turn_sectors(own_all, nb, turn);
-      own_all = matrix_power(own_all, repeats);
-      turn_sectors(own_all, nb, back);
-      count_neutral(own_all);
-    }
+    complete_by_turning(map, vs, copies, cyclic.sectors, repeats, turn);
     out.split_steps *= repeats;
-  } else {
-    for (const auto& mc : own) count_neutral(mc);
   }
-  if (!monodromy.allFinite()) {
+  if (!map.monodromy.allFinite()) {
     out.failure = "the monodromy matrix is not finite";
     return out;
   }
-  classify(monodromy, m, neutral, vs, out);
+  classify(map.monodromy, m, neutral_count(map.own), vs, out);
   return out;
 }
 
