@@ -649,6 +649,7 @@ class VariationalMap {
       k1_.block(r, modes, d, modes) = hl * tc.df_drn * pc;
       k0_.block(r, 0, d, modes) = tc.df_dup * pc;
       k0_.block(r, modes, d, modes) = hl * tc.df_drp * pc;
+      if (s == 0) continue;  // a law without state: no blocks (and no offsets into empty ones)
       kz_.block(r, zo, d, s) = tc.df_dz;
       z1_.block(zo, 0, s, modes) = tc.dz_dun * pc;
       z1_.block(zo, modes, s, modes) = hl * tc.dz_drn * pc;
