@@ -524,3 +524,44 @@ def test_stability_columns_and_bifurcations_are_the_programs(tmp_path):
     summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
     assert result.summary["stability"]["changes"] == summary["stability"]["changes"]
     assert [c["kind"] for c in summary["stability"]["changes"]].count("fold") == 2
+
+
+def test_cyclic_stability_names_the_nodal_diameters_as_the_program(tmp_path):
+    # A lumped disk of 6 sectors under engine order 2 with friction shrouds: the whole disk's
+    # multipliers, each point's largest named by its nodal diameter (0 to 3).
+    scene = tmp_path / "disk.yaml"
+    scene.write_text("""
+cyclic: {sectors: 6, engine_order: 2}
+structure:
+  provider: lumped_cyclic
+  params:
+    sectors: 6
+    masses: [0.5, 0.1]
+    springs: [{between: [ground, 0], k: 2.0e6}, {between: [0, 1], k: 4.0e5}]
+    coupling: [{between: [0, 0], k: 1.0e5}]
+    modal_damping: [0.01]
+  dofs: {disk: 0, blade: 1}
+excitation: [{dof: blade, amplitude: 2.0}]
+contacts:
+  - name: shroud
+    law: jenkins_1d
+    between: [{node: blade, sector: 0}, {node: blade, sector: 1}]
+    params: {kt: 1.0e5, mu: 0.5, normal_load: 5.0}
+harmonic_balance: {harmonics: [0, 1, 2, 3], samples_per_period: 96}
+continuation: {frequency: {from: 200, to: 400}}
+output: {response: [blade], stability: true}
+""")
+    result = frichb.run(scene, plots=False)
+    assert result.status == 0, result.message
+    cli = frichb_cli("run", str(scene), "-o", str(tmp_path / "cli"))
+    assert cli.returncode == 0, cli.stderr
+    header, rows = read_csv(tmp_path / "cli" / "response.csv")
+    assert result.columns[-1] == "largest_multiplier_nodal_diameter"
+    diameters = result.column("largest_multiplier_nodal_diameter")
+    np.testing.assert_array_equal(diameters,
+                                  rows[:, header.index("largest_multiplier_nodal_diameter")])
+    assert set(np.unique(diameters)) <= {0.0, 1.0, 2.0, 3.0}
+    np.testing.assert_allclose(result.column("largest_multiplier"),
+                               rows[:, header.index("largest_multiplier")], rtol=5e-12, atol=0)
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert result.summary["stability"] == summary["stability"]
