@@ -102,6 +102,25 @@ void edit_line(const fs::path& file, int line, const std::string& text) {
   write_text(file, out.str());
 }
 
+// A lumped cyclic disk of `sectors` sectors under engine order 2 (engine order 1 from 1000
+// sectors on) with friction shrouds and output.stability, traced on `samples` samples.
+std::string cyclic_stability_scene(int sectors, int samples) {
+  std::ostringstream s;
+  s << "cyclic: {sectors: " << sectors << ", engine_order: " << (sectors >= 1000 ? 1 : 2)
+    << "}\nstructure:\n  provider: lumped_cyclic\n  params:\n    sectors: " << sectors
+    << "\n    masses: [0.5, 0.1]\n"
+    << "    springs: [{between: [ground, 0], k: 2.0e6}, {between: [0, 1], k: 4.0e5}]\n"
+    << "    coupling: [{between: [0, 0], k: 1.0e5}]\n    modal_damping: [0.01]\n"
+    << "  dofs: {disk: 0, blade: 1}\nexcitation: [{dof: blade, amplitude: 2.0}]\ncontacts:\n"
+    << "  - name: shroud\n    law: jenkins_1d\n"
+    << "    between: [{node: blade, sector: 0}, {node: blade, sector: 1}]\n"
+    << "    params: {kt: 1.0e5, mu: 0.5, normal_load: 5.0}\n"
+    << "harmonic_balance: {harmonics: [0, 1, 2, 3], samples_per_period: " << samples << "}\n"
+    << "continuation: {frequency: {from: 200, to: 400}}\n"
+    << "output: {response: [blade], stability: true}\n";
+  return s.str();
+}
+
 std::vector<BadScene> corpus() {
   const std::string lumped_springs = "      - {between: [ground, 0], k: 4.0e5}";
   std::vector<BadScene> c = {
@@ -149,6 +168,19 @@ std::vector<BadScene> corpus() {
        },
        {},
        "harmonic_balance: "},
+      // The stability of a cyclic scene: its sector delays must be whole samples, and its
+      // whole disk (1200 sectors here: 7200 unknowns) must fit the dense monodromy.
+      {"cyclic_stability_sector_delays_of_fractional_samples",
+       false,
+       [](const std::string&) { return cyclic_stability_scene(6, 100); },
+       {},
+       "output.stability: the stability of a cyclic scene needs"},
+      {"cyclic_stability_whole_disk_too_large",
+       false,
+       [](const std::string&) { return cyclic_stability_scene(1200, 1200); },
+       {},
+       "output.stability: the stability of this cyclic scene integrates the whole disk: 7200 "
+       "unknowns"},
       // Scene-level errors (both verbs found these before; kept in the corpus).
       {"unknown_law", false, swap("law: jenkins_1d", "law: jenkins_2d"), {}, "unknown plugin"},
       {"unknown_provider",
