@@ -1,5 +1,7 @@
 #include "frichb/core/model/stability.hpp"
 
+#include "model/variational_structure.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -225,171 +227,6 @@ constexpr int kPathSteps = 4;
 constexpr int kBisections = 12;
 constexpr double kProbe = 1e-7;
 constexpr double kSwitchStep = 5e-4;
-
-// The linear structure of the variational equations: real modes (mass-normalised), their
-// modal damping and P = G Phi over the contacts' copies; for a cyclic structure, the whole
-// disk's modes and the nodal diameter of each.
-struct VariationalStructure {
-  Eigen::VectorXd frequencies;
-  Eigen::MatrixXd damping;
-  bool diagonal = true;
-  Eigen::MatrixXd p;                // copies' components x modes
-  std::vector<int> nodal_diameter;  // per mode; empty without cyclic symmetry
-  // Cyclic, per mode: 0 alone (h = 0, or h = nb/2 whose sign flips from sector to sector), 1
-  // the real part of a standing pair (the imaginary part, 2, next).
-  std::vector<int> pair_role;
-};
-
-// A contact as the variational equations see it: the model's contact `contact` in a sector
-// whose motion is the reference sector's delayed by `shift` samples; its first row in P and
-// its first state.
-struct ContactCopy {
-  std::size_t contact = 0;
-  int shift = 0;
-  Eigen::Index row = 0;
-  Eigen::Index state = 0;
-};
-
-// A plain structure: its modes as the model holds them, each contact once.
-bool plain_structure(const HarmonicBalanceModel& model, VariationalStructure& vs,
-                     std::vector<ContactCopy>& copies, std::string& failure) {
-  const auto& basis = model.structure().basis(0);
-  if (basis.rows.size() > 0 && basis.rows.imag().cwiseAbs().maxCoeff() > 0) {
-    failure = "stability needs real modes";
-    return false;
-  }
-  vs.frequencies = basis.frequencies;
-  vs.damping = basis.damping;
-  vs.diagonal = basis.diagonal_damping;
-  vs.p = Eigen::MatrixXd(Eigen::MatrixXcd(model.gather(0)).real()) * basis.rows.real();
-  Eigen::Index states = 0;
-  for (std::size_t c = 0; c < model.contacts().size(); ++c) {
-    copies.push_back({c, 0, model.contacts()[c].offset, states});
-    states += model.contacts()[c].law->traits().state_size;
-  }
-  return true;
-}
-
-// A cyclic structure: the whole disk. Its real modes are built from the sector's modes of every
-// nodal diameter h <= nb/2: sector s of the complex mode v = Phi_h e^{-i h phi s} / sqrt(nb)
-// (the sign of the model's cyclic gather), mass-normalised over the disk when Phi_h is over
-// the sector; for 0 < h < nb/2 its real and imaginary parts times sqrt(2) (the standing pair
-// of h and nb - h), for h = 0 and nb/2 the mode itself, real up to a phase. Each contact is
-// copied into every sector, delayed by s m / nb of the period: a whole number of samples.
-bool cyclic_structure(const HarmonicBalanceModel& model, int samples, VariationalStructure& vs,
-                      std::vector<ContactCopy>& copies, std::string& failure) {
-  const CyclicSpec& cyclic = model.cyclic();
-  const int nb = cyclic.sectors;
-  const long long delay = static_cast<long long>(samples) * cyclic.engine_order;
-  if (delay % nb != 0) {
-    failure = "the cyclic stability needs the samples of a period (" + std::to_string(samples) +
-              ") times the engine order to be a multiple of the sector count (" +
-              std::to_string(nb) + ")";
-    return false;
-  }
-  const auto kept = static_cast<Eigen::Index>(model.structure().kept_dofs().size());
-  const double phi = 2 * std::numbers::pi / nb;
-  std::vector<Eigen::VectorXd> columns;
-  std::vector<double> frequencies, damping;
-  for (int h = 0; 2 * h <= nb; ++h) {
-    const auto& basis = model.structure().basis(h);
-    if (!basis.diagonal_damping || basis.has_residual_flexibility()) {
-      failure =
-          "the cyclic stability needs diagonal modal damping and no residual flexibility "
-          "(nodal diameter " +
-          std::to_string(h) + ")";
-      return false;
-    }
-    for (Eigen::Index r = 0; r < basis.rows.cols(); ++r) {
-      Eigen::VectorXcd v(nb * kept);
-      for (int s = 0; s < nb; ++s)
-        v.segment(s * kept, kept) =
-            basis.rows.col(r) * std::polar(1.0 / std::sqrt(double(nb)), -h * phi * s);
-      auto add = [&](const Eigen::VectorXd& column, int role) {
-        columns.push_back(column);
-        frequencies.push_back(basis.frequencies(r));
-        damping.push_back(basis.damping(r, r));
-        vs.nodal_diameter.push_back(h);
-        vs.pair_role.push_back(role);
-      };
-      if (h == 0 || 2 * h == nb) {
-        Eigen::Index i = 0;
-        basis.rows.col(r).cwiseAbs().maxCoeff(&i);
-        const std::complex<double> a = basis.rows(i, r);
-        add((v * (std::abs(a) > 0 ? std::conj(a) / std::abs(a) : 1.0)).real(), 0);
-      } else {
-        add(std::sqrt(2.0) * v.real(), 1);
-        add(std::sqrt(2.0) * v.imag(), 2);
-      }
-    }
-  }
-  const auto modes = static_cast<Eigen::Index>(columns.size());
-  Eigen::MatrixXd shapes(nb * kept, modes);
-  for (Eigen::Index r = 0; r < modes; ++r) shapes.col(r) = columns[static_cast<std::size_t>(r)];
-  vs.frequencies = Eigen::Map<const Eigen::VectorXd>(frequencies.data(), modes);
-  vs.damping = Eigen::Map<const Eigen::VectorXd>(damping.data(), modes).asDiagonal();
-  vs.diagonal = true;
-  const Eigen::Index m = model.component_count();
-  vs.p = Eigen::MatrixXd::Zero(nb * m, modes);
-  for (int offset = -1; offset <= 1; ++offset)
-    for (int s = 0; s < nb; ++s)
-      vs.p.middleRows(s * m, m) +=
-          model.side_gather(offset) * shapes.middleRows(((s + offset + nb) % nb) * kept, kept);
-  Eigen::Index states = 0;
-  for (int s = 0; s < nb; ++s)
-    for (std::size_t c = 0; c < model.contacts().size(); ++c) {
-      copies.push_back({c, static_cast<int>((s * delay / nb) % samples),
-                        s * m + model.contacts()[c].offset, states});
-      states += model.contacts()[c].law->traits().state_size;
-    }
-  return true;
-}
-
-// The rows of a disk's modal coordinates (modes x columns) as the disk turned by `by` sectors
-// sees them: (Q x)_s = x_(s + by). Sector s of mode pair v = Phi_h e^{-i h phi s} / sqrt(nb)
-// turns into e^{-i h phi by} v, so the coordinates (a, b) of its real and imaginary parts turn
-// by theta = h phi by: a' = a cos theta - b sin theta, b' = a sin theta + b cos theta; a mode
-// of h = nb/2 changes sign with an odd `by`, one of h = 0 is unchanged.
-void turn_modes(Eigen::Ref<Eigen::MatrixXd> rows, const VariationalStructure& vs, int nb, int by) {
-  const double phi = 2 * std::numbers::pi / nb;
-  for (Eigen::Index r = 0; r < rows.rows(); ++r) {
-    const auto i = static_cast<std::size_t>(r);
-    const int h = vs.nodal_diameter[i];
-    if (vs.pair_role[i] == 0) {
-      if (2 * h == nb && by % 2 != 0) rows.row(r) *= -1.0;
-      continue;
-    }
-    if (vs.pair_role[i] != 1) continue;
-    const double theta = h * phi * by, c = std::cos(theta), s = std::sin(theta);
-    const Eigen::RowVectorXd a = rows.row(r), b = rows.row(r + 1);
-    rows.row(r) = c * a - s * b;
-    rows.row(r + 1) = s * a + c * b;
-  }
-}
-
-// Rows held sector after sector (the same count each) as the disk turned by `by` sectors sees
-// them: sector s takes sector s + by's.
-void turn_sectors(Eigen::Ref<Eigen::MatrixXd> rows, int nb, int by) {
-  if (rows.size() == 0) return;
-  const Eigen::Index per = rows.rows() / nb;
-  const Eigen::MatrixXd old = rows;
-  for (int s = 0; s < nb; ++s)
-    rows.middleRows(s * per, per) = old.middleRows(((s + by) % nb) * per, per);
-}
-
-// a^k for k >= 1, by squaring.
-Eigen::MatrixXd matrix_power(const Eigen::MatrixXd& a, int k) {
-  Eigen::MatrixXd result, base = a;
-  bool first = true;
-  for (; k > 0; k /= 2) {
-    if (k % 2 != 0) {
-      result = first ? base : Eigen::MatrixXd(base * result);
-      first = false;
-    }
-    if (k > 1) base = base * base;
-  }
-  return result;
-}
 
 // Balances `a` in place by a diagonal similarity a <- D^-1 a D (powers of 2, so exact), with
 // D returned in `scale`: the rows and columns of each index brought to comparable norms
@@ -694,36 +531,6 @@ int neutral_count(const std::vector<Eigen::MatrixXd>& own) {
   return neutral;
 }
 
-// The period's monodromy from that of its first 1 / `repeats` (a cyclic disk's, A = Phi(tau)):
-// Phi(T) = Q^-k (Q A)^k with k = repeats and Q the turn by `turn` sectors; the contacts' own
-// state monodromies the same way, into one over all copies (map.own then holds it alone).
-void complete_by_turning(VariationalMap& map, const VariationalStructure& vs,
-                         const std::vector<ContactCopy>& copies, int nb, int repeats, int turn) {
-  const Eigen::Index modes = vs.frequencies.size(), n2 = 2 * modes, m = vs.p.rows();
-  const Eigen::Index states = map.monodromy.rows() - n2 - m;
-  const int back = (nb - (turn * repeats) % nb) % nb;
-  auto turn_state = [&](Eigen::MatrixXd& rows, int by) {
-    turn_modes(rows.topRows(modes), vs, nb, by);
-    turn_modes(rows.middleRows(modes, modes), vs, nb, by);
-    turn_sectors(rows.middleRows(n2, m), nb, by);
-    turn_sectors(rows.bottomRows(states), nb, by);
-  };
-  turn_state(map.monodromy, turn);
-  map.monodromy = matrix_power(map.monodromy, repeats);
-  turn_state(map.monodromy, back);
-  Eigen::MatrixXd own_all = Eigen::MatrixXd::Zero(states, states);
-  if (states > 0) {
-    for (std::size_t k = 0; k < copies.size(); ++k)
-      if (map.own[k].size() > 0)
-        own_all.block(copies[k].state, copies[k].state, map.own[k].rows(), map.own[k].cols()) =
-            map.own[k];
-    turn_sectors(own_all, nb, turn);
-    own_all = matrix_power(own_all, repeats);
-    turn_sectors(own_all, nb, back);
-  }
-  map.own = {own_all};
-}
-
 }  // namespace
 
 Eigen::MatrixXd matrix_exponential(const Eigen::MatrixXd& a) {
@@ -877,7 +684,7 @@ FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
     }
   }
   if (repeats > 1) {
-    complete_by_turning(map, vs, copies, cyclic.sectors, repeats, turn);
+    complete_by_turning(map.monodromy, map.own, vs, copies, cyclic.sectors, repeats, turn);
     out.split_steps *= repeats;
   }
   if (!map.monodromy.allFinite()) {
