@@ -1,3 +1,5 @@
+// The linear part of the variational equations, plain or the whole cyclic disk, and the turning
+// of a disk's state by whole sectors (model/variational_structure.hpp).
 #include "model/variational_structure.hpp"
 
 #include <cmath>
