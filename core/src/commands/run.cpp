@@ -266,12 +266,6 @@ PreparedRun prepare_run(const Scene& scene, int contact_threads) {
                    "structure or drop harmonic 0");
   }
 
-  if (scene.output.stability)
-    for (const auto& form : model->receptance_forms())
-      if (form.residual_flexibility)
-        ctx.fail(root["output"]["stability"], "output.stability",
-                 "the stability of a structure with a residual flexibility is not computed "
-                 "(its flexibility has no mass behind it); turn one of them off");
   if (scene.output.stability && scene.cyclic.enabled()) {
     // The whole disk's variational system (model/stability.hpp).
     const int nb = scene.cyclic.sectors;

@@ -182,14 +182,28 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   contact_receptance_.resize(h.size());
   ReducedStructure::FlexibilityUse use;
   use.response_rows = observed_kept_rows(scene, kept_dofs_);
-  use.reduce = [this](int index, const Eigen::MatrixXcd& f) {
+  // The stability analysis sees every index's F between the contacts (index_flexibility).
+  auto keep_index_flexibility = [this, phi, &scene](int index, const Eigen::MatrixXcd& f) {
+    if (!scene.output.stability) return;
+    SparseGather g(components_, static_cast<Eigen::Index>(kept_dofs_.size()));
+    for (int offset = -1; offset <= 1; ++offset)
+      g += side_gather_[static_cast<std::size_t>(offset + 1)].cast<std::complex<double>>() *
+           std::polar(1.0, -index * phi * offset);
+    index_flexibility_[index] = gather_hermitian(g, f);
+  };
+  use.reduce = [this, &keep_index_flexibility](int index, const Eigen::MatrixXcd& f) {
     for (std::size_t k = 0; k < harmonic_index_.size(); ++k) {
       if (harmonic_index_[k] != index) continue;
       contact_receptance_[k].flexibility = gather_hermitian(gather_[k], f);
       contact_receptance_[k].flexible_motion = gather_[k] * (f * excitation_[k]);
     }
+    keep_index_flexibility(index, f);
   };
   structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, indices, &use);
+  for (int index : indices) {  // a basis with non-diagonal damping keeps F whole
+    const ReducedStructure::Basis& b = structure_->basis(index);
+    if (b.residual_flexibility.size() > 0) keep_index_flexibility(index, b.residual_flexibility);
+  }
   for (std::size_t k = 0; k < h.size(); ++k) {
     const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
     ContactReceptance& cr = contact_receptance_[k];

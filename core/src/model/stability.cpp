@@ -453,14 +453,22 @@ class VariationalMap {
         kz_(m_, states),
         z1_(states, 2 * modes_),
         z0_(states, 2 * modes_),
-        zz_(states, states) {
+        zz_(states, states),
+        an_(vs.flexibility.size() ? m_ : 0, m_),
+        ap_(vs.flexibility.size() ? m_ : 0, m_),
+        bn_(vs.flexibility.size() ? states : 0, m_),
+        bp_(vs.flexibility.size() ? states : 0, m_) {
     const Eigen::Index dim = 2 * modes_ + m_ + states;
     monodromy = Eigen::MatrixXd::Identity(dim, dim);
     for (const int s : state_sizes) own.push_back(Eigen::MatrixXd::Identity(s, s));
   }
 
   // The map over a fraction `length` of a step, each copy's tangents `t`: the new force sample
-  // solves (I - K1 G1) df_j = K1 (E x + G0 df_{j-1}) + K0 x + Kz dz.
+  // solves (I - K1 G1) df_j = K1 (E x + G0 df_{j-1}) + K0 x + Kz dz. With a residual
+  // flexibility F the contacts move by du = P dq - F df, and by du/ds = hl P dq' - F (df_j -
+  // df_{j-1}) (the force linear over the step, as the modal propagator takes it): the tangents'
+  // columns times F move to the left, (I - K1 G1 + An) df_j = ... - Ap df_{j-1}, An = (Dun + Drn
+  // + Drp) F, Ap = (Dup - Drn - Drp) F with D the force's tangents; the states' likewise.
   void advance(double length, const std::vector<const StepTangents*>& t) {
     const StepPropagator sub =
         length == 1.0 ? StepPropagator{}
@@ -476,11 +484,27 @@ class VariationalMap {
     z1_.setZero();
     z0_.setZero();
     zz_.setZero();
+    const bool flexible = vs_.flexibility.size() > 0;
+    if (flexible) {
+      an_.setZero();
+      ap_.setZero();
+      bn_.setZero();
+      bp_.setZero();
+    }
     for (std::size_t k = 0; k < copies_.size(); ++k) {
       const StepTangents& tc = *t[k];
       const Eigen::Index r = copies_[k].row, d = tc.df_dun.rows(), zo = copies_[k].state,
                          s = tc.dz_dz.rows();
       const auto pc = p.middleRows(r, d);
+      if (flexible) {
+        const auto fc = vs_.flexibility.middleRows(r, d);
+        an_.middleRows(r, d) = (tc.df_dun + tc.df_drn + tc.df_drp) * fc;
+        ap_.middleRows(r, d) = (tc.df_dup - tc.df_drn - tc.df_drp) * fc;
+        if (s > 0) {
+          bn_.middleRows(zo, s) = (tc.dz_dun + tc.dz_drn + tc.dz_drp) * fc;
+          bp_.middleRows(zo, s) = (tc.dz_dup - tc.dz_drn - tc.dz_drp) * fc;
+        }
+      }
       // u = P q and the rates du/ds = hl P q' at the step's ends.
       k1_.block(r, 0, d, modes) = tc.df_dun * pc;
       k1_.block(r, modes, d, modes) = hl * tc.df_drn * pc;
@@ -499,11 +523,16 @@ class VariationalMap {
     const auto f = monodromy.middleRows(n2, m_);
     const auto z = monodromy.bottomRows(states_);
     const Eigen::MatrixXd predicted = prop.e * x + gamma0 * f;
-    const Eigen::MatrixXd rhs = k1_ * predicted + k0_ * x + kz_ * z;
-    const Eigen::MatrixXd system = Eigen::MatrixXd::Identity(m_, m_) - k1_ * gamma1;
+    Eigen::MatrixXd rhs = k1_ * predicted + k0_ * x + kz_ * z;
+    Eigen::MatrixXd system = Eigen::MatrixXd::Identity(m_, m_) - k1_ * gamma1;
+    if (flexible) {
+      rhs -= ap_ * f;
+      system += an_;
+    }
     const Eigen::MatrixXd f_next = system.partialPivLu().solve(rhs);
     const Eigen::MatrixXd x_next = predicted + gamma1 * f_next;
-    const Eigen::MatrixXd z_next = z1_ * x_next + z0_ * x + zz_ * z;
+    Eigen::MatrixXd z_next = z1_ * x_next + z0_ * x + zz_ * z;
+    if (flexible && states_ > 0) z_next -= bn_ * f_next + bp_ * f;
     monodromy << x_next, f_next, z_next;
   }
 
@@ -517,6 +546,7 @@ class VariationalMap {
   Eigen::Index modes_, m_, states_;
   StepPropagator full_step_;
   Eigen::MatrixXd k1_, k0_, kz_, z1_, z0_, zz_;
+  Eigen::MatrixXd an_, ap_, bn_, bp_;  // the residual flexibility's terms (advance), or empty
 };
 
 // The multipliers of the contacts' own state monodromies within kNeutralTolerance of 1.
@@ -556,11 +586,6 @@ Eigen::MatrixXd matrix_exponential(const Eigen::MatrixXd& a) {
 FloquetMultipliers floquet_multipliers(const HarmonicBalanceModel& model,
                                        const Eigen::VectorXd& y) {
   FloquetMultipliers out;
-  for (const auto& form : model.receptance_forms())
-    if (form.residual_flexibility) {
-      out.failure = "stability is computed for a structure without residual flexibility only";
-      return out;
-    }
   const double w = y(y.size() - 1);
 
   // The contacts' traces at y and the tracing grid.

@@ -70,6 +70,7 @@ bool plain_structure(const HarmonicBalanceModel& model, VariationalStructure& vs
   vs.damping = basis.damping;
   vs.diagonal = basis.diagonal_damping;
   vs.p = Eigen::MatrixXd(Eigen::MatrixXcd(model.gather(0)).real()) * basis.rows.real();
+  if (const Eigen::MatrixXcd* f = model.index_flexibility(0)) vs.flexibility = f->real();
   Eigen::Index states = 0;
   for (std::size_t c = 0; c < model.contacts().size(); ++c) {
     copies.push_back({c, 0, model.contacts()[c].offset, states});
@@ -101,11 +102,9 @@ bool cyclic_structure(const HarmonicBalanceModel& model, int samples, Variationa
   std::vector<double> frequencies, damping;
   for (int h = 0; 2 * h <= nb; ++h) {
     const auto& basis = model.structure().basis(h);
-    if (!basis.diagonal_damping || basis.has_residual_flexibility()) {
-      failure =
-          "the cyclic stability needs diagonal modal damping and no residual flexibility "
-          "(nodal diameter " +
-          std::to_string(h) + ")";
+    if (!basis.diagonal_damping) {
+      failure = "the cyclic stability needs diagonal modal damping (nodal diameter " +
+                std::to_string(h) + ")";
       return false;
     }
     for (Eigen::Index r = 0; r < basis.rows.cols(); ++r) {
@@ -143,6 +142,28 @@ bool cyclic_structure(const HarmonicBalanceModel& model, int samples, Variationa
     for (int s = 0; s < nb; ++s)
       vs.p.middleRows(s * m, m) +=
           model.side_gather(offset) * shapes.middleRows(((s + offset + nb) % nb) * kept, kept);
+  // The residual flexibility between the contacts of sectors s and s': the sum over every
+  // nodal diameter h < nb of e^{-i h phi (s - s')} C_h / nb, C_h = G_h F_h G_h^H and
+  // C_(nb - h) its conjugate; it depends on s - s' alone and is real.
+  bool flexible = false;
+  for (int h = 0; 2 * h <= nb; ++h) flexible = flexible || model.index_flexibility(h) != nullptr;
+  if (flexible) {
+    std::vector<Eigen::MatrixXd> by_distance(static_cast<std::size_t>(nb),
+                                             Eigen::MatrixXd::Zero(m, m));
+    for (int h = 0; h < nb; ++h) {
+      const Eigen::MatrixXcd* c = model.index_flexibility(2 * h <= nb ? h : nb - h);
+      if (c == nullptr) continue;
+      const Eigen::MatrixXcd ch = 2 * h <= nb ? *c : Eigen::MatrixXcd(c->conjugate());
+      for (int d = 0; d < nb; ++d)
+        by_distance[static_cast<std::size_t>(d)] +=
+            (ch * std::polar(1.0 / nb, -h * phi * d)).real();
+    }
+    vs.flexibility.resize(nb * m, nb * m);
+    for (int s = 0; s < nb; ++s)
+      for (int t = 0; t < nb; ++t)
+        vs.flexibility.block(s * m, t * m, m, m) =
+            by_distance[static_cast<std::size_t>((s - t + nb) % nb)];
+  }
   Eigen::Index states = 0;
   for (int s = 0; s < nb; ++s)
     for (std::size_t c = 0; c < model.contacts().size(); ++c) {

@@ -22,7 +22,10 @@ struct VariationalStructure {
   Eigen::VectorXd frequencies;
   Eigen::MatrixXd damping;
   bool diagonal = true;
-  Eigen::MatrixXd p;                // copies' components x modes
+  Eigen::MatrixXd p;  // copies' components x modes
+  // The residual flexibility between the copies' components (copies' components squared,
+  // symmetric; m/N): u = P q - F f. Empty without one.
+  Eigen::MatrixXd flexibility;
   std::vector<int> nodal_diameter;  // per mode; empty without cyclic symmetry
   // Cyclic, per mode: 0 alone (h = 0, or h = nb/2 whose sign flips from sector to sector), 1
   // the real part of a standing pair (the imaginary part, 2, next).
@@ -46,9 +49,9 @@ bool plain_structure(const HarmonicBalanceModel& model, VariationalStructure& vs
 
 // A cyclic structure: the whole disk, from the sector's modes of every nodal diameter h <= nb/2
 // (the model holds them when its scene asks for stability), each contact copied into every
-// sector and delayed by s m / nb of the `samples` of a period. False, with `failure`, where that
-// delay is not a whole number of samples, or a basis has non-diagonal modal damping or a
-// residual flexibility.
+// sector and delayed by s m / nb of the `samples` of a period; the residual flexibility between
+// the copies from every nodal diameter's. False, with `failure`, where that delay is not a whole
+// number of samples, or a basis has non-diagonal modal damping.
 bool cyclic_structure(const HarmonicBalanceModel& model, int samples, VariationalStructure& vs,
                       std::vector<ContactCopy>& copies, std::string& failure);
 

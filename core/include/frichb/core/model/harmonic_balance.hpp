@@ -16,6 +16,7 @@
 #include <Eigen/SparseCore>
 #include <array>
 #include <complex>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -137,6 +138,15 @@ class HarmonicBalanceModel final : public CurveProblem {
   const Eigen::MatrixXcd& contact_flexibility(std::size_t k) const {
     return contact_receptance_[k].flexibility;
   }
+  // G_h F_h G_h^H of harmonic index h (nodal diameter h of a cyclic sector, 0 without cyclic
+  // symmetry; components x components, Hermitian; G_h the gather with the phase factors
+  // e^{-i h phi offset}) for every index the model fetched, where the scene asks for stability
+  // and the structure has a residual flexibility F_h; else null. The variational equations of
+  // the stability analysis see the contacts' flexibility of every nodal diameter through it.
+  const Eigen::MatrixXcd* index_flexibility(int h) const {
+    const auto it = index_flexibility_.find(h);
+    return it == index_flexibility_.end() ? nullptr : &it->second;
+  }
   // Complex amplitude of the external force of kept harmonic k at the kept DOFs.
   const Eigen::VectorXcd& excitation(std::size_t k) const { return excitation_[k]; }
   JacobianMode jacobian_mode() const { return mode_; }
@@ -187,6 +197,7 @@ class HarmonicBalanceModel final : public CurveProblem {
   std::vector<int> harmonic_index_;  // per kept harmonic
   CyclicSpec cyclic_;
   std::array<Eigen::SparseMatrix<double, Eigen::RowMajor>, 3> side_gather_;
+  std::map<int, Eigen::MatrixXcd> index_flexibility_;  // index_flexibility()
   // Per kept harmonic, the receptance seen by the contacts, precomputed where the modal
   // damping is diagonal: G R(W) G^H = P diag(1 / z(W)) P^H + G F G^H with P = G Phi (contact
   // components x modes), and the contact-free response G R(W) f = P (q / z(W)) + G F f with
