@@ -256,7 +256,7 @@ const std::vector<frichb_param_spec>& output_schema() {
                      "stable, largest_multiplier and unstable_multipliers, summary.json the "
                      "bifurcations and the highest stable point; for a cyclic scene, perturbed in "
                      "every nodal diameter, also the nodal diameter of each point's largest "
-                     "multiplier (no residual flexibility)")
+                     "multiplier (the whole disk: at most 2000 unknowns)")
           .defaults_to(0),
   };
   return s;
