@@ -186,9 +186,11 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   auto keep_index_flexibility = [this, phi, &scene](int index, const Eigen::MatrixXcd& f) {
     if (!scene.output.stability) return;
     SparseGather g(components_, static_cast<Eigen::Index>(kept_dofs_.size()));
-    for (int offset = -1; offset <= 1; ++offset)
-      g += side_gather_[static_cast<std::size_t>(offset + 1)].cast<std::complex<double>>() *
+    for (int offset = -1; offset <= 1; ++offset) {
+      const int slot = offset + 1;
+      g += side_gather_[static_cast<std::size_t>(slot)].cast<std::complex<double>>() *
            std::polar(1.0, -index * phi * offset);
+    }
     index_flexibility_[index] = gather_hermitian(g, f);
   };
   use.reduce = [this, &keep_index_flexibility](int index, const Eigen::MatrixXcd& f) {
