@@ -282,10 +282,13 @@ void classify(const Eigen::MatrixXd& w, Eigen::Index dropped, int neutral,
   const Eigen::Index modes = vs.frequencies.size();
   const int diameters =
       cyclic ? *std::max_element(vs.nodal_diameter.begin(), vs.nodal_diameter.end()) + 1 : 0;
+  // The eigenvectors once (each call of EigenSolver::eigenvectors() forms all of them).
+  const Eigen::MatrixXcd vectors =
+      cyclic ? Eigen::MatrixXcd(solver.eigenvectors()) : Eigen::MatrixXcd();
   for (Eigen::Index k = 0; k < w.rows(); ++k) {
     Multiplier mu{solver.eigenvalues()(k), -1};
     if (cyclic) {
-      const Eigen::VectorXcd v = scale.asDiagonal() * solver.eigenvectors().col(k);
+      const Eigen::VectorXcd v = scale.asDiagonal() * vectors.col(k);
       std::vector<double> energy(static_cast<std::size_t>(diameters), 0.0);
       for (Eigen::Index r = 0; r < modes; ++r)
         energy[static_cast<std::size_t>(vs.nodal_diameter[static_cast<std::size_t>(r)])] +=
@@ -475,7 +478,8 @@ class VariationalMap {
                       : propagate_modes(vs_.frequencies, vs_.damping, vs_.diagonal, length * h_);
     const StepPropagator& prop = length == 1.0 ? full_step_ : sub;
     const Eigen::MatrixXd& p = vs_.p;
-    const Eigen::MatrixXd gamma0 = -prop.g0 * p.transpose(), gamma1 = -prop.g1 * p.transpose();
+    const Eigen::MatrixXd gamma0 = modal_product(prop.g0, p.transpose(), -1.0),
+                          gamma1 = modal_product(prop.g1, p.transpose(), -1.0);
     const double hl = length * h_;
     const Eigen::Index modes = modes_, n2 = 2 * modes_;
     k1_.setZero();
@@ -522,7 +526,8 @@ class VariationalMap {
     const auto x = monodromy.topRows(n2);
     const auto f = monodromy.middleRows(n2, m_);
     const auto z = monodromy.bottomRows(states_);
-    const Eigen::MatrixXd predicted = prop.e * x + gamma0 * f;
+    Eigen::MatrixXd predicted = modal_product(prop.e, x, 1.0);
+    predicted.noalias() += gamma0 * f;
     Eigen::MatrixXd rhs = k1_ * predicted + k0_ * x + kz_ * z;
     Eigen::MatrixXd system = Eigen::MatrixXd::Identity(m_, m_) - k1_ * gamma1;
     if (flexible) {
@@ -540,6 +545,23 @@ class VariationalMap {
   std::vector<Eigen::MatrixXd> own;  // per copy
 
  private:
+  // scale * a * b for a propagator block `a` (2 modes x modes, or 2 modes x 2 modes) whose
+  // modes do not couple when the damping is diagonal: each of its modes x modes blocks is then
+  // diagonal, and the product is a scaling of b's rows (2 modes x columns of work, against
+  // 2 modes x modes x columns dense).
+  Eigen::MatrixXd modal_product(const Eigen::MatrixXd& a,
+                                const Eigen::Ref<const Eigen::MatrixXd>& b, double scale) const {
+    if (!vs_.diagonal) return scale * (a * b);
+    const Eigen::Index n = modes_;
+    Eigen::MatrixXd out = Eigen::MatrixXd::Zero(a.rows(), b.cols());
+    for (Eigen::Index half = 0; half < a.rows() / n; ++half)
+      for (Eigen::Index block = 0; block < a.cols() / n; ++block)
+        out.middleRows(half * n, n) +=
+            (scale * a.block(half * n, block * n, n, n).diagonal()).asDiagonal() *
+            b.middleRows(block * n, n);
+    return out;
+  }
+
   const VariationalStructure& vs_;
   const std::vector<ContactCopy>& copies_;
   double h_;
