@@ -735,6 +735,12 @@ TEST(FloquetMultipliers, ContactOnAResidualFlexibilityAgreesWithExactFlowsBetwee
     }
     EXPECT_LT(all[1], all[0] / 3) << hz << " Hz";
   }
+  // A model built without output.stability reduced F as it fetched it: refused, not computed
+  // as if there were none.
+  const auto unprepared = solve_at({{"output.stability", "false"}}, 360.0, scene(256));
+  const FloquetMultipliers refused = floquet_multipliers(*unprepared->model, unprepared->y);
+  EXPECT_NE(refused.failure.find("output.stability"), std::string::npos) << refused.failure;
+  EXPECT_TRUE(refused.multipliers.empty());
 }
 
 // configs/stress/hertz_gap_folds.yaml on its upper branch at 450 Hz, below the fold at 474 Hz:

@@ -53,6 +53,18 @@ std::vector<Eigen::Index> observed_kept_rows(const Scene& scene,
   return rows;
 }
 
+// evaluate() writes each row of the Jacobian through the cos and sin indices of the kept
+// harmonics: they must cover every coefficient exactly once.
+void check_coefficient_cover(const HarmonicLayout& layout) {
+  std::vector<int> seen(static_cast<std::size_t>(layout.coefficient_count()), 0);
+  for (std::size_t k = 0; k < layout.harmonics().size(); ++k) {
+    ++seen[static_cast<std::size_t>(layout.cos_index(k))];
+    if (layout.harmonics()[k] > 0) ++seen[static_cast<std::size_t>(layout.sin_index(k))];
+  }
+  if (std::any_of(seen.begin(), seen.end(), [](int v) { return v != 1; }))
+    throw std::logic_error("HarmonicLayout: cos/sin indices do not cover the coefficients");
+}
+
 }  // namespace
 
 HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance& structure)
@@ -150,17 +162,7 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     gather_.push_back(std::move(g));
   }
   unknown_count_ = static_cast<Eigen::Index>(components_) * layout_.coefficient_count();
-  // evaluate() writes each row of the Jacobian through the cos and sin indices of the kept
-  // harmonics: they must cover every coefficient exactly once.
-  {
-    std::vector<int> seen(static_cast<std::size_t>(layout_.coefficient_count()), 0);
-    for (std::size_t k = 0; k < layout_.harmonics().size(); ++k) {
-      ++seen[static_cast<std::size_t>(layout_.cos_index(k))];
-      if (layout_.harmonics()[k] > 0) ++seen[static_cast<std::size_t>(layout_.sin_index(k))];
-    }
-    if (std::any_of(seen.begin(), seen.end(), [](int v) { return v != 1; }))
-      throw std::logic_error("HarmonicLayout: cos/sin indices do not cover the coefficients");
-  }
+  check_coefficient_cover(layout_);
   traces_.resize(contacts_.size());
 
   const auto& h = layout_.harmonics();
@@ -183,28 +185,20 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   ReducedStructure::FlexibilityUse use;
   use.response_rows = observed_kept_rows(scene, kept_dofs_);
   // The stability analysis sees every index's F between the contacts (index_flexibility).
-  auto keep_index_flexibility = [this, phi, &scene](int index, const Eigen::MatrixXcd& f) {
-    if (!scene.output.stability) return;
-    SparseGather g(components_, static_cast<Eigen::Index>(kept_dofs_.size()));
-    for (int offset = -1; offset <= 1; ++offset) {
-      const int slot = offset + 1;
-      g += side_gather_[static_cast<std::size_t>(slot)].cast<std::complex<double>>() *
-           std::polar(1.0, -index * phi * offset);
-    }
-    index_flexibility_[index] = gather_hermitian(g, f);
-  };
-  use.reduce = [this, &keep_index_flexibility](int index, const Eigen::MatrixXcd& f) {
+  const bool stability = scene.output.stability;
+  use.reduce = [this, stability](int index, const Eigen::MatrixXcd& f) {
     for (std::size_t k = 0; k < harmonic_index_.size(); ++k) {
       if (harmonic_index_[k] != index) continue;
       contact_receptance_[k].flexibility = gather_hermitian(gather_[k], f);
       contact_receptance_[k].flexible_motion = gather_[k] * (f * excitation_[k]);
     }
-    keep_index_flexibility(index, f);
+    if (stability) keep_index_flexibility(index, f);
   };
   structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, indices, &use);
   for (int index : indices) {  // a basis with non-diagonal damping keeps F whole
     const ReducedStructure::Basis& b = structure_->basis(index);
-    if (b.residual_flexibility.size() > 0) keep_index_flexibility(index, b.residual_flexibility);
+    if (stability && b.residual_flexibility.size() > 0)
+      keep_index_flexibility(index, b.residual_flexibility);
   }
   for (std::size_t k = 0; k < h.size(); ++k) {
     const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
@@ -219,6 +213,17 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
       cr.modal_force = b.rows.adjoint() * excitation_[k];
     }
   }
+}
+
+void HarmonicBalanceModel::keep_index_flexibility(int index, const Eigen::MatrixXcd& f) {
+  const double phi = cyclic_.enabled() ? 2.0 * std::numbers::pi / cyclic_.sectors : 0.0;
+  SparseGather g(components_, static_cast<Eigen::Index>(kept_dofs_.size()));
+  for (int offset = -1; offset <= 1; ++offset) {
+    const int slot = offset + 1;
+    g += side_gather_[static_cast<std::size_t>(slot)].cast<std::complex<double>>() *
+         std::polar(1.0, -index * phi * offset);
+  }
+  index_flexibility_[index] = gather_hermitian(g, f);
 }
 
 Eigen::MatrixXcd gather_hermitian(const SparseGather& g, const Eigen::MatrixXcd& f) {

@@ -551,7 +551,7 @@ class VariationalMap {
   // 2 modes x modes x columns dense).
   Eigen::MatrixXd modal_product(const Eigen::MatrixXd& a,
                                 const Eigen::Ref<const Eigen::MatrixXd>& b, double scale) const {
-    if (!vs_.diagonal) return scale * (a * b);
+    if (!vs_.diagonal || modes_ == 0) return scale * (a * b);
     const Eigen::Index n = modes_;
     Eigen::MatrixXd out = Eigen::MatrixXd::Zero(a.rows(), b.cols());
     for (Eigen::Index half = 0; half < a.rows() / n; ++half)

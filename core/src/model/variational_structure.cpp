@@ -56,6 +56,12 @@ Eigen::MatrixXd matrix_power(const Eigen::MatrixXd& a, int k) {
   return result;
 }
 
+// A model built from a scene without output.stability reduces F as it fetches it and keeps
+// none of it between the contacts of every harmonic index.
+constexpr const char* kFlexibilityNotKept =
+    "the structure has a residual flexibility, and the model was built without the stability "
+    "analysis, which keeps it between the contacts (output.stability)";
+
 }  // namespace
 
 // A plain structure: its modes as the model holds them, each contact once.
@@ -70,7 +76,19 @@ bool plain_structure(const HarmonicBalanceModel& model, VariationalStructure& vs
   vs.damping = basis.damping;
   vs.diagonal = basis.diagonal_damping;
   vs.p = Eigen::MatrixXd(Eigen::MatrixXcd(model.gather(0)).real()) * basis.rows.real();
-  if (const Eigen::MatrixXcd* f = model.index_flexibility(0)) vs.flexibility = f->real();
+  if (basis.has_residual_flexibility()) {
+    const Eigen::MatrixXcd* f = model.index_flexibility(0);
+    if (f == nullptr) {
+      failure = kFlexibilityNotKept;
+      return false;
+    }
+    if (f->size() > 0 &&
+        f->imag().cwiseAbs().maxCoeff() > 1e-12 * f->real().cwiseAbs().maxCoeff()) {
+      failure = "stability needs a real residual flexibility";
+      return false;
+    }
+    vs.flexibility = f->real();
+  }
   Eigen::Index states = 0;
   for (std::size_t c = 0; c < model.contacts().size(); ++c) {
     copies.push_back({c, 0, model.contacts()[c].offset, states});
@@ -105,6 +123,10 @@ bool cyclic_structure(const HarmonicBalanceModel& model, int samples, Variationa
     if (!basis.diagonal_damping) {
       failure = "the cyclic stability needs diagonal modal damping (nodal diameter " +
                 std::to_string(h) + ")";
+      return false;
+    }
+    if (basis.has_residual_flexibility() && model.index_flexibility(h) == nullptr) {
+      failure = kFlexibilityNotKept;
       return false;
     }
     for (Eigen::Index r = 0; r < basis.rows.cols(); ++r) {

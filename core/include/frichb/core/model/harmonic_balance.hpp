@@ -176,6 +176,10 @@ class HarmonicBalanceModel final : public CurveProblem {
                        std::vector<HarmonicReceptance>&& receptances,
                        Eigen::VectorXd&& parameter_column, std::string* message) const;
 
+  // G_h F_h G_h^H of harmonic index `index` (the gather with its cyclic phase factors) into
+  // index_flexibility_.
+  void keep_index_flexibility(int index, const Eigen::MatrixXcd& f);
+
   struct ContactReceptance;
   struct Workspace;
   // Rc_n = P diag(1/z) P^H from ws.inv_z into rc (components x components).

@@ -12,7 +12,11 @@
 // tangents of that step (d force and d state with respect to the displacement at both ends,
 // the rates du/ds of laws that step along the motion, and the state before the step), taken
 // at the traced periodic state; the new force sample solves the step's small implicit
-// system (I - K1 G1) df_j = ... (model/stability.cpp). The product of the N step maps is the
+// system (I - K1 G1) df_j = ... (model/stability.cpp). With a static residual flexibility F
+// (no mass behind it) the contacts move by u = P dq - F df, an algebraic constraint solved in
+// that same system; for a cyclic disk F between the sectors' contacts comes from every nodal
+// diameter's G_h F_h G_h^H (HarmonicBalanceModel::index_flexibility, kept when the scene asks
+// for stability). The product of the N step maps is the
 // monodromy; its eigenvalues are the multipliers, computed after a diagonal balancing (its
 // displacements, velocities, forces and slider offsets differ in scale by many orders, which
 // unbalanced splits a double multiplier by 1e-6).
@@ -47,8 +51,9 @@
 // together; each is named by the nodal diameter that holds most of its Floquet mode's modal
 // energy. The dense monodromy costs (2 modes + components + states)^3 per step over the
 // whole disk: beyond kMaxStabilityDimension unknowns the result's `failure` says so.
-// Scope: real modes for a plain structure, diagonal modal damping for a cyclic one, no
-// residual flexibility: the result's `failure` says so otherwise. Threading: reads the model,
+// Scope: real modes for a plain structure, diagonal modal damping for a cyclic one, and a
+// model built from a scene with output.stability when its structure has a residual
+// flexibility: the result's `failure` says so otherwise. Threading: reads the model,
 // whose tracers are not thread-safe; one model per thread.
 #pragma once
 
