@@ -331,5 +331,95 @@ TEST(FrictionCircle, DualTangentsMatchCentralDifferences) {
   EXPECT_LT(switches, samples * 14 * 5 / 20);
 }
 
+// The linear normal side with or without kMonotone declared, counting its calls (the event
+// scans evaluate it at every scan point).
+template <bool Monotone>
+struct CountedNormal {
+  static constexpr bool kMonotone = Monotone;
+  LinearNormal normal;
+  int* calls;
+  template <class S>
+  S closure(const S& un) const {
+    ++*calls;
+    return normal.closure(un);
+  }
+  template <class S>
+  sdk::NormalSide<S> side(const S& un) const {
+    ++*calls;
+    return normal.side(un);
+  }
+};
+
+// Steps that the control points show keep their side and stay stuck skip the event scans, and
+// every step, in doubles and in dual numbers, is bit for bit the one the scans give: the
+// bounds only ever skip scans that find no event. Checked on motions that stick throughout,
+// stick with a slip at the ends of the ellipse, slip, and open and close.
+TEST(FrictionCircle, EventBoundsSkipScansAndChangeNoStep) {
+  using D = sdk::Dual<2>;
+  const double kn = 2e6, amplitude = 1.5 * kN0 / kn;
+  const std::vector<Case> cases = {
+      {"stuck", 0.5 * kC, 0.25 * kC, 0, 0, kN0, 0, kKt, kMu},
+      {"stuck, normal varying", 0.5 * kC, 0.25 * kC, 0, 0.3 * amplitude, kN0, kn, kKt, kMu},
+      {"slip at the ends", 1.1 * kC, 0.5 * kC, 0, 0, kN0, 0, kKt, kMu},
+      {"slip", 3 * kC, 1.5 * kC, 0, 0, kN0, 0, kKt, kMu},
+      {"open and closed", 3 * kC, 1.5 * kC, 0, amplitude, kN0, kn, kKt, kMu}};
+  const int samples = 128;
+  const double step = 2 * kPi / samples;
+  for (const Case& k : cases) {
+    int scanned = 0, bounded = 0;
+    const LinearNormal normal{k.n0, k.kn, k.kt};
+    const sdk::FrictionCircleSlider<CountedNormal<false>> plain({normal, &scanned}, k.mu);
+    const sdk::FrictionCircleSlider<CountedNormal<true>> fast({normal, &bounded}, k.mu);
+    const ReferenceMotion m = reference_motion(k);
+    std::array<double, 2> w{0, 0};
+    for (int pass = 0; pass < 3; ++pass) {
+      for (int j = 0; j < samples; ++j) {
+        sdk::StepMotion<double> motion;
+        sdk::StepMotion<D> dual_motion;
+        for (int i = 0; i < 3; ++i) {
+          motion.u0[i] = m.position((j - 1) * step)[i];
+          motion.u1[i] = m.position(j * step)[i];
+          motion.v0[i] = step * m.rate((j - 1) * step)[i];
+          motion.v1[i] = step * m.rate(j * step)[i];
+          dual_motion.u0[i] = D(motion.u0[i]);
+          dual_motion.u1[i] = D(motion.u1[i]);
+          dual_motion.v0[i] = D(motion.v0[i]);
+          dual_motion.v1[i] = D(motion.v1[i]);
+        }
+        const auto a = plain.advance<double>(w, motion);
+        const auto b = fast.advance<double>(w, motion);
+        const std::array<D, 2> dw{D::variable(w[0], 0), D::variable(w[1], 1)};
+        const auto da = plain.advance<D>(dw, dual_motion);
+        const auto db = fast.advance<D>(dw, dual_motion);
+        for (int c = 0; c < 3; ++c) {
+          EXPECT_EQ(a.force[c], b.force[c]) << k.name << " step " << j;
+          EXPECT_EQ(da.force[c].value(), db.force[c].value()) << k.name << " step " << j;
+          for (int l = 0; l < 2; ++l)
+            EXPECT_EQ(da.force[c].derivative(l), db.force[c].derivative(l)) << k.name;
+        }
+        for (int c = 0; c < 2; ++c) {
+          EXPECT_EQ(a.slider[c], b.slider[c]) << k.name << " step " << j;
+          for (int l = 0; l < 2; ++l)
+            EXPECT_EQ(da.slider[c].derivative(l), db.slider[c].derivative(l)) << k.name;
+        }
+        ASSERT_EQ(a.kink_count, b.kink_count) << k.name << " step " << j;
+        for (int q = 0; q < a.kink_count; ++q) {
+          EXPECT_EQ(a.kinks[q].s, b.kinks[q].s) << k.name << " step " << j;
+          for (int c = 0; c < 3; ++c) EXPECT_EQ(a.kinks[q].rate_jump[c], b.kinks[q].rate_jump[c]);
+        }
+        w = a.slider;
+      }
+    }
+    std::printf("%-22s normal side evaluations: %6d with the bounds, %6d scanning\n", k.name,
+                bounded, scanned);
+    // Measured: 16 % of the evaluations (stuck, either normal), 32 % (slip at the ends), 63 %
+    // (slip: its sub-steps read the normal side too), 77 % (open and closed).
+    if (k.a < kC) {
+      EXPECT_LT(bounded, scanned / 5) << k.name;
+    }
+    EXPECT_LE(bounded, scanned) << k.name;
+  }
+}
+
 }  // namespace
 }  // namespace frichb::testing

@@ -41,8 +41,9 @@ std::vector<frichb_param_spec> coupled_schema() {
 }
 
 // The normal side for the slider: N = max(0, N0 + kn (u_n - g0)) (constant N0 when kn = 0),
-// kt constant.
+// kt constant. N and the stick radius mu N / kt never decrease with u_n (kn >= 0).
 struct LinearNormalSide {
+  static constexpr bool kMonotone = true;
   double n0, kn, gap, kt;
   template <class S>
   S closure(const S& un) const {

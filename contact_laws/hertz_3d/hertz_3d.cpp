@@ -58,7 +58,10 @@ std::vector<frichb_param_spec> hertz_schema() {
 
 // The normal side for the slider: penetration p = p0 + u_n - g, and with the regularised root
 // s(p) (header comment) kt = c_t s, N = c_n * integral of 1.5 s, dN/du_n = 1.5 c_n s.
+// The closure and the stick radius mu N / kt (mu c_n / c_t times pen - eps^1.5 / (8 sqrt(pen))
+// above eps and pen (9 - 2 x) / (12 - 4 x), x = pen / eps, below) never decrease with u_n.
 struct HertzNormalSide {
+  static constexpr bool kMonotone = true;
   double cn, ct, gap, p0, eps;
   // At a contact change crossed at the normal rate v (m per step) the penetration grows as
   // |v| |s - s_c|: N ~ c_n |v|^1.5 |s - s_c|^1.5 and kt ~ c_t |v|^0.5 |s - s_c|^0.5 (the

@@ -125,7 +125,7 @@ void PeriodicTracer::record_kinks(std::size_t count, int j, const Eigen::MatrixX
 
 bool PeriodicTracer::run_period(const ContactTrace& motion, Eigen::VectorXd& state,
                                 Eigen::MatrixXd* dstate, Eigen::MatrixXd& force,
-                                Eigen::MatrixXd& states, std::vector<Eigen::MatrixXd>* dforce,
+                                Eigen::MatrixXd& states, std::vector<SampleRows>* dforce,
                                 Eigen::MatrixXd* monodromy, KinkList* kinks, std::string* error) {
   const Eigen::MatrixXd& u = motion.displacement;
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
@@ -279,10 +279,10 @@ bool PeriodicTracer::run_passes_from_initial_state(ContactTrace& out, bool with_
   // U-independent initial state: the Jacobian is then the derivative of the computed forces
   // even where the warm-up itself depends on U (e.g. a slip to a static offset followed by
   // stick). Passes end when the state and, if carried, its derivative repeat.
-  std::vector<Eigen::MatrixXd> dforce;
+  std::vector<SampleRows> dforce;
   Eigen::MatrixXd dstate, dstart, monodromy;
   if (with_derivative) {
-    dforce.assign(static_cast<std::size_t>(dimension()), Eigen::MatrixXd::Zero(n, p));
+    dforce.assign(static_cast<std::size_t>(dimension()), SampleRows::Zero(n, p));
     dstate = Eigen::MatrixXd::Zero(s, p);
   }
   bool newton = options_.newton_on_periodic_state && s > 0 && law_.traits().provides_tangent != 0;
@@ -419,7 +419,7 @@ bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& 
   }
   const double u_scale = std::max(out.displacement.cwiseAbs().maxCoeff(), 1e-300);
   const double tol = options_.relative_tolerance;
-  std::vector<Eigen::MatrixXd> dforce(static_cast<std::size_t>(d), Eigen::MatrixXd(n, p + s));
+  std::vector<SampleRows> dforce(static_cast<std::size_t>(d), SampleRows(n, p + s));
   Eigen::MatrixXd dstate, monodromy;
   bool newton = true, carry = true;
   double change_before = std::numeric_limits<double>::infinity();
@@ -505,7 +505,7 @@ bool PeriodicTracer::run_passes_to_periodic_derivative(ContactTrace& out, bool& 
   return true;
 }
 
-void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce,
+void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<SampleRows>* dforce,
                                       const KinkList& kinks) {
   const int n = layout_.samples(), c = layout_.coefficient_count(), d = dimension();
   out.force_coefficients.resize(d * c);
@@ -517,11 +517,12 @@ void PeriodicTracer::transform_forces(ContactTrace& out, const std::vector<Eigen
   const int p = unknown_count();
   if (dforce) {
     out.jacobian.resize(p, p);
-    Eigen::VectorXd coefficients(c);
+    Eigen::VectorXd coefficients(c), samples(n);
     for (int a = 0; a < d; ++a) {
-      const Eigen::MatrixXd& df = (*dforce)[static_cast<std::size_t>(a)];
+      const SampleRows& df = (*dforce)[static_cast<std::size_t>(a)];
       for (int q = 0; q < p; ++q) {
-        aft_.to_coefficients(df.col(q).data(), coefficients.data());
+        samples = df.col(q);
+        aft_.to_coefficients(samples.data(), coefficients.data());
         out.jacobian.block(a * c, q, c, 1) = coefficients;
       }
     }

@@ -97,6 +97,12 @@ class HermiteCubic {
     return a_[i] + s * (b_[i] + s * (c_[i] + s * d_[i]));
   }
   S rate_of(std::size_t i, const S& s) const { return b_[i] + s * (2.0 * c_[i] + 3.0 * s * d_[i]); }
+  // The control points of component i on s in [0, 1] (the cubic's Bernstein form): the curve
+  // lies in their convex hull, so they bound it over the whole step.
+  std::array<S, 4> control_points(std::size_t i) const {
+    return {a_[i], a_[i] + b_[i] / 3.0, a_[i] + (2.0 * b_[i] + c_[i]) / 3.0,
+            a_[i] + b_[i] + c_[i] + d_[i]};
+  }
   // The same cubic in doubles (the values of a dual-number one).
   HermiteCubic<double> values() const {
     HermiteCubic<double> out;
@@ -158,6 +164,12 @@ struct SliderStep {
 // below 0: there it returns the closed side's limit at closure = 0 (N = 0; for a law whose kt
 // also vanishes at contact, such as Hertz, zeros for all four, the open contact's, rather
 // than an extension of its formulas past contact, which can have N > 0 with kt < 0).
+// Optionally, for a Normal whose closure and stick radius mu N / kt never decrease as u_n
+// grows (where closed):
+//   static constexpr bool kMonotone = true;
+// then a step whose whole cubic provably keeps the contact closed (open) and a stuck slider
+// inside its circle (the cubic's control points bound it) skips the event scans: the same
+// result, bit for bit, as the scans, which find no event there.
 template <class Normal>
 class FrictionCircleSlider {
  public:
@@ -337,13 +349,21 @@ class FrictionCircleSlider {
     const auto n = normal_.side(u[2]);
     const S d0 = u[0] - ph.w[0], d1 = u[1] - ph.w[1];
     const S limit = mu_ * n.normal;
-    const S trial = n.stiffness * hypot(d0, d1);
     // A slider on the circle (a step that ended in slip) is recomputed here from u - w, which
     // loses the rounding of u where the circle's radius mu N / kt is tiny next to u (near an
     // opening): within that rounding the slider counts as on the circle, and lambda decides.
     const double rounding = 8.0 * std::numeric_limits<double>::epsilon() * value_of(n.stiffness) *
                             (std::abs(value_of(u[0])) + std::abs(value_of(u[1])) +
                              std::abs(value_of(ph.w[0])) + std::abs(value_of(ph.w[1])));
+    const double inside = value_of(limit) * (1.0 - 1e-12) - rounding;
+    // Clearly inside the circle (compared in squares with room for their rounding): stuck,
+    // as the comparison below would find, without its hypot.
+    const double kt = value_of(n.stiffness), e0 = value_of(d0), e1 = value_of(d1);
+    if (inside > 0 && kt * kt * (e0 * e0 + e1 * e1) < inside * inside * (1.0 - 1e-9)) {
+      ph.mode = Mode::kStick;
+      return;
+    }
+    const S trial = n.stiffness * hypot(d0, d1);
     if (trial < limit * (1.0 - 1e-12) - rounding || !(trial > 0)) {
       ph.mode = Mode::kStick;
       return;
@@ -403,11 +423,60 @@ class FrictionCircleSlider {
     return S(root) - (at - value_of(at)) / slope;
   }
 
+  static constexpr bool kBounded = requires { requires Normal::kMonotone; };
+
+  // The lowest and highest control point of component i, widened by the rounding of the
+  // cubic's evaluation (a few units in the last place of its largest term).
+  static std::array<double, 2> hull(const HermiteCubic<double>& m, std::size_t i) {
+    const auto p = m.control_points(i);
+    const auto [lo, hi] = std::minmax({p[0], p[1], p[2], p[3]});
+    const double slack = 16.0 * std::numeric_limits<double>::epsilon() *
+                         std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2]), std::abs(p[3])});
+    return {lo - slack, hi + slack};
+  }
+
+  // Whether a Normal with kMonotone provably keeps its side over the whole step (closed:
+  // closure > 0, open: closure <= 0): closure never decreases with u_n, so its values at
+  // u_n's lowest and highest control points bound it.
+  bool keeps_side(const HermiteCubic<double>& md, bool closed) const {
+    if constexpr (kBounded) {
+      const auto [lo, hi] = hull(md, 2);
+      return closed ? normal_.closure(lo) > 0 : !(normal_.closure(hi) > 0);
+    } else {
+      return false;
+    }
+  }
+
+  // Whether a stuck slider of a Normal with kMonotone provably stays strictly inside its
+  // circle over the whole step: |u_t - w| (convex) is at most its largest value at the
+  // tangential control points, and the radius mu N / kt at least its value at u_n's lowest.
+  bool stays_stuck(const Phase<double>& ph, const HermiteCubic<double>& md) const {
+    if constexpr (kBounded) {
+      const auto t1 = md.control_points(0), t2 = md.control_points(1);
+      double reach = 0, size = std::abs(ph.w[0]) + std::abs(ph.w[1]);
+      for (std::size_t k = 0; k < 4; ++k) {
+        const double d0 = t1[k] - ph.w[0], d1 = t2[k] - ph.w[1];
+        reach = std::max(reach, d0 * d0 + d1 * d1);
+        size = std::max(size, std::abs(t1[k]) + std::abs(t2[k]));
+      }
+      const double lo = hull(md, 2)[0];
+      if (!(normal_.closure(lo) > 0)) return false;
+      const auto n = normal_.side(lo);
+      if (!(n.stiffness > 0)) return false;
+      const double radius = mu_ * n.normal / n.stiffness;
+      const double slack = 16.0 * std::numeric_limits<double>::epsilon() * size;
+      return std::sqrt(reach) + slack < radius * (1.0 - 1e-9);
+    } else {
+      return false;
+    }
+  }
+
   // The first s after `s` where a closed (open) contact opens (closes), or 2. The start
   // counts as being on its side even where rounding puts it on the other.
   template <class S>
   S contact_change(const HermiteCubic<S>& m, const HermiteCubic<double>& md, const S& s,
                    bool closed) const {
+    if (keeps_side(md, closed)) return S(2.0);
     auto g = [&](double x) { return value_of(normal_.closure(md.position(x)[2])); };
     const double from = value_of(s);
     const double at = g(from);
@@ -538,7 +607,9 @@ class FrictionCircleSlider {
     auto g = [&](double x) { return stick_excess(pd, md, x); };
     const double from = value_of(s);
     // At the start the excess is <= 0 (stuck): a crossing is a rise above 0.
-    const double root = first_crossing(g, from, end, std::min(g(from), 0.0), kEventScan);
+    const double root = stays_stuck(pd, md)
+                            ? end + 1.0
+                            : first_crossing(g, from, end, std::min(g(from), 0.0), kEventScan);
     if (root <= end) {
       s = polish<S>(
           root, [&](const S& x) { return stick_excess(ph, m, x); }, g);
@@ -616,7 +687,9 @@ class FrictionCircleSlider {
     const auto v = m.rate(s);
     const auto n = normal_.side(u[2]);
     if (!(n.normal > 0)) return std::numeric_limits<double>::infinity();
-    return n.stiffness * std::hypot(v[0], v[1]) / (mu_ * n.normal);
+    // sqrt of the sum of squares, not hypot: a rate, in the range of motion rates (no
+    // overflow), that sizes sub-steps.
+    return n.stiffness * std::sqrt(v[0] * v[0] + v[1] * v[1]) / (mu_ * n.normal);
   }
 
   template <class S>

@@ -142,6 +142,8 @@ class PeriodicTracer {
       return items[count++];
     }
   };
+  // Per-sample rows (samples x columns, row-major): what a pass writes one sample at a time.
+  using SampleRows = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   // The law's kink report of one step (frichb_force_kinks' arrays), sized once for the law.
   struct KinkReport {
     std::vector<double> fraction, jump, dfraction, djump, onset, onset_power, onset_side, donset;
@@ -153,11 +155,10 @@ class PeriodicTracer {
   bool run_passes_from_initial_state(ContactTrace& out, bool with_derivative, std::string* error);
   bool run_passes_to_periodic_derivative(ContactTrace& out, bool& settled, std::string* error);
   bool run_period(const ContactTrace& motion, Eigen::VectorXd& state, Eigen::MatrixXd* dstate,
-                  Eigen::MatrixXd& force, Eigen::MatrixXd& states,
-                  std::vector<Eigen::MatrixXd>* dforce, Eigen::MatrixXd* monodromy, KinkList* kinks,
-                  std::string* error);
+                  Eigen::MatrixXd& force, Eigen::MatrixXd& states, std::vector<SampleRows>* dforce,
+                  Eigen::MatrixXd* monodromy, KinkList* kinks, std::string* error);
   void record_kinks(std::size_t count, int j, const Eigen::MatrixXd* dstate, KinkList& kinks) const;
-  void transform_forces(ContactTrace& out, const std::vector<Eigen::MatrixXd>* dforce,
+  void transform_forces(ContactTrace& out, const std::vector<SampleRows>* dforce,
                         const KinkList& kinks);
 
   const ContactLawInstance& law_;
@@ -166,8 +167,8 @@ class PeriodicTracer {
   Aft aft_;
   std::vector<int> components_;
   int state_size_;
-  Eigen::MatrixXd basis_;   // N x C
-  Eigen::MatrixXd dbasis_;  // N x C, d basis / ds (per sample step)
+  SampleRows basis_;   // N x C
+  SampleRows dbasis_;  // N x C, d basis / ds (per sample step)
   bool along_ = false;
   KinkReport kink_report_;
   KinkList kinks_;
