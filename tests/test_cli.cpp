@@ -282,14 +282,38 @@ TEST_F(Cli, MissingSceneFile) {
 TEST_F(Cli, ARefusedInputCreatesNoOutputFolder) {
   const fs::path missing = dir_ / "no_such_input.yaml";
   const fs::path out = dir_ / "a" / "b" / "out";
-  for (const std::string verb :
-       {"run", "study", "loop", "modes", "timesim --at-hz 300", "convergence"}) {
+  for (const std::string verb : {"run", "study", "loop", "modes", "timesim --at-hz 300",
+                                 "convergence", "peaks --vary contacts.root.params.mu=0.1:0.5"}) {
     SCOPED_TRACE(verb);
     const Result r = frichb(verb + " " + quoted(missing) + " -o " + quoted(out));
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_THAT(r.output, HasSubstr(missing.string()));
     EXPECT_TRUE(fs::is_empty(dir_)) << "left behind: " << (dir_ / "a").string();
   }
+}
+
+// `frichb peaks` refuses a range it cannot read and a parameter inside the structure (built
+// once for the whole peak curve) before any work, naming the option or the path.
+TEST_F(Cli, PeaksRefusesABadRangeAndAStructureParameter) {
+  const fs::path out = dir_ / "peaks";
+  Result r = frichb("peaks " + quoted(kQuickstart) + " -o " + quoted(out));
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("--vary PATH=FROM:TO"));
+  for (const std::string vary : {"contacts.root_friction.params.mu=0.1:x",
+                                 "contacts.root_friction.params.mu=0.3:0.3", "mu0.1:0.3"}) {
+    r = frichb("peaks " + quoted(kQuickstart) + " --vary " + quoted(vary) + " -o " + quoted(out));
+    EXPECT_EQ(r.code, 1) << vary << ": " << r.output;
+    EXPECT_THAT(r.output, HasSubstr("--vary takes PATH=FROM:TO")) << vary;
+  }
+  r = frichb("peaks " + quoted(kQuickstart) + " --vary structure.params.masses.0=0.1:0.2 -o " +
+             quoted(out));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("not 'structure.params.masses.0'"));
+  r = frichb("peaks " + quoted(kQuickstart) +
+             " --vary contacts.no_such_contact.params.mu=0.1:0.2 -o " + quoted(out));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("no_such_contact"));
+  EXPECT_FALSE(fs::exists(out));
 }
 
 // `frichb convergence` end to end: each setting's run under runs/, the table of every setting

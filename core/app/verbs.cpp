@@ -1,6 +1,8 @@
 // The verbs of frichb: what each takes, its help, and the call into the core (cli.hpp).
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <iostream>
@@ -14,6 +16,7 @@
 #include "frichb/core/commands/import.hpp"
 #include "frichb/core/commands/loop.hpp"
 #include "frichb/core/commands/modes.hpp"
+#include "frichb/core/commands/peaks.hpp"
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/commands/study.hpp"
 #include "frichb/core/commands/timesim.hpp"
@@ -23,6 +26,7 @@
 #include "frichb/core/report/import_report.hpp"
 #include "frichb/core/report/loop_report.hpp"
 #include "frichb/core/report/modes_report.hpp"
+#include "frichb/core/report/peaks_report.hpp"
 #include "frichb/core/report/run_report.hpp"
 #include "frichb/core/report/study_report.hpp"
 #include "frichb/core/report/timesim_report.hpp"
@@ -208,6 +212,50 @@ int modes_verb(const Invocation& call) {
   return conclude_into(
       call, call.arguments[0], call.output_folder("-modes"), core::modes_outputs(),
       [&](core::StagedOutput&) { return core::compute_modes(request); }, core::write_modes);
+}
+
+int peaks_verb(const Invocation& call) {
+  core::PeaksOptions request;
+  request.scene = call.scene_input();
+  request.stop = call.stop.token();
+  if (!call.options.count("vary"))
+    return usage_error(call, "give the parameter and its range, --vary PATH=FROM:TO");
+  const std::string vary = call.options["vary"].as<std::string>();
+  const auto eq = vary.find('=');
+  const auto colon = eq == std::string::npos ? eq : vary.find(':', eq);
+  bool parsed = eq != std::string::npos && eq > 0 && colon != std::string::npos;
+  if (parsed) {
+    request.parameter = vary.substr(0, eq);
+    try {
+      std::size_t used = 0;
+      const std::string from = vary.substr(eq + 1, colon - eq - 1), to = vary.substr(colon + 1);
+      request.from = std::stod(from, &used);
+      parsed = used == from.size();
+      request.to = std::stod(to, &used);
+      parsed = parsed && used == to.size();
+    } catch (const std::exception&) {
+      parsed = false;
+    }
+  }
+  if (!parsed || !std::isfinite(request.from) || !std::isfinite(request.to) ||
+      request.from == request.to)
+    return usage_error(call,
+                       "--vary takes PATH=FROM:TO with two different numbers, not '" + vary + "'");
+  if (call.options.count("node")) request.node = call.options["node"].as<std::string>();
+  if (call.options.count("axis")) {
+    const std::string axis = call.options["axis"].as<std::string>();
+    if (axis == "log")
+      request.logarithmic = true;
+    else if (axis == "linear")
+      request.logarithmic = false;
+    else if (axis != "auto")
+      return usage_error(call, "--axis takes auto, linear or log, not '" + axis + "'");
+    if (request.logarithmic.value_or(false) && !(std::min(request.from, request.to) > 0))
+      return usage_error(call, "--axis log needs a range above 0");
+  }
+  return conclude_into(
+      call, call.arguments[0], call.output_folder("-peaks"), core::peaks_outputs(),
+      [&](core::StagedOutput&) { return core::track_peaks(request); }, core::write_peaks);
 }
 
 int timesim_verb(const Invocation& call) {
@@ -444,6 +492,43 @@ Verb modes_spec() {
   return v;
 }
 
+Verb peaks_spec() {
+  Verb v;
+  v.name = "peaks";
+  v.arguments = "SCENE.yaml";
+  v.min_arguments = 1;
+  v.max_arguments = 1;
+  v.missing_arguments = "one scene file";
+  v.summary = "trace the resonance peak against a contact or excitation parameter";
+  v.description =
+      "Runs the scene at the start of the range, takes the solved peak of --node, and\n"
+      "continues that peak (the harmonic balance with the peak's stationarity along the\n"
+      "response curve) to the end of the range, through folds of the peak curve. Writes\n"
+      "DIR/peaks.csv (parameter, peak frequency, peak amplitude, Newton iterations),\n"
+      "summary.json (the optimum: the lowest peak over the range; the sensitivities of the\n"
+      "peak's frequency and amplitude to the parameter at every point) and peaks.png.\n"
+      "The parameter is a scene path under contacts or excitation, as study sweeps name it.";
+  v.examples = {
+      "frichb peaks configs/peaks/planar_tip_normal_load.yaml --vary "
+      "contacts.shroud.params.normal_load=1:100 -o out/planar_tip_peaks"};
+  v.reads_scene = true;
+  v.input_plugins = true;
+  v.writes_output = true;
+  v.output_default = "out/<scene file stem>-peaks";
+  v.polls_interrupts = true;
+  v.add_options = [](po::options_description& d) {
+    d.add_options()("vary", po::value<std::string>()->value_name("PATH=FROM:TO"),
+                    "the parameter (a scene path under contacts or excitation) and its range "
+                    "(required)")(
+        "node", po::value<std::string>()->value_name("NAME"),
+        "the node whose peak is traced (default: the first of output.response)")(
+        "axis", po::value<std::string>()->value_name("auto|linear|log"),
+        "the parameter's axis (auto: log where the range is above 0 and spans a decade)");
+  };
+  v.run = peaks_verb;
+  return v;
+}
+
 Verb timesim_spec() {
   Verb v;
   v.name = "timesim";
@@ -614,10 +699,10 @@ Verb reference_spec() {
 }  // namespace
 
 const std::vector<Verb>& verbs() {
-  static const std::vector<Verb> list = {run_spec(),         validate_spec(), study_spec(),
-                                         loop_spec(),        modes_spec(),    timesim_spec(),
-                                         convergence_spec(), import_spec(),   plugins_spec(),
-                                         describe_spec(),    reference_spec()};
+  static const std::vector<Verb> list = {run_spec(),     validate_spec(),    study_spec(),
+                                         loop_spec(),    modes_spec(),       peaks_spec(),
+                                         timesim_spec(), convergence_spec(), import_spec(),
+                                         plugins_spec(), describe_spec(),    reference_spec()};
   return list;
 }
 

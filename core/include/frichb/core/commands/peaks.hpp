@@ -1,0 +1,114 @@
+// `frichb peaks`: the resonance peak of a scene's forced response traced against one design
+// parameter (model/peak_tracking.hpp), from the peak of an ordinary run at the range's start.
+// The verb shape: commands/verb.hpp; the writer: report/peaks_report.hpp.
+#pragma once
+
+#include <Eigen/Dense>
+#include <cstddef>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "frichb/core/commands/verb.hpp"
+#include "frichb/core/model/peak_tracking.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/support/interrupt.hpp"
+
+namespace frichb::core {
+
+struct PeaksOptions {
+  SceneInput scene;
+  // The design parameter: a scene-key path (scene.hpp's paths, as study sweeps take them)
+  // under `contacts` (a contact law's parameter: normal load, friction coefficient, gap, a
+  // stiffness) or `excitation` (an amplitude). Other sections are refused: the structure is
+  // built once.
+  std::string parameter;
+  double from = 0.0;  // the range of the parameter, in the scene's units; from != to
+  double to = 0.0;
+  // The node whose peak is traced: one of output.response (empty: the first).
+  std::string node;
+  // A logarithmic parameter axis (lambda = ln p): nullopt decides (from and to > 0, spanning
+  // at least a decade).
+  std::optional<bool> logarithmic;
+  int max_points = 500;
+  // The call's stop token: a stop ends the start run or the tracking at its next step
+  // (outcome 128 + signal, nothing to write).
+  StopToken stop;
+};
+
+// The peak at one point of the traced peak curve.
+struct TrackedPeak {
+  double parameter = 0.0;     // p, in the scene's units
+  double frequency_hz = 0.0;  // the peak's frequency
+  double amplitude_m = 0.0;   // the measure at the peak (a run's peak measure)
+  int newton_iterations = 0;  // of the point's correction
+  // Sensitivities along the peak curve, per unit of p; NaN where the curve turns in p (a fold
+  // of the peak curve: dp/ds = 0).
+  double d_frequency_hz_d_parameter = 0.0;
+  double d_amplitude_m_d_parameter = 0.0;
+  // The point on the peak curve: the harmonic-balance unknowns, w (rad/s), lambda (p, or ln p
+  // on a logarithmic axis).
+  Eigen::VectorXd y;
+};
+
+struct PeaksResult {
+  Outcome outcome;
+  std::filesystem::path scene_file;
+  std::string parameter;  // the path varied
+  std::string node;
+  double from = 0.0, to = 0.0;
+  bool logarithmic = false;
+  bool plots = true;  // the scene's output.plots
+  long unknowns = 0;  // harmonic-balance unknowns
+  // The start: the peak of an ordinary run at p = from.
+  double start_frequency_hz = 0.0, start_amplitude_m = 0.0;
+  bool start_refined = false;      // solved along the curve (false: its highest traced point)
+  std::vector<TrackedPeak> peaks;  // along the peak curve, from `from`
+  // The lowest peak amplitude over the traced points (none when nothing was traced), and
+  // whether it lies at an end of the traced range (then the optimum may lie beyond it).
+  std::optional<std::size_t> optimum;
+  bool optimum_at_end = false;
+  std::string termination;  // the tracking's continuation termination ("reached_end", ...)
+  int turning_points = 0;   // folds of the peak curve in p
+  double start_seconds = 0.0, tracking_seconds = 0.0, wall_seconds = 0.0;
+};
+
+// The scene at values of its design parameter `path` (ParameterModels): the document read
+// again with the parameter set, bound to the same plugins, each model on one structure built
+// from `base` (the parameter must lie outside the structure: PeaksOptions::parameter). Keeps
+// the last four models (the tracking asks for p and p +- h in turn). `base` and `registry`
+// outlive it. Not thread-safe.
+class SceneParameterModels final : public ParameterModels {
+ public:
+  SceneParameterModels(const Scene& base, const Registry& registry, std::string path,
+                       int contact_threads);
+  ~SceneParameterModels() override;
+  const HarmonicBalanceModel& at(double p) const override;
+
+ private:
+  static constexpr std::size_t kKept = 4;
+  struct Entry {
+    double p = 0.0;
+    long used = 0;
+    std::unique_ptr<Scene> scene;
+    std::unique_ptr<HarmonicBalanceModel> model;
+  };
+  const Scene& base_;
+  const Registry& registry_;
+  std::string path_;
+  int threads_ = 0;
+  std::unique_ptr<StructureInstance> structure_;
+  mutable std::vector<Entry> cache_;
+  mutable long clock_ = 0;
+};
+
+// Runs the scene at p = from (its peak at `node`), then continues that peak to p = to. Logs
+// progress. Throws SceneError for a scene, path or node it cannot use (the run's errors, a path
+// outside contacts and excitation, a node not in output.response), std::invalid_argument for
+// a range that is empty or not positive on a logarithmic axis. A start run that finds no
+// peak, or a tracking that ends early, is an outcome (kExitIncomplete, with what was traced).
+PeaksResult track_peaks(const PeaksOptions& options);
+
+}  // namespace frichb::core

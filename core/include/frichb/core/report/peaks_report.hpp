@@ -1,0 +1,28 @@
+// The files of `frichb peaks` (commands/peaks.hpp), staged (support/output.hpp):
+//   peaks.csv     one row per point of the peak curve: point, the parameter (its scene path as
+//                 the column name), peak_frequency_hz, peak_amplitude_m, newton_iterations
+//   summary.json  the scene, the parameter and its range (axis linear or log), the node, the
+//                 start peak, the optimum (the lowest peak amplitude over the traced points,
+//                 and whether it lies at an end of the traced range), how the tracking ended,
+//                 and every point with the sensitivities of its peak frequency (Hz per unit of
+//                 the parameter) and amplitude (m per unit) along the peak curve (null where the
+//                 curve turns in the parameter)
+//   peaks.gp, peaks.png  peak amplitude and peak frequency against the parameter, the
+//                 optimum marked (log parameter axis on a logarithmic range; result.plots)
+// Throws OutputError.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "frichb/core/commands/peaks.hpp"
+#include "frichb/core/support/output.hpp"
+
+namespace frichb::core {
+
+// The top-level names write_peaks writes: the output folder's managed names.
+std::vector<std::string> peaks_outputs();
+// Writes into the staged folder `out` (the caller commits).
+void write_peaks(const PeaksResult& result, StagedOutput& out);
+
+}  // namespace frichb::core

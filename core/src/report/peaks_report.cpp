@@ -1,0 +1,116 @@
+#include "frichb/core/report/peaks_report.hpp"
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "frichb/core/report/plot_style.hpp"
+#include "frichb/core/support/version.hpp"
+
+namespace frichb::core {
+
+namespace {
+
+nlohmann::json number_or_null(double x) {
+  return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
+}
+
+std::string peaks_plot_script(const PeaksResult& result) {
+  ValueSpan amplitudes;
+  double largest = 0.0;
+  for (const auto& p : result.peaks) {
+    amplitudes.add(p.amplitude_m);
+    largest = std::max(largest, p.amplitude_m);
+  }
+  const LengthScale scale = length_scale(largest);
+  const std::string a = "($4*" + scale_factor_text(scale) + ")";
+  std::ostringstream gp;
+  gp << "# gnuplot script written by frichb peaks\n"
+     << plot_header("peaks.png", 1400, 600) << line_types(2) << "unset key\n"
+     << "set multiplot layout 1,2 title "
+     << gnuplot_string("resonance peak of " + result.node + " against " + result.parameter) << "\n"
+     << log_axes(result.logarithmic, log_amplitude_axis(AmplitudeAxis::automatic, amplitudes))
+     << "set xlabel " << gnuplot_string(result.parameter) << "\n"
+     << "set ylabel " << gnuplot_string(axis_label("peak amplitude", scale.unit)) << "\n"
+     << "set title 'peak amplitude'\n";
+  if (result.optimum) {
+    const auto& best = result.peaks[*result.optimum];
+    gp << "set label 1 'optimum' at " << best.parameter << "," << best.amplitude_m * scale.factor
+       << " point pt 7 ps 1.5 offset 1,1\n";
+  }
+  gp << "plot 'peaks.csv' using 2:" << a << " with linespoints lt 1 pt 7 ps 0.5\n"
+     << "unset label 1\nunset logscale y\n"
+     << log_axes(result.logarithmic, false)
+     << "set ylabel 'peak frequency [Hz]'\nset title 'peak frequency'\n"
+     << "plot 'peaks.csv' using 2:3 with linespoints lt 2 pt 7 ps 0.5\n"
+     << "unset multiplot\n";
+  return gp.str();
+}
+
+}  // namespace
+
+std::vector<std::string> peaks_outputs() {
+  return {"peaks.csv", "summary.json", "peaks.gp", "peaks.png"};
+}
+
+void write_peaks(const PeaksResult& result, StagedOutput& out) {
+  const std::vector<std::string> header = {"point", result.parameter, "peak_frequency_hz",
+                                           "peak_amplitude_m", "newton_iterations"};
+  std::vector<std::vector<double>> rows;
+  nlohmann::json points = nlohmann::json::array();
+  for (std::size_t i = 0; i < result.peaks.size(); ++i) {
+    const TrackedPeak& p = result.peaks[i];
+    rows.push_back({static_cast<double>(i), p.parameter, p.frequency_hz, p.amplitude_m,
+                    static_cast<double>(p.newton_iterations)});
+    points.push_back({{"parameter", p.parameter},
+                      {"frequency_hz", p.frequency_hz},
+                      {"amplitude_m", p.amplitude_m},
+                      {"newton_iterations", p.newton_iterations},
+                      {"d_frequency_hz_d_parameter", number_or_null(p.d_frequency_hz_d_parameter)},
+                      {"d_amplitude_m_d_parameter", number_or_null(p.d_amplitude_m_d_parameter)}});
+  }
+  write_csv(out.path("peaks.csv"), header, rows);
+  nlohmann::json optimum = nullptr;
+  if (result.optimum) {
+    const TrackedPeak& best = result.peaks[*result.optimum];
+    optimum = {{"point", *result.optimum},
+               {"parameter", best.parameter},
+               {"frequency_hz", best.frequency_hz},
+               {"amplitude_m", best.amplitude_m},
+               {"at_range_end", result.optimum_at_end}};
+  }
+  const nlohmann::json doc = {{"frichb_version", version()},
+                              {"scene", result.scene_file.string()},
+                              {"parameter",
+                               {{"path", result.parameter},
+                                {"from", result.from},
+                                {"to", result.to},
+                                {"axis", result.logarithmic ? "log" : "linear"}}},
+                              {"node", result.node},
+                              {"unknowns", result.unknowns},
+                              {"start",
+                               {{"frequency_hz", result.start_frequency_hz},
+                                {"amplitude_m", result.start_amplitude_m},
+                                {"refined", result.start_refined}}},
+                              {"optimum", optimum},
+                              {"status", result.outcome.status},
+                              {"termination", result.outcome.termination},
+                              {"message", result.outcome.message},
+                              {"warnings", result.outcome.warnings},
+                              {"tracking",
+                               {{"termination", result.termination},
+                                {"points", result.peaks.size()},
+                                {"turning_points", result.turning_points}}},
+                              {"wall_time_s",
+                               {{"start_run_s", result.start_seconds},
+                                {"tracking_s", result.tracking_seconds},
+                                {"total_s", result.wall_seconds}}},
+                              {"peaks", points}};
+  write_json(out.path("summary.json"), doc);
+  if (result.plots && !result.peaks.empty()) {
+    write_text(out.path("peaks.gp"), peaks_plot_script(result));
+    run_gnuplot(out.path("peaks.gp"), out.stop());
+  }
+}
+
+}  // namespace frichb::core
