@@ -4,7 +4,9 @@
 // equations and the same measure, solved along each curve by model/resonance_peak.hpp).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <string>
 #include <tuple>
@@ -20,36 +22,18 @@ namespace {
 
 using namespace frichb::core;
 
-// A blade tip moving in a plane (0.1 kg on 4e5 and 5e5 N/m, 0.5 % damping, F = (2, 1) N) on
-// the coupled friction circle (kt = 2e5 N/m, mu = 0.5), traced along the motion: smooth in the
-// unknowns and in the normal load.
-std::string circle_scene() {
-  return R"(
-name: planar_tip
-structure:
-  provider: lumped
-  params:
-    masses: [0.1, 0.1]
-    springs:
-      - {between: [ground, 0], k: 4.0e5}
-      - {between: [ground, 1], k: 5.0e5}
-    modal_damping: [0.005, 0.005]
-  dofs: {tip: [0, 1]}
-excitation:
-  - {dof: tip, amplitude: 2.0, direction: [1.0, 0.5]}
-contacts:
-  - name: shroud
-    law: coupled_3d
-    between: [ground, tip]
-    frame: {tangent1: [1.0, 0.0], tangent2: [0.0, 1.0]}
-    params: {kt: 2.0e5, mu: 0.5, normal_load: 5.0}
-harmonic_balance: {max_harmonic: 3, samples_per_period: 64}
-continuation:
-  frequency: {from: 300, to: 400, unit: Hz}
-  tolerance: 1.0e-12
-  step: {initial: 1.0, min: 1.0e-6, max: 2.0}
-output: {response: [tip], plots: false}
-)";
+// The shipped example: a blade tip moving in a plane (0.1 kg on 4e5 and 5e5 N/m, 0.5 % damping,
+// F = (2, 1) N) on the coupled friction circle (kt = 2e5 N/m, mu = 0.5), traced along the
+// motion: smooth in the unknowns and in the normal load. Three harmonics here, plots off, the
+// normal load `normal_load` N.
+SceneInput planar_tip(double normal_load = 5.0) {
+  SceneInput input;
+  input.file =
+      std::filesystem::path(FRICHB_SOURCE_DIR) / "configs/peaks/planar_tip_normal_load.yaml";
+  input.overrides = {{"harmonic_balance.max_harmonic", "3"},
+                     {"output.plots", "false"},
+                     {"contacts.shroud.params.normal_load", format_scene_value(normal_load)}};
+  return input;
 }
 
 struct Started {
@@ -57,10 +41,8 @@ struct Started {
   RunResult run;
 };
 
-Started run_at(const std::string& text, const frichb::test::TempDir& dir) {
+Started run_at(const SceneInput& input) {
   Started s;
-  SceneInput input;
-  input.file = dir.write("scene.yaml", text);
   s.bound = load_bound_scene(input);
   RunOptions options;
   options.plots = 0;
@@ -70,8 +52,7 @@ Started run_at(const std::string& text, const frichb::test::TempDir& dir) {
 }
 
 TEST(PeakTracking, JacobianMatchesCentralDifferences) {
-  frichb::test::TempDir dir;
-  Started s = run_at(circle_scene(), dir);
+  Started s = run_at(planar_tip());
   const Scene& scene = s.bound.scene;
   const HarmonicBalanceModel& model = *s.run.prepared.model;
   const Eigen::Index n = model.equation_count();
@@ -122,9 +103,8 @@ TEST(PeakTracking, JacobianMatchesCentralDifferences) {
 // solve the harmonic balance and the same measure's stationarity; the run's along its curve),
 // at the range's ends, around the optimum and between them.
 TEST(PeakTracking, TracedPeaksEqualThePeaksOfFullCurves) {
-  frichb::test::TempDir dir;
   PeaksOptions options;
-  options.scene.file = dir.write("scene.yaml", circle_scene());
+  options.scene = planar_tip();
   options.parameter = "contacts.shroud.params.normal_load";
   options.from = 1.5;
   options.to = 15.0;
@@ -132,6 +112,7 @@ TEST(PeakTracking, TracedPeaksEqualThePeaksOfFullCurves) {
   ASSERT_EQ(result.outcome.status, 0) << result.outcome.message;
   EXPECT_TRUE(result.logarithmic);
   EXPECT_EQ(result.termination, "reached_end");
+  EXPECT_TRUE(result.jumps.empty());
   ASSERT_TRUE(result.optimum);
   const std::size_t best = *result.optimum;
   ASSERT_FALSE(result.optimum_at_end);
@@ -140,11 +121,7 @@ TEST(PeakTracking, TracedPeaksEqualThePeaksOfFullCurves) {
   EXPECT_NEAR(peaks.back().parameter, 15.0, 1e-12);
   for (const std::size_t i :
        {std::size_t{0}, best - 1, best, best + 1, peaks.size() / 2 + best / 2, peaks.size() - 1}) {
-    std::string text = circle_scene();
-    text.replace(text.find("normal_load: 5.0"), 16,
-                 "normal_load: " + format_scene_value(peaks[i].parameter));
-    frichb::test::TempDir here;
-    Started s = run_at(text, here);
+    Started s = run_at(planar_tip(peaks[i].parameter));
     ASSERT_TRUE(s.run.table.peaks.at(0) && s.run.table.peaks[0]->refined);
     const NodePeak& full = *s.run.table.peaks[0];
     EXPECT_NEAR(peaks[i].amplitude_m, full.amplitude_m, 1e-5 * full.amplitude_m)
@@ -153,14 +130,32 @@ TEST(PeakTracking, TracedPeaksEqualThePeaksOfFullCurves) {
                 1e-6 * peaks[i].frequency_hz)
         << "normal load " << peaks[i].parameter;
   }
-  // The optimum is a minimum of the traced peak amplitude, where its sensitivity changes sign.
+  // The solved optimum: the full curve's peak there equals it, and the full curves 1 % either
+  // side peak higher (its location to 1e-2).
+  ASSERT_TRUE(result.solved_optimum.solved) << result.solved_optimum.message;
+  const auto& optimum = result.solved_optimum;
+  EXPECT_LE(optimum.amplitude_m, peaks[best].amplitude_m);
+  for (const double factor : {0.99, 1.0, 1.01}) {
+    Started s = run_at(planar_tip(optimum.parameter * factor));
+    ASSERT_TRUE(s.run.table.peaks.at(0) && s.run.table.peaks[0]->refined);
+    const NodePeak& full = *s.run.table.peaks[0];
+    if (factor == 1.0) {
+      EXPECT_NEAR(optimum.amplitude_m, full.amplitude_m, 1e-5 * full.amplitude_m);
+      EXPECT_NEAR(optimum.frequency_hz, full.omega_rad_s / (2 * std::numbers::pi),
+                  1e-6 * optimum.frequency_hz);
+    } else {
+      EXPECT_GT(full.amplitude_m, optimum.amplitude_m) << "normal load " << factor << " x";
+    }
+  }
+  // The lowest traced point is a minimum of the traced peak amplitude, where its sensitivity
+  // changes sign.
   EXPECT_LT(peaks[best - 1].d_amplitude_m_d_parameter, 0.0);
   EXPECT_GT(peaks[best + 1].d_amplitude_m_d_parameter, 0.0);
   // The sensitivities (the implicit function theorem on the extended Jacobian) against the
   // peaks solved at fixed parameters either side of a few points: within 1 % of the central
   // difference, plus the difference of the one-sided ones (where the peak curve has a kink: a
   // contact starting to stick over part of the period at the peak).
-  Started s = run_at(circle_scene(), dir);
+  Started s = run_at(planar_tip());
   const HarmonicBalanceModel& model = *s.run.prepared.model;
   const Eigen::Index n = model.equation_count();
   SceneParameterModels models(s.bound.scene, *s.bound.registry, options.parameter, 1);
@@ -203,6 +198,51 @@ TEST(PeakTracking, TracedPeaksEqualThePeaksOfFullCurves) {
           << what << " at normal load " << p;
     }
   }
+}
+
+// The damper study's blade (a sample-by-sample Jenkins law) has two maxima a few tenths of a
+// hertz apart near 278 Hz; traced from 2 N, the branch of the right one stalls among the
+// response's corners close to the range's end, and the tracking jumps to the peak of a run 1 %
+// further on. Each branch starts at its jump, and the peak at the range's end equals a full run's
+// there.
+TEST(PeakTracking, AStalledBranchJumpsToTheRunsPeakAndGoesOn) {
+  PeaksOptions options;
+  options.scene.file =
+      std::filesystem::path(FRICHB_SOURCE_DIR) / "configs/studies/damper_normal_load_sweep.yaml";
+  options.parameter = "contacts.platform_friction.params.normal_load";
+  options.from = 2.0;
+  options.to = 2.3;
+  const PeaksResult result = track_peaks(options);
+  ASSERT_EQ(result.outcome.status, 0) << result.outcome.message;
+  ASSERT_FALSE(result.jumps.empty());
+  const auto& peaks = result.peaks;
+  for (std::size_t j = 0; j < result.jumps.size(); ++j) {
+    const PeakJump& jump = result.jumps[j];
+    std::size_t first = 0;
+    while (first < peaks.size() && peaks[first].branch <= static_cast<int>(j)) ++first;
+    ASSERT_LT(first, peaks.size());
+    EXPECT_EQ(peaks[first].branch, static_cast<int>(j) + 1);
+    EXPECT_DOUBLE_EQ(peaks[first].parameter, jump.parameter);
+    // kPeakJumpStep of the range further on (a linear axis: 2 to 2.3 spans no decade), or the
+    // range's end.
+    EXPECT_FALSE(result.logarithmic);
+    EXPECT_NEAR(jump.parameter, std::min(jump.from_parameter + kPeakJumpStep * 0.3, 2.3), 1e-12);
+    EXPECT_DOUBLE_EQ(peaks[first - 1].parameter, jump.from_parameter);
+    EXPECT_FALSE(jump.reason.empty());
+  }
+  EXPECT_NEAR(peaks.back().parameter, 2.3, 1e-12);
+  SceneInput input = options.scene;
+  input.overrides.push_back({options.parameter, "2.3"});
+  const BoundScene bound = load_bound_scene(input);
+  RunOptions run_options;
+  run_options.plots = 0;
+  run_options.quiet = true;
+  const RunResult full = trace_scene(bound.scene, run_options);
+  ASSERT_TRUE(full.table.peaks.at(0) && full.table.peaks[0]->refined);
+  EXPECT_NEAR(peaks.back().amplitude_m, full.table.peaks[0]->amplitude_m,
+              1e-5 * full.table.peaks[0]->amplitude_m);
+  EXPECT_NEAR(peaks.back().frequency_hz, full.table.peaks[0]->omega_rad_s / (2 * std::numbers::pi),
+              1e-6 * peaks.back().frequency_hz);
 }
 
 }  // namespace

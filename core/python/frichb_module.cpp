@@ -34,6 +34,7 @@
 #include "frichb/core/commands/convergence.hpp"
 #include "frichb/core/commands/loop.hpp"
 #include "frichb/core/commands/modes.hpp"
+#include "frichb/core/commands/peaks.hpp"
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/commands/study.hpp"
 #include "frichb/core/commands/timesim.hpp"
@@ -44,6 +45,7 @@
 #include "frichb/core/report/convergence_report.hpp"
 #include "frichb/core/report/loop_report.hpp"
 #include "frichb/core/report/modes_report.hpp"
+#include "frichb/core/report/peaks_report.hpp"
 #include "frichb/core/report/run_report.hpp"
 #include "frichb/core/report/study_report.hpp"
 #include "frichb/core/report/timesim_report.hpp"
@@ -928,6 +930,126 @@ void bind_modes(py::module_& m) {
       "engine-order excitation lines. Returns a ModesResult.");
 }
 
+// frichb.peaks and PeaksResult.
+void bind_peaks(py::module_& m) {
+  py::class_<core::PeaksResult> peaks_result(
+      m, "PeaksResult",
+      "The resonance peak of one node traced against a contact or excitation parameter "
+      "(frichb.peaks).");
+  outcome_attributes(peaks_result);
+  auto field = [](double core::TrackedPeak::*member) {
+    return [member](const core::PeaksResult& r) {
+      std::vector<double> values;
+      for (const auto& p : r.peaks) values.push_back(p.*member);
+      return array(values);
+    };
+  };
+  peaks_result.def_readonly("parameter", &core::PeaksResult::parameter, "The scene path varied.")
+      .def_readonly("node", &core::PeaksResult::node)
+      .def_readonly("logarithmic", &core::PeaksResult::logarithmic,
+                    "Whether the continuation stepped in the parameter's logarithm.")
+      .def_readonly("start_frequency_hz", &core::PeaksResult::start_frequency_hz)
+      .def_readonly("start_amplitude_m", &core::PeaksResult::start_amplitude_m)
+      .def_property_readonly("parameter_values", field(&core::TrackedPeak::parameter),
+                             "peaks.csv's parameter column, along the peak curve.")
+      .def_property_readonly("frequency_hz", field(&core::TrackedPeak::frequency_hz),
+                             "The peak frequency at each point, Hz.")
+      .def_property_readonly("amplitude_m", field(&core::TrackedPeak::amplitude_m),
+                             "The peak amplitude at each point, m (the run's peak measure).")
+      .def_property_readonly("newton_iterations",
+                             [](const core::PeaksResult& r) {
+                               std::vector<int> values;
+                               for (const auto& p : r.peaks) values.push_back(p.newton_iterations);
+                               return array(values);
+                             })
+      .def_property_readonly(
+          "branch",
+          [](const core::PeaksResult& r) {
+            std::vector<int> values;
+            for (const auto& p : r.peaks) values.push_back(p.branch);
+            return array(values);
+          },
+          "peaks.csv's branch column: 0, then one more after each jump.")
+      .def_property_readonly(
+          "jumps",
+          [](const core::PeaksResult& r) {
+            py::list jumps;
+            for (const auto& j : r.jumps) {
+              py::dict d;
+              d["from_parameter"] = j.from_parameter;
+              d["from_frequency_hz"] = j.from_frequency_hz;
+              d["from_amplitude_m"] = j.from_amplitude_m;
+              d["parameter"] = j.parameter;
+              d["to_frequency_hz"] = j.to_frequency_hz;
+              d["to_amplitude_m"] = j.to_amplitude_m;
+              d["reason"] = j.reason;
+              jumps.append(d);
+            }
+            return jumps;
+          },
+          "summary.json's jumps: where a branch ended and the tracking went on from a run's "
+          "peak.")
+      .def_property_readonly("d_frequency_hz_d_parameter",
+                             field(&core::TrackedPeak::d_frequency_hz_d_parameter),
+                             "Hz per unit of the parameter; NaN where the curve turns in it.")
+      .def_property_readonly("d_amplitude_m_d_parameter",
+                             field(&core::TrackedPeak::d_amplitude_m_d_parameter),
+                             "m per unit of the parameter; NaN where the curve turns in it.")
+      .def_property_readonly(
+          "optimum",
+          [](const core::PeaksResult& r) -> py::object {
+            if (!r.optimum) return py::none();
+            const auto& best = r.peaks[*r.optimum];
+            const auto& solved = r.solved_optimum;
+            py::dict d;
+            d["solved"] = solved.solved;
+            d["parameter"] = solved.solved ? solved.parameter : best.parameter;
+            d["frequency_hz"] = solved.solved ? solved.frequency_hz : best.frequency_hz;
+            d["amplitude_m"] = solved.solved ? solved.amplitude_m : best.amplitude_m;
+            d["lowest_point"] = *r.optimum;
+            d["at_range_end"] = r.optimum_at_end;
+            return d;
+          },
+          "summary.json's optimum: solved between the traced points, or the lowest traced peak "
+          "(None when nothing was traced).")
+      .def_readonly("termination", &core::PeaksResult::termination,
+                    "How the peak curve's continuation ended ('reached_end', ...).")
+      .def(
+          "write",
+          [](const core::PeaksResult& r, const fs::path& folder) {
+            write_folder(r, folder, core::peaks_outputs(), core::write_peaks);
+          },
+          py::arg("folder"), "Writes what `frichb peaks -o folder` writes.");
+
+  m.def(
+      "peaks",
+      [](const py::object& scene, const std::string& parameter, double start, double end,
+         const std::string& node, const std::string& axis, const py::dict& set,
+         bool allow_scene_plugins) {
+        const core::StopSource source;
+        core::PeaksOptions options;
+        options.scene = scene_input(scene, set, allow_scene_plugins);
+        options.parameter = parameter;
+        options.from = start;
+        options.to = end;
+        options.node = node;
+        options.stop = source.token();
+        if (axis == "log")
+          options.logarithmic = true;
+        else if (axis == "linear")
+          options.logarithmic = false;
+        else if (axis != "auto")
+          throw py::value_error("axis: 'auto', 'linear' or 'log'");
+        return call_stoppable(source, [&] { return core::track_peaks(options); });
+      },
+      py::arg("scene"), py::arg("parameter"), py::arg("start"), py::arg("end"),
+      py::arg("node") = "", py::arg("axis") = "auto", py::arg("set") = py::dict(),
+      py::arg("allow_scene_plugins") = false,
+      "The resonance peak of `node` (default: the first of output.response) traced against\n"
+      "the scene path `parameter` from `start` to `end`, as `frichb peaks SCENE --vary\n"
+      "PARAMETER=START:END` does. Returns a PeaksResult.");
+}
+
 // frichb.loop and LoopResult.
 void bind_loop(py::module_& m) {
   py::class_<core::LoopResult> loop_result(
@@ -1148,6 +1270,7 @@ PYBIND11_MODULE(frichb, m) {
   bind_validate(m);
   bind_timesim(m);
   bind_modes(m);
+  bind_peaks(m);
   bind_loop(m);
   bind_study(m);
   bind_convergence(m);

@@ -200,6 +200,39 @@ def test_modes_give_the_programs_tables(tmp_path):
         frichb.modes(scene, rpm=(8000, 4000))
 
 
+def test_peaks_give_the_programs_peak_curve(tmp_path):
+    scene = SOURCE / "configs" / "peaks" / "planar_tip_normal_load.yaml"
+    path = "contacts.shroud.params.normal_load"
+    result = frichb.peaks(scene, path, 4.0, 8.0, set={"output.plots": False})
+    assert result.status == 0, result.message
+    assert result.termination == "reached_end" and not result.logarithmic
+    cli = frichb_cli("peaks", str(scene), "--vary", path + "=4:8", "--set", "output.plots=false",
+                     "-o", str(tmp_path / "cli"))
+    assert cli.returncode == 0, cli.stderr
+    header, rows = read_csv(tmp_path / "cli" / "peaks.csv")
+    assert header == ["point", path, "peak_frequency_hz", "peak_amplitude_m",
+                      "newton_iterations", "branch"]
+    np.testing.assert_allclose(result.parameter_values, rows[:, 1], rtol=5e-12, atol=0)
+    np.testing.assert_allclose(result.frequency_hz, rows[:, 2], rtol=5e-12, atol=0)
+    np.testing.assert_allclose(result.amplitude_m, rows[:, 3], rtol=5e-12, atol=0)
+    assert result.newton_iterations.tolist() == rows[:, 4].astype(int).tolist()
+    assert result.branch.tolist() == rows[:, 5].astype(int).tolist()
+    assert result.jumps == json.loads((tmp_path / "cli" / "summary.json").read_text())["jumps"]
+    best = result.optimum
+    assert not best["at_range_end"]
+    assert best["solved"] and best["amplitude_m"] <= result.amplitude_m.min()
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert summary["optimum"]["parameter"] == pytest.approx(best["parameter"], rel=1e-12)
+    assert np.all(np.isfinite(result.d_frequency_hz_d_parameter))
+    result.write(tmp_path / "py")
+    assert ((tmp_path / "py" / "peaks.csv").read_bytes()
+            == (tmp_path / "cli" / "peaks.csv").read_bytes())
+    with pytest.raises(ValueError):
+        frichb.peaks(scene, path, 4.0, 8.0, axis="cubic")
+    with pytest.raises(frichb.SceneError):
+        frichb.peaks(scene, "structure.params.masses.0", 0.1, 0.2)
+
+
 def test_loop_gives_the_programs_energy_and_files(tmp_path):
     loop_input = SOURCE / "configs" / "friction_loops" / "fig3_4_2d_variable_normal_load.yaml"
     result = frichb.loop(loop_input)

@@ -117,24 +117,24 @@ Eigen::VectorXd PeakCondition::point_record(const Eigen::VectorXd& y) const {
   return {};
 }
 
-bool PeakCondition::sensitivity(const Eigen::VectorXd& y, Eigen::VectorXd& dy_dlambda,
-                                std::string* message) const {
+bool PeakCondition::shape(const Eigen::VectorXd& y, PointShape& out, std::string* message) const {
   const Eigen::Index m = n_ + 1;
-  Eigen::VectorXd r;
-  Eigen::MatrixXd j;
-  if (!evaluate(y, r, &j, message)) return false;
-  Eigen::VectorXd scale = z_scale_;
+  Eigen::VectorXd t, residual;
+  Eigen::MatrixXd jacobian;
+  if (!response_tangent(y, t, message) || !evaluate(y, residual, &jacobian, message)) return false;
+  // t (scaled) back to the unscaled tangent with c . t = 1 that g is defined with.
+  out.curvature = jacobian.row(n_).head(m).dot(t.cwiseProduct(z_scale_));
   // In scaled unknowns, so that the condition estimate means something.
-  const Eigen::MatrixXd jz = j.leftCols(m) * scale.asDiagonal();
+  const Eigen::MatrixXd jz = jacobian.leftCols(m) * z_scale_.asDiagonal();
   const Eigen::FullPivLU<Eigen::MatrixXd> lu(jz);
-  if (lu.rank() < m || lu.rcond() < 1e-13) {
-    if (message != nullptr) *message = "the peak curve turns in the parameter here";
-    return false;
+  out.dy_dlambda.resize(0);
+  if (lu.rank() == m && lu.rcond() >= 1e-13) {
+    out.dy_dlambda.resize(m + 1);
+    out.dy_dlambda.head(m) = z_scale_.cwiseProduct(lu.solve(-jacobian.col(m)));
+    out.dy_dlambda(m) = 1.0;
+    if (!out.dy_dlambda.allFinite()) out.dy_dlambda.resize(0);
   }
-  dy_dlambda.resize(m + 1);
-  dy_dlambda.head(m) = scale.cwiseProduct(lu.solve(-j.col(m)));
-  dy_dlambda(m) = 1.0;
-  return dy_dlambda.allFinite();
+  return std::isfinite(out.curvature);
 }
 
 double PeakCondition::amplitude(const Eigen::VectorXd& y) const {

@@ -54,18 +54,20 @@ std::vector<std::string> peaks_outputs() {
 }
 
 void write_peaks(const PeaksResult& result, StagedOutput& out) {
-  const std::vector<std::string> header = {"point", result.parameter, "peak_frequency_hz",
-                                           "peak_amplitude_m", "newton_iterations"};
+  const std::vector<std::string> header = {
+      "point", result.parameter, "peak_frequency_hz", "peak_amplitude_m", "newton_iterations",
+      "branch"};
   std::vector<std::vector<double>> rows;
   nlohmann::json points = nlohmann::json::array();
   for (std::size_t i = 0; i < result.peaks.size(); ++i) {
     const TrackedPeak& p = result.peaks[i];
     rows.push_back({static_cast<double>(i), p.parameter, p.frequency_hz, p.amplitude_m,
-                    static_cast<double>(p.newton_iterations)});
+                    static_cast<double>(p.newton_iterations), static_cast<double>(p.branch)});
     points.push_back({{"parameter", p.parameter},
                       {"frequency_hz", p.frequency_hz},
                       {"amplitude_m", p.amplitude_m},
                       {"newton_iterations", p.newton_iterations},
+                      {"branch", p.branch},
                       {"d_frequency_hz_d_parameter", number_or_null(p.d_frequency_hz_d_parameter)},
                       {"d_amplitude_m_d_parameter", number_or_null(p.d_amplitude_m_d_parameter)}});
   }
@@ -73,12 +75,27 @@ void write_peaks(const PeaksResult& result, StagedOutput& out) {
   nlohmann::json optimum = nullptr;
   if (result.optimum) {
     const TrackedPeak& best = result.peaks[*result.optimum];
-    optimum = {{"point", *result.optimum},
-               {"parameter", best.parameter},
-               {"frequency_hz", best.frequency_hz},
-               {"amplitude_m", best.amplitude_m},
+    const auto& solved = result.solved_optimum;
+    optimum = {{"solved", solved.solved},
+               {"parameter", solved.solved ? solved.parameter : best.parameter},
+               {"frequency_hz", solved.solved ? solved.frequency_hz : best.frequency_hz},
+               {"amplitude_m", solved.solved ? solved.amplitude_m : best.amplitude_m},
+               {"lowest_point", *result.optimum},
                {"at_range_end", result.optimum_at_end}};
+    if (solved.solved)
+      optimum["probes"] = solved.probes;
+    else if (!solved.message.empty())
+      optimum["why_not_solved"] = solved.message;
   }
+  nlohmann::json jumps = nlohmann::json::array();
+  for (const PeakJump& j : result.jumps)
+    jumps.push_back({{"from_parameter", j.from_parameter},
+                     {"from_frequency_hz", j.from_frequency_hz},
+                     {"from_amplitude_m", j.from_amplitude_m},
+                     {"parameter", j.parameter},
+                     {"to_frequency_hz", j.to_frequency_hz},
+                     {"to_amplitude_m", j.to_amplitude_m},
+                     {"reason", j.reason}});
   const nlohmann::json doc = {{"frichb_version", version()},
                               {"scene", result.scene_file.string()},
                               {"parameter",
@@ -105,6 +122,7 @@ void write_peaks(const PeaksResult& result, StagedOutput& out) {
                                {{"start_run_s", result.start_seconds},
                                 {"tracking_s", result.tracking_seconds},
                                 {"total_s", result.wall_seconds}}},
+                              {"jumps", jumps},
                               {"peaks", points}};
   write_json(out.path("summary.json"), doc);
   if (result.plots && !result.peaks.empty()) {

@@ -43,7 +43,8 @@ struct TrackedPeak {
   double parameter = 0.0;     // p, in the scene's units
   double frequency_hz = 0.0;  // the peak's frequency
   double amplitude_m = 0.0;   // the measure at the peak (a run's peak measure)
-  int newton_iterations = 0;  // of the point's correction
+  int newton_iterations = 0;  // of the point's correction (0: a jump's run gave it)
+  int branch = 0;             // the branch it lies on: 0, then one more after each jump
   // Sensitivities along the peak curve, per unit of p; NaN where the curve turns in p (a fold
   // of the peak curve: dp/ds = 0).
   double d_frequency_hz_d_parameter = 0.0;
@@ -52,6 +53,31 @@ struct TrackedPeak {
   // on a logarithmic axis).
   Eigen::VectorXd y;
 };
+
+// Where the traced peak stopped being one and the tracking went on from the peak of a run a
+// little further on (kPeakJumpStep): the traced maximum merged with a valley of the response
+// curve (a fold of the peak curve, where the maximum turns into a minimum), or the
+// continuation could not go on or stalled (a sample-by-sample law's corners).
+struct PeakJump {
+  double from_parameter = 0.0;  // the last point of the branch left
+  double from_frequency_hz = 0.0, from_amplitude_m = 0.0;
+  double parameter = 0.0;  // the run's, where the next branch starts
+  double to_frequency_hz = 0.0, to_amplitude_m = 0.0;
+  std::string reason;
+};
+// The step of a jump, in lambda (ln p, or p over the range's width), and the most jumps.
+inline constexpr double kPeakJumpStep = 0.01;
+inline constexpr int kMaxPeakJumps = 20;
+// A branch whose continuation steps stay below kStalledStep (scaled arclength) for
+// kStalledPoints points in a row has stalled: it ends there and the tracking jumps.
+inline constexpr double kStalledStep = 1e-4;
+inline constexpr int kStalledPoints = 10;
+
+// The optimum's solve: converged when a probe lands within kOptimumTolerance (of lambda's
+// scale) of the bracket end it replaces, or the bracket is that narrow; at most
+// kMaxOptimumProbes probes.
+inline constexpr double kOptimumTolerance = 1e-7;
+inline constexpr int kMaxOptimumProbes = 30;
 
 struct PeaksResult {
   Outcome outcome;
@@ -66,12 +92,23 @@ struct PeaksResult {
   double start_frequency_hz = 0.0, start_amplitude_m = 0.0;
   bool start_refined = false;      // solved along the curve (false: its highest traced point)
   std::vector<TrackedPeak> peaks;  // along the peak curve, from `from`
+  std::vector<PeakJump> jumps;     // between its branches, in order
   // The lowest peak amplitude over the traced points (none when nothing was traced), and
   // whether it lies at an end of the traced range (then the optimum may lie beyond it).
   std::optional<std::size_t> optimum;
   bool optimum_at_end = false;
-  std::string termination;  // the tracking's continuation termination ("reached_end", ...)
-  int turning_points = 0;   // folds of the peak curve in p
+  // The optimum solved between the traced points: where the peak amplitude's sensitivity to
+  // the parameter changes sign beside the lowest point, on one branch (regula falsi in lambda,
+  // each probe the peak solved at a fixed parameter). Not solved at an end of the range, across
+  // a jump, or where a probe fails: then the lowest traced point is the optimum.
+  struct SolvedOptimum {
+    bool solved = false;
+    double parameter = 0.0, frequency_hz = 0.0, amplitude_m = 0.0;
+    int probes = 0;
+    std::string message;  // why not, when not solved
+  } solved_optimum;
+  std::string termination;  // the last branch's continuation termination ("reached_end", ...)
+  int turning_points = 0;   // folds of the peak curve in p, over its branches
   double start_seconds = 0.0, tracking_seconds = 0.0, wall_seconds = 0.0;
 };
 
@@ -104,11 +141,13 @@ class SceneParameterModels final : public ParameterModels {
   mutable long clock_ = 0;
 };
 
-// Runs the scene at p = from (its peak at `node`), then continues that peak to p = to. Logs
-// progress. Throws SceneError for a scene, path or node it cannot use (the run's errors, a path
-// outside contacts and excitation, a node not in output.response), std::invalid_argument for
-// a range that is empty or not positive on a logarithmic axis. A start run that finds no
-// peak, or a tracking that ends early, is an outcome (kExitIncomplete, with what was traced).
+// Runs the scene at p = from (its peak at `node`), then continues that peak to p = to. Where
+// the traced maximum turns into a minimum or the continuation cannot go on, it runs the scene
+// kPeakJumpStep further on and continues from that run's peak (a PeakJump). Logs progress. Throws
+// SceneError for a scene, path or node it cannot use (the run's errors, a path outside contacts and
+// excitation, a node not in output.response), std::invalid_argument for a range that is empty or
+// not positive on a logarithmic axis. A start run that finds no peak, or a tracking that ends
+// early, is an outcome (kExitIncomplete, with what was traced).
 PeaksResult track_peaks(const PeaksOptions& options);
 
 }  // namespace frichb::core

@@ -99,12 +99,20 @@ class PeakCondition final : public CurveProblem {
   // +- kMeasureStep dy / |dy|_scaled, divided by that step. For the peak's sensitivities
   // along the peak curve's tangent.
   double directional_amplitude(const Eigen::VectorXd& y, const Eigen::VectorXd& dy) const;
-  // dy/dlambda along the peak curve at y (n + 2 entries, the last 1): the implicit function
-  // theorem on the extended Jacobian, [R_z R_l; g_z g_l] (dz/dlambda, 1) = 0. False (with the
-  // message) where the extended Jacobian's z block is singular: a fold of the peak curve in
-  // the parameter, where the sensitivities are infinite.
-  bool sensitivity(const Eigen::VectorXd& y, Eigen::VectorXd& dy_dlambda,
-                   std::string* message) const;
+  // What a point of the peak curve says beyond its position, from one evaluation with the
+  // Jacobian: `curvature`, dg/ds along the response curve (g's derivative, the Jacobian's row
+  // with the tangent's own change, along the tangent t: A's second derivative along the curve
+  // times a positive factor, not along the straight tangent line, which leaves the curve at
+  // second order): negative at a maximum, positive where the stationary point traced is a
+  // minimum; and `dy_dlambda` along the peak curve (n + 2 entries, the last 1) by the implicit
+  // function theorem on the extended Jacobian, [R_z R_l; g_z g_l] (dz/dlambda, 1) = 0, empty
+  // where its z block is singular (a fold of the peak curve in the parameter, where the
+  // sensitivities are infinite). False (with the message) when the model refuses y.
+  struct PointShape {
+    double curvature = 0.0;
+    Eigen::VectorXd dy_dlambda;
+  };
+  bool shape(const Eigen::VectorXd& y, PointShape& out, std::string* message) const;
   // The response curve's tangent at y in scaled variables (n + 1 entries), normalised against
   // the reference; false (with the message) when the model refuses y or the system is
   // singular.

@@ -1,9 +1,11 @@
 // The files of `frichb peaks` (commands/peaks.hpp), staged (support/output.hpp):
 //   peaks.csv     one row per point of the peak curve: point, the parameter (its scene path as
-//                 the column name), peak_frequency_hz, peak_amplitude_m, newton_iterations
+//                 the column name), peak_frequency_hz, peak_amplitude_m, newton_iterations,
+//                 branch
 //   summary.json  the scene, the parameter and its range (axis linear or log), the node, the
-//                 start peak, the optimum (the lowest peak amplitude over the traced points,
-//                 and whether it lies at an end of the traced range), how the tracking ended,
+//                 start peak, the optimum (solved between the traced points, or the lowest
+//                 traced point with why not; whether it lies at an end of the traced range),
+//                 the jumps between branches, how the tracking ended,
 //                 and every point with the sensitivities of its peak frequency (Hz per unit of
 //                 the parameter) and amplitude (m per unit) along the peak curve (null where the
 //                 curve turns in the parameter)
