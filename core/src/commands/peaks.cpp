@@ -193,8 +193,157 @@ const HarmonicBalanceModel& SceneParameterModels::at(double p) const {
   return *cache_.back().model;
 }
 
-PeaksResult track_peaks(const PeaksOptions& options) {
-  const auto started = Clock::now();
+namespace {
+
+// The continuation of the peak curve: the run's options, with the peak curve's scales, the
+// parameter's range and no frequency bounds or bands.
+ContinuationOptions peak_curve_options(const ContinuationSetup& setup,
+                                       const Eigen::VectorXd& z_scale, double lambda_scale,
+                                       double lambda_end, const StopToken& stop) {
+  const Eigen::Index n = z_scale.size() - 1;
+  ContinuationOptions copt = setup.options;
+  copt.unknown_scale.resize(n + 2);
+  copt.unknown_scale << z_scale, lambda_scale;
+  const Eigen::VectorXd r_scale = setup.options.residual_scale.size() == n
+                                      ? setup.options.residual_scale
+                                      : Eigen::VectorXd::Constant(n, setup.peak);
+  copt.residual_scale.resize(n + 1);
+  copt.residual_scale << r_scale, setup.peak > 0 ? setup.peak : 1.0;
+  copt.lambda_end = lambda_end;
+  copt.lambda_min = -std::numeric_limits<double>::infinity();
+  copt.lambda_max = std::numeric_limits<double>::infinity();
+  copt.step_bands.clear();
+  copt.lambda_display = {1.0, ""};
+  copt.initial_step = 1e-2;
+  copt.min_step = 1e-7;
+  copt.max_step = 0.1;
+  copt.linear_solver = LinearSolverKind::kDenseLu;
+  copt.reuse_factorisation_from = 0;
+  copt.newton.stop = stop;
+  // The peak condition is a central difference of the measure: its rounding (about 1e-11 of
+  // the amplitude) bounds how closely Newton can place the peak along the response curve.
+  copt.newton.residual_tolerance = std::max(copt.newton.residual_tolerance, kPeakResidualTolerance);
+  copt.newton.step_tolerance = std::max(copt.newton.step_tolerance, kPeakStepTolerance);
+  return copt;
+}
+
+// A point of the peak curve as reported, its sensitivities from `known` (or computed).
+TrackedPeak tracked_peak(const PeakCondition& problem, const Eigen::VectorXd& y,
+                         int newton_iterations, int branch,
+                         const PeakCondition::PointShape* known) {
+  const Eigen::Index n = y.size() - 2;
+  TrackedPeak row;
+  row.parameter = problem.parameter(y(n + 1));
+  row.frequency_hz = y(n) / (2 * std::numbers::pi);
+  row.amplitude_m = problem.amplitude(y);
+  row.newton_iterations = newton_iterations;
+  row.branch = branch;
+  row.y = y;
+  row.d_frequency_hz_d_parameter = std::numeric_limits<double>::quiet_NaN();
+  row.d_amplitude_m_d_parameter = std::numeric_limits<double>::quiet_NaN();
+  PeakCondition::PointShape computed;
+  const PeakCondition::PointShape* shape = known;
+  if (shape == nullptr && problem.shape(y, computed, nullptr)) shape = &computed;
+  if (shape != nullptr && shape->dy_dlambda.size() == n + 2) {
+    const Eigen::VectorXd& dy = shape->dy_dlambda;
+    const double dp_dlambda = problem.logarithmic() ? row.parameter : 1.0;
+    row.d_frequency_hz_d_parameter = dy(n) / (2 * std::numbers::pi) / dp_dlambda;
+    row.d_amplitude_m_d_parameter = problem.directional_amplitude(y, dy) / dp_dlambda;
+  }
+  return row;
+}
+
+// One branch of the peak curve from y0, ended early where its maximum turns into a minimum
+// or its steps stall; each accepted point's shape kept by its index.
+struct Branch {
+  ContinuationSummary summary;
+  std::vector<PeakCondition::PointShape> shapes;
+  bool became_minimum = false;
+  bool stalled = false;
+  // The points that are peaks (a point where the maximum had turned is not).
+  std::size_t peaks() const { return summary.points.size() - (became_minimum ? 1 : 0); }
+  std::string end_reason() const {
+    if (became_minimum) return "the traced maximum merged with a valley of the response curve";
+    if (stalled)
+      return "the peak curve's steps collapsed (a response with corners: a sample-by-sample law)";
+    return "the peak curve could not be continued (" + summary.message + ")";
+  }
+};
+
+Branch trace_branch(const PeakCondition& problem, const ContinuationOptions& copt,
+                    const Eigen::VectorXd& y0, std::size_t first_index,
+                    const std::string& parameter) {
+  const Eigen::Index n = y0.size() - 2;
+  Branch branch;
+  int short_steps = 0;
+  branch.summary =
+      trace_curve(problem, y0, copt, [&](const ContinuationPoint& point, std::size_t index) {
+        spdlog::info("  peak {}: {} = {}, {} Hz", first_index + index, parameter,
+                     format_number(problem.parameter(point.y(n + 1))),
+                     format_number(point.y(n) / (2 * std::numbers::pi)));
+        auto& shapes = branch.shapes;
+        if (shapes.size() <= index) shapes.resize(index + 1);
+        const bool known = problem.shape(point.y, shapes[index], nullptr);
+        if (!known) shapes[index] = {std::numeric_limits<double>::quiet_NaN(), {}};
+        if (index > 0 && known && shapes[index].curvature > 0) {
+          branch.became_minimum = true;
+          return false;
+        }
+        short_steps = index > 0 && point.step < kStalledStep ? short_steps + 1 : 0;
+        if (short_steps >= kStalledPoints) {
+          branch.stalled = true;
+          return false;
+        }
+        return true;
+      });
+  return branch;
+}
+
+// The peak of node k of a run of `scene` with the parameter at p.
+RunPeak run_with_parameter(const Scene& scene, const Registry& registry,
+                           const std::string& parameter, double p, RunOptions run_options,
+                           std::size_t k, Eigen::Index n) {
+  YAML::Node document = reread_scene_document(scene);
+  set_scene_value(document, parameter, p);
+  Scene variant = load_scene_variant(document, scene);
+  bind_plugins(variant, registry);
+  run_options.quiet = true;
+  return run_peak(trace_scene(variant, run_options), k, n);
+}
+
+bool interrupted(PeaksResult& result, const StopToken& stop) {
+  if (!stop.stop_requested()) return false;
+  result.outcome.status = 128 + stop.signal();
+  result.outcome.termination = "interrupted";
+  result.outcome.message = "stopped by signal " + std::to_string(stop.signal());
+  return true;
+}
+
+// The lowest traced point, and the optimum solved beside it.
+void find_optimum(PeaksResult& result, const PeakCondition& problem,
+                  const ContinuationOptions& copt, const StopToken& stop, const std::string& file) {
+  if (result.peaks.empty()) return;
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < result.peaks.size(); ++i)
+    if (result.peaks[i].amplitude_m < result.peaks[best].amplitude_m) best = i;
+  result.optimum = best;
+  result.optimum_at_end = best == 0 || best + 1 == result.peaks.size();
+  if (result.optimum_at_end || stop.stop_requested()) return;
+  result.solved_optimum = solve_optimum(problem, copt, result, best);
+  const auto& solved = result.solved_optimum;
+  if (solved.solved)
+    spdlog::info("optimum: {} = {}, {} Hz, {} m ({} probes)", result.parameter,
+                 format_number(solved.parameter), format_number(solved.frequency_hz),
+                 format_number(solved.amplitude_m), solved.probes);
+  else
+    spdlog::warn(
+        "{}: the optimum was not solved between the traced points ({}); the lowest traced "
+        "point is reported",
+        file, solved.message);
+}
+
+// The result with the range checked and its axis decided.
+PeaksResult checked_range(const PeaksOptions& options) {
   if (!(std::isfinite(options.from) && std::isfinite(options.to) && options.from != options.to))
     throw std::invalid_argument("the parameter's range needs two different finite values");
   PeaksResult result;
@@ -205,6 +354,14 @@ PeaksResult track_peaks(const PeaksOptions& options) {
   result.logarithmic = options.logarithmic.value_or(lo > 0 && hi >= 10 * lo);
   if (result.logarithmic && !(lo > 0))
     throw std::invalid_argument("a logarithmic parameter axis needs a range above 0");
+  return result;
+}
+
+}  // namespace
+
+PeaksResult track_peaks(const PeaksOptions& options) {
+  const auto started = Clock::now();
+  PeaksResult result = checked_range(options);
 
   // The start: an ordinary run at p = from.
   SceneInput input = options.scene;
@@ -231,7 +388,7 @@ PeaksResult track_peaks(const PeaksOptions& options) {
   const HarmonicBalanceModel& start_model = *start.prepared.model;
   const Eigen::Index n = start_model.equation_count();
   result.unknowns = static_cast<long>(n);
-  RunPeak peak = run_peak(start, k, n);
+  const RunPeak peak = run_peak(start, k, n);
   if (!peak.found) {
     result.outcome.status = kExitIncomplete;
     result.outcome.termination = "no_start_peak";
@@ -248,167 +405,74 @@ PeaksResult track_peaks(const PeaksOptions& options) {
         "the start peak is the run's highest traced point, not a solved peak: the tracking "
         "starts from it");
 
-  // The peak curve.
-  const auto tracking_started = Clock::now();
-  SceneParameterModels models(scene, *bound.registry, options.parameter, 0);
-  const ContinuationSetup& setup = start.prepared.setup;
-  // Scales of the peak curve's arclength: the start peak's amplitude for the harmonics, a
+  // The peak curve. Scales of its arclength: the start peak's amplitude for the harmonics, a
   // tenth of its frequency for w (a frequency sweep's scales weigh the frequency against its
   // resonance's width instead, and would make the peak curve's steps tiny).
-  Eigen::VectorXd z_scale =
-      Eigen::VectorXd::Constant(n + 1, peak.amplitude_m > 0 ? peak.amplitude_m : setup.u_unit);
+  const auto tracking_started = Clock::now();
+  SceneParameterModels models(scene, *bound.registry, options.parameter, 0);
+  Eigen::VectorXd z_scale = Eigen::VectorXd::Constant(
+      n + 1, peak.amplitude_m > 0 ? peak.amplitude_m : start.prepared.setup.u_unit);
   z_scale(n) = 0.1 * peak.omega_rad_s;
   const double lambda_scale = result.logarithmic ? 1.0 : std::abs(options.to - options.from);
   std::vector<Eigen::Index> kept;
   for (std::size_t d : scene.structure.find(result.node)->dofs)
     kept.push_back(start_model.kept_index(d));
-  const int samples = std::max(256, 8 * start_model.layout().samples());
-  PeakCondition problem(models, kept, start_model.layout().harmonics(), samples, z_scale,
-                        result.logarithmic, lambda_scale);
-  ContinuationOptions copt = setup.options;
-  copt.unknown_scale.resize(n + 2);
-  copt.unknown_scale << z_scale, lambda_scale;
-  const Eigen::VectorXd r_scale = setup.options.residual_scale.size() == n
-                                      ? setup.options.residual_scale
-                                      : Eigen::VectorXd::Constant(n, setup.peak);
-  copt.residual_scale.resize(n + 1);
-  copt.residual_scale << r_scale, setup.peak > 0 ? setup.peak : 1.0;
-  copt.lambda_end = problem.lambda(options.to);
-  copt.lambda_min = -std::numeric_limits<double>::infinity();
-  copt.lambda_max = std::numeric_limits<double>::infinity();
-  copt.step_bands.clear();
-  copt.lambda_display = {1.0, ""};
-  copt.initial_step = 1e-2;
-  copt.min_step = 1e-7;
-  copt.max_step = 0.1;
-  copt.linear_solver = LinearSolverKind::kDenseLu;
-  copt.reuse_factorisation_from = 0;
-  copt.newton.stop = options.stop;
-  // The peak condition is a central difference of the measure: its rounding (about 1e-11 of
-  // the amplitude) bounds how closely Newton can place the peak along the response curve.
-  copt.newton.residual_tolerance = std::max(copt.newton.residual_tolerance, kPeakResidualTolerance);
-  copt.newton.step_tolerance = std::max(copt.newton.step_tolerance, kPeakStepTolerance);
-
-  // Each accepted point's shape (PeakCondition::shape), by its index on the branch.
-  std::vector<PeakCondition::PointShape> shapes;
-  auto add_point = [&](const Eigen::VectorXd& y, int newton_iterations, int branch,
-                       const PeakCondition::PointShape* known) {
-    TrackedPeak row;
-    row.parameter = problem.parameter(y(n + 1));
-    row.frequency_hz = y(n) / (2 * std::numbers::pi);
-    row.amplitude_m = problem.amplitude(y);
-    row.newton_iterations = newton_iterations;
-    row.branch = branch;
-    row.y = y;
-    row.d_frequency_hz_d_parameter = std::numeric_limits<double>::quiet_NaN();
-    row.d_amplitude_m_d_parameter = std::numeric_limits<double>::quiet_NaN();
-    PeakCondition::PointShape computed;
-    const PeakCondition::PointShape* shape = known;
-    if (shape == nullptr && problem.shape(y, computed, nullptr)) shape = &computed;
-    if (shape != nullptr && shape->dy_dlambda.size() == n + 2) {
-      const Eigen::VectorXd& dy = shape->dy_dlambda;
-      const double dp_dlambda = result.logarithmic ? row.parameter : 1.0;
-      row.d_frequency_hz_d_parameter = dy(n) / (2 * std::numbers::pi) / dp_dlambda;
-      row.d_amplitude_m_d_parameter = problem.directional_amplitude(y, dy) / dp_dlambda;
-    }
-    result.peaks.push_back(row);
-  };
-
+  const PeakCondition problem(models, kept, start_model.layout().harmonics(),
+                              std::max(256, 8 * start_model.layout().samples()), z_scale,
+                              result.logarithmic, lambda_scale);
+  ContinuationOptions copt = peak_curve_options(start.prepared.setup, z_scale, lambda_scale,
+                                                problem.lambda(options.to), options.stop);
   const double direction = copt.lambda_end > problem.lambda(options.from) ? 1.0 : -1.0;
   Eigen::VectorXd y0(n + 2);
   y0 << peak.y, problem.lambda(options.from);
   std::string ended;  // why the peak curve ended before the range's end ("" when it did not)
-  for (int branch = 0;; ++branch) {
-    {
-      Eigen::VectorXd t;
-      if (problem.response_tangent(y0, t, nullptr)) problem.set_reference(t);
-    }
+  for (int b = 0;; ++b) {
+    Eigen::VectorXd t;
+    if (problem.response_tangent(y0, t, nullptr)) problem.set_reference(t);
     copt.lambda_start = y0(n + 1);
     copt.max_points = std::max(2, options.max_points - static_cast<int>(result.peaks.size()));
     spdlog::info("tracking the peak of {} from {} = {} ({} Hz) to {}", result.node,
                  options.parameter, format_number(problem.parameter(y0(n + 1))),
                  format_number(y0(n) / (2 * std::numbers::pi)), format_number(options.to));
-    bool became_minimum = false;
-    shapes.clear();
-    int short_steps = 0;
-    bool stalled = false;
-    const ContinuationSummary summary =
-        trace_curve(problem, y0, copt, [&](const ContinuationPoint& point, std::size_t index) {
-          spdlog::info("  peak {}: {} = {}, {} Hz", result.peaks.size() + index, options.parameter,
-                       format_number(problem.parameter(point.y(n + 1))),
-                       format_number(point.y(n) / (2 * std::numbers::pi)));
-          if (shapes.size() <= index) shapes.resize(index + 1);
-          const bool known = problem.shape(point.y, shapes[index], nullptr);
-          if (!known) shapes[index] = {std::numeric_limits<double>::quiet_NaN(), {}};
-          if (index > 0 && known && shapes[index].curvature > 0) {
-            became_minimum = true;
-            return false;
-          }
-          short_steps = index > 0 && point.step < kStalledStep ? short_steps + 1 : 0;
-          if (short_steps >= kStalledPoints) {
-            stalled = true;
-            return false;
-          }
-          return true;
-        });
-    result.termination = to_string(summary.termination);
-    result.turning_points += summary.turning_points;
-    if (options.stop.stop_requested()) {
-      result.outcome.status = 128 + options.stop.signal();
-      result.outcome.termination = "interrupted";
-      result.outcome.message = "stopped by signal " + std::to_string(options.stop.signal());
-      return result;
+    const Branch branch = trace_branch(problem, copt, y0, result.peaks.size(), options.parameter);
+    result.termination = to_string(branch.summary.termination);
+    result.turning_points += branch.summary.turning_points;
+    if (interrupted(result, options.stop)) return result;
+    const auto& points = branch.summary.points;
+    for (std::size_t i = 0; i < branch.peaks(); ++i) {
+      const auto& shape = branch.shapes;
+      const bool known = i < shape.size() && std::isfinite(shape[i].curvature);
+      result.peaks.push_back(tracked_peak(problem, points[i].y, points[i].newton_iterations, b,
+                                          known ? &shape[i] : nullptr));
     }
-    const std::size_t kept_points = summary.points.size() - (became_minimum ? 1 : 0);
-    for (std::size_t i = 0; i < kept_points; ++i)
-      add_point(summary.points[i].y, summary.points[i].newton_iterations, branch,
-                i < shapes.size() && std::isfinite(shapes[i].curvature) ? &shapes[i] : nullptr);
-    if (summary.reached_end() && !became_minimum && !stalled) break;
+    if (branch.summary.reached_end() && !branch.became_minimum && !branch.stalled) break;
     if (result.peaks.size() >= static_cast<std::size_t>(options.max_points)) {
       ended = "max_points";
       break;
     }
-    // The branch traced ends: its maximum became a minimum (it merged with a valley of the
-    // response, a fold of the peak curve), or the continuation could not go on. Jump to the
-    // run's peak a little further on.
-    const std::string reason =
-        became_minimum ? "the traced maximum merged with a valley of the response curve"
-        : stalled      ? "the peak curve's steps collapsed (a response with corners: a "
-                         "sample-by-sample law)"
-                       : "the peak curve could not be continued (" + summary.message + ")";
+    // The branch ends: jump to the peak of a run a little further on.
+    const std::string reason = branch.end_reason();
     if (static_cast<int>(result.jumps.size()) >= kMaxPeakJumps) {
       ended = "too many jumps: " + reason;
       break;
     }
-    const Eigen::VectorXd last = kept_points > 0 ? summary.points[kept_points - 1].y : y0;
+    const Eigen::VectorXd last = branch.peaks() > 0 ? points[branch.peaks() - 1].y : y0;
     double lambda_next = last(n + 1) + direction * kPeakJumpStep * lambda_scale;
     const bool at_end = direction * (lambda_next - copt.lambda_end) >= 0;
     if (at_end) lambda_next = copt.lambda_end;
-    const double p_next = problem.parameter(lambda_next);
+    PeakJump jump;
+    jump.from_parameter = problem.parameter(last(n + 1));
+    jump.parameter = problem.parameter(lambda_next);
     spdlog::info("{} at {} = {}: a run at {} for the peak to go on from", reason, options.parameter,
-                 format_number(problem.parameter(last(n + 1))), format_number(p_next));
-    YAML::Node document = reread_scene_document(scene);
-    set_scene_value(document, options.parameter, p_next);
-    Scene next_scene = load_scene_variant(document, scene);
-    bind_plugins(next_scene, *bound.registry);
-    RunOptions quiet = run_options;
-    quiet.quiet = true;
-    RunResult next = trace_scene(next_scene, quiet);
-    if (options.stop.stop_requested()) {
-      result.outcome.status = 128 + options.stop.signal();
-      result.outcome.termination = "interrupted";
-      result.outcome.message = "stopped by signal " + std::to_string(options.stop.signal());
-      return result;
-    }
-    const RunPeak jumped = run_peak(next, k, n);
+                 format_number(jump.from_parameter), format_number(jump.parameter));
+    const RunPeak jumped = run_with_parameter(scene, *bound.registry, options.parameter,
+                                              jump.parameter, run_options, k, n);
+    if (interrupted(result, options.stop)) return result;
     if (!jumped.found) {
-      ended = reason + ", and the run at " + format_number(p_next) + " has no peak (" + jumped.why +
-              ")";
+      ended = reason + ", and the run at " + format_number(jump.parameter) + " has no peak (" +
+              jumped.why + ")";
       break;
     }
-    PeakJump jump;
-    jump.parameter = p_next;
-    jump.from_parameter = problem.parameter(last(n + 1));
     jump.from_frequency_hz = last(n) / (2 * std::numbers::pi);
     jump.from_amplitude_m = problem.amplitude(last);
     jump.to_frequency_hz = jumped.omega_rad_s / (2 * std::numbers::pi);
@@ -417,33 +481,14 @@ PeaksResult track_peaks(const PeaksOptions& options) {
     result.jumps.push_back(jump);
     spdlog::info("  jump to the peak at {} Hz, {} m", format_number(jump.to_frequency_hz),
                  format_number(jump.to_amplitude_m));
-    y0.resize(n + 2);
     y0 << jumped.y, lambda_next;
     if (at_end) {
-      add_point(y0, 0, branch + 1, nullptr);
+      result.peaks.push_back(tracked_peak(problem, y0, 0, b + 1, nullptr));
       result.termination = "reached_end";
       break;
     }
   }
-  if (!result.peaks.empty()) {
-    std::size_t best = 0;
-    for (std::size_t i = 1; i < result.peaks.size(); ++i)
-      if (result.peaks[i].amplitude_m < result.peaks[best].amplitude_m) best = i;
-    result.optimum = best;
-    result.optimum_at_end = best == 0 || best + 1 == result.peaks.size();
-    if (!result.optimum_at_end && !options.stop.stop_requested())
-      result.solved_optimum = solve_optimum(problem, copt, result, best);
-    if (result.solved_optimum.solved)
-      spdlog::info("optimum: {} = {}, {} Hz, {} m ({} probes)", options.parameter,
-                   format_number(result.solved_optimum.parameter),
-                   format_number(result.solved_optimum.frequency_hz),
-                   format_number(result.solved_optimum.amplitude_m), result.solved_optimum.probes);
-    else if (!result.optimum_at_end)
-      spdlog::warn(
-          "{}: the optimum was not solved between the traced points ({}); the lowest "
-          "traced point is reported",
-          scene.file.string(), result.solved_optimum.message);
-  }
+  find_optimum(result, problem, copt, options.stop, scene.file.string());
   if (!ended.empty()) {
     result.outcome.status = kExitIncomplete;
     result.outcome.termination = result.termination;
