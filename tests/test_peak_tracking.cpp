@@ -245,4 +245,51 @@ TEST(PeakTracking, AStalledBranchJumpsToTheRunsPeakAndGoesOn) {
               1e-6 * peaks.back().frequency_hz);
 }
 
+// The normalised design chart: with a constant normal load the friction circle's equations are
+// homogeneous in (x, f, mu N0), so the peaks at three excitation levels collapse onto one
+// curve of A / f against mu N0 / f: the solved optima agree to 1e-6.
+TEST(PeakTracking, NormalisedOptimaOfThreeExcitationLevelsCollapse) {
+  double location[3] = {}, amplitude[3] = {}, frequency[3] = {};
+  const double levels[3] = {1.0, 3.0, 7.0};  // not powers of 2, whose scaling is exact
+  for (int i = 0; i < 3; ++i) {
+    PeaksOptions options;
+    options.scene = planar_tip();
+    options.scene.overrides.push_back({"excitation.0.amplitude", format_scene_value(levels[i])});
+    options.parameter = "contacts.shroud.params.normal_load";
+    options.from = 2.6 * levels[i];  // mu N0 / f from 1.3 to 1.5, around the optimum
+    options.to = 3.0 * levels[i];
+    options.normalise = true;
+    const PeaksResult result = track_peaks(options);
+    ASSERT_EQ(result.outcome.status, 0) << result.outcome.message;
+    EXPECT_DOUBLE_EQ(result.mu_over_force, 0.5 / levels[i]);
+    EXPECT_DOUBLE_EQ(result.per_force, 1.0 / levels[i]);
+    ASSERT_TRUE(result.solved_optimum.solved) << result.solved_optimum.message;
+    location[i] = result.solved_optimum.parameter * result.mu_over_force;
+    amplitude[i] = result.solved_optimum.amplitude_m * result.per_force;
+    frequency[i] = result.solved_optimum.frequency_hz;
+  }
+  for (int i = 1; i < 3; ++i) {
+    EXPECT_NEAR(location[i], location[0], 1e-6 * location[0]) << "f = " << levels[i] << " N";
+    EXPECT_NEAR(amplitude[i], amplitude[0], 1e-6 * amplitude[0]) << "f = " << levels[i] << " N";
+    EXPECT_NEAR(frequency[i], frequency[0], 1e-6 * frequency[0]) << "f = " << levels[i] << " N";
+  }
+}
+
+// --normalise needs a normal load and one excitation.
+TEST(PeakTracking, NormaliseRefusesAnotherParameter) {
+  PeaksOptions options;
+  options.scene = planar_tip();
+  options.parameter = "contacts.shroud.params.mu";
+  options.from = 0.3;
+  options.to = 0.6;
+  options.normalise = true;
+  try {
+    track_peaks(options);
+    ADD_FAILURE() << "accepted";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("contacts.NAME.params.normal_load"), std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace

@@ -242,6 +242,7 @@ int peaks_verb(const Invocation& call) {
     return usage_error(call,
                        "--vary takes PATH=FROM:TO with two different numbers, not '" + vary + "'");
   if (call.options.count("node")) request.node = call.options["node"].as<std::string>();
+  request.normalise = call.options.count("normalise") > 0;
   if (call.options.count("axis")) {
     const std::string axis = call.options["axis"].as<std::string>();
     if (axis == "log")
@@ -523,7 +524,10 @@ Verb peaks_spec() {
         "node", po::value<std::string>()->value_name("NAME"),
         "the node whose peak is traced (default: the first of output.response)")(
         "axis", po::value<std::string>()->value_name("auto|linear|log"),
-        "the parameter's axis (auto: log where the range is above 0 and spans a decade)");
+        "the parameter's axis (auto: log where the range is above 0 and spans a decade)")(
+        "normalise",
+        "the design chart against mu N0 / f (varying a contact's normal load; f: "
+        "the one excitation's amplitude): two more columns, and the plot");
   };
   v.run = peaks_verb;
   return v;

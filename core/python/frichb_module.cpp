@@ -949,6 +949,10 @@ void bind_peaks(py::module_& m) {
       .def_readonly("logarithmic", &core::PeaksResult::logarithmic,
                     "Whether the continuation stepped in the parameter's logarithm.")
       .def_readonly("start_frequency_hz", &core::PeaksResult::start_frequency_hz)
+      .def_readonly("mu_over_force", &core::PeaksResult::mu_over_force,
+                    "With normalise: mu / f, 1/N (mu N0 / f is the normal load times it); else 0.")
+      .def_readonly("per_force", &core::PeaksResult::per_force,
+                    "With normalise: 1 / f, 1/N; else 0.")
       .def_readonly("start_amplitude_m", &core::PeaksResult::start_amplitude_m)
       .def_property_readonly("parameter_values", field(&core::TrackedPeak::parameter),
                              "peaks.csv's parameter column, along the peak curve.")
@@ -1024,7 +1028,7 @@ void bind_peaks(py::module_& m) {
   m.def(
       "peaks",
       [](const py::object& scene, const std::string& parameter, double start, double end,
-         const std::string& node, const std::string& axis, const py::dict& set,
+         const std::string& node, const std::string& axis, bool normalise, const py::dict& set,
          bool allow_scene_plugins) {
         const core::StopSource source;
         core::PeaksOptions options;
@@ -1033,6 +1037,7 @@ void bind_peaks(py::module_& m) {
         options.from = start;
         options.to = end;
         options.node = node;
+        options.normalise = normalise;
         options.stop = source.token();
         if (axis == "log")
           options.logarithmic = true;
@@ -1043,8 +1048,8 @@ void bind_peaks(py::module_& m) {
         return call_stoppable(source, [&] { return core::track_peaks(options); });
       },
       py::arg("scene"), py::arg("parameter"), py::arg("start"), py::arg("end"),
-      py::arg("node") = "", py::arg("axis") = "auto", py::arg("set") = py::dict(),
-      py::arg("allow_scene_plugins") = false,
+      py::arg("node") = "", py::arg("axis") = "auto", py::arg("normalise") = false,
+      py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
       "The resonance peak of `node` (default: the first of output.response) traced against\n"
       "the scene path `parameter` from `start` to `end`, as `frichb peaks SCENE --vary\n"
       "PARAMETER=START:END` does. Returns a PeaksResult.");

@@ -231,6 +231,8 @@ def test_peaks_give_the_programs_peak_curve(tmp_path):
         frichb.peaks(scene, path, 4.0, 8.0, axis="cubic")
     with pytest.raises(frichb.SceneError):
         frichb.peaks(scene, "structure.params.masses.0", 0.1, 0.2)
+    with pytest.raises(frichb.SceneError, match="normal_load"):
+        frichb.peaks(scene, "contacts.shroud.params.mu", 0.3, 0.6, normalise=True)
 
 
 def test_loop_gives_the_programs_energy_and_files(tmp_path):

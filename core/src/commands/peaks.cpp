@@ -342,6 +342,33 @@ void find_optimum(PeaksResult& result, const PeakCondition& problem,
         file, solved.message);
 }
 
+// mu / f and 1 / f of the normalised chart: the varied contact's `mu` and the scene's one
+// excitation amplitude f.
+void normalisation(const Scene& scene, const std::string& path, PeaksResult& result) {
+  const auto refuse = [&](const std::string& why) {
+    throw SceneError(scene.file.string(), 0, 0, path, "--normalise: " + why);
+  };
+  const std::string prefix = "contacts.", suffix = ".params.normal_load";
+  if (!path.starts_with(prefix) || !path.ends_with(suffix) ||
+      path.size() <= prefix.size() + suffix.size())
+    refuse(
+        "the chart's variable is mu N0 / f: vary a contact's normal load "
+        "(contacts.NAME.params.normal_load)");
+  const std::string name = path.substr(prefix.size(), path.size() - prefix.size() - suffix.size());
+  const ContactSpec* contact = nullptr;
+  for (const auto& c : scene.contacts)
+    if (c.name == name) contact = &c;
+  if (contact == nullptr) refuse("no contact named '" + name + "'");
+  const nlohmann::json values = contact->values.to_json(contact->plugin->schema());
+  if (!values.contains("mu") || !values["mu"].is_number())
+    refuse("law '" + contact->law + "' has no friction coefficient mu");
+  if (scene.excitation.size() != 1 || !(std::abs(scene.excitation[0].amplitude) > 0))
+    refuse("f is the excitation's amplitude: the scene needs exactly one excitation, not zero");
+  const double f = std::abs(scene.excitation[0].amplitude);
+  result.mu_over_force = values["mu"].get<double>() / f;
+  result.per_force = 1.0 / f;
+}
+
 // The result with the range checked and its axis decided.
 PeaksResult checked_range(const PeaksOptions& options) {
   if (!(std::isfinite(options.from) && std::isfinite(options.to) && options.from != options.to))
@@ -370,6 +397,7 @@ PeaksResult track_peaks(const PeaksOptions& options) {
   const Scene& scene = bound.scene;
   check_parameter_path(scene, options.parameter);
   const std::size_t k = node_index(scene, options.node);
+  if (options.normalise) normalisation(scene, options.parameter, result);
   result.scene_file = scene.file;
   result.node = scene.output.response[k];
   result.plots = scene.output.plots;

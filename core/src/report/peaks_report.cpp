@@ -1,5 +1,6 @@
 #include "frichb/core/report/peaks_report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -16,33 +17,45 @@ nlohmann::json number_or_null(double x) {
 }
 
 std::string peaks_plot_script(const PeaksResult& result) {
+  // The normalised chart plots mu N0 / f and the amplitude over f (columns 7 and 8).
+  const bool normalised = result.mu_over_force > 0;
+  const double x_factor = normalised ? result.mu_over_force : 1.0;
+  const double y_factor = normalised ? result.per_force : 1.0;
   ValueSpan amplitudes;
   double largest = 0.0;
   for (const auto& p : result.peaks) {
-    amplitudes.add(p.amplitude_m);
-    largest = std::max(largest, p.amplitude_m);
+    amplitudes.add(p.amplitude_m * y_factor);
+    largest = std::max(largest, p.amplitude_m * y_factor);
   }
   const LengthScale scale = length_scale(largest);
-  const std::string a = "($4*" + scale_factor_text(scale) + ")";
+  const std::string x = normalised ? "7" : "2";
+  const std::string a =
+      "($" + std::string(normalised ? "8" : "4") + "*" + scale_factor_text(scale) + ")";
+  const std::string x_label = normalised ? "μN0 / f" : result.parameter;
+  const std::string y_label = normalised ? axis_label("peak amplitude / f", scale.unit + "/N")
+                                         : axis_label("peak amplitude", scale.unit);
   std::ostringstream gp;
   gp << "# gnuplot script written by frichb peaks\n"
      << plot_header("peaks.png", 1400, 600) << line_types(2) << "unset key\n"
      << "set multiplot layout 1,2 title "
      << gnuplot_string("resonance peak of " + result.node + " against " + result.parameter) << "\n"
      << log_axes(result.logarithmic, log_amplitude_axis(AmplitudeAxis::automatic, amplitudes))
-     << "set xlabel " << gnuplot_string(result.parameter) << "\n"
-     << "set ylabel " << gnuplot_string(axis_label("peak amplitude", scale.unit)) << "\n"
+     << "set xlabel " << gnuplot_string(x_label) << "\n"
+     << "set ylabel " << gnuplot_string(y_label) << "\n"
      << "set title 'peak amplitude'\n";
   if (result.optimum) {
     const auto& best = result.peaks[*result.optimum];
-    gp << "set label 1 'optimum' at " << best.parameter << "," << best.amplitude_m * scale.factor
+    const auto& solved = result.solved_optimum;
+    gp << "set label 1 'optimum' at "
+       << (solved.solved ? solved.parameter : best.parameter) * x_factor << ","
+       << (solved.solved ? solved.amplitude_m : best.amplitude_m) * y_factor * scale.factor
        << " point pt 7 ps 1.5 offset 1,1\n";
   }
-  gp << "plot 'peaks.csv' using 2:" << a << " with linespoints lt 1 pt 7 ps 0.5\n"
+  gp << "plot 'peaks.csv' using " << x << ":" << a << " with linespoints lt 1 pt 7 ps 0.5\n"
      << "unset label 1\nunset logscale y\n"
      << log_axes(result.logarithmic, false)
      << "set ylabel 'peak frequency [Hz]'\nset title 'peak frequency'\n"
-     << "plot 'peaks.csv' using 2:3 with linespoints lt 2 pt 7 ps 0.5\n"
+     << "plot 'peaks.csv' using " << x << ":3 with linespoints lt 2 pt 7 ps 0.5\n"
      << "unset multiplot\n";
   return gp.str();
 }
@@ -54,15 +67,20 @@ std::vector<std::string> peaks_outputs() {
 }
 
 void write_peaks(const PeaksResult& result, StagedOutput& out) {
-  const std::vector<std::string> header = {
+  std::vector<std::string> header = {
       "point", result.parameter, "peak_frequency_hz", "peak_amplitude_m", "newton_iterations",
       "branch"};
+  const bool normalised = result.mu_over_force > 0;
+  if (normalised) header.insert(header.end(), {"mu_n0_over_f", "peak_amplitude_over_f_m_per_n"});
   std::vector<std::vector<double>> rows;
   nlohmann::json points = nlohmann::json::array();
   for (std::size_t i = 0; i < result.peaks.size(); ++i) {
     const TrackedPeak& p = result.peaks[i];
     rows.push_back({static_cast<double>(i), p.parameter, p.frequency_hz, p.amplitude_m,
                     static_cast<double>(p.newton_iterations), static_cast<double>(p.branch)});
+    if (normalised)
+      rows.back().insert(rows.back().end(),
+                         {p.parameter * result.mu_over_force, p.amplitude_m * result.per_force});
     points.push_back({{"parameter", p.parameter},
                       {"frequency_hz", p.frequency_hz},
                       {"amplitude_m", p.amplitude_m},
@@ -96,34 +114,38 @@ void write_peaks(const PeaksResult& result, StagedOutput& out) {
                      {"to_frequency_hz", j.to_frequency_hz},
                      {"to_amplitude_m", j.to_amplitude_m},
                      {"reason", j.reason}});
-  const nlohmann::json doc = {{"frichb_version", version()},
-                              {"scene", result.scene_file.string()},
-                              {"parameter",
-                               {{"path", result.parameter},
-                                {"from", result.from},
-                                {"to", result.to},
-                                {"axis", result.logarithmic ? "log" : "linear"}}},
-                              {"node", result.node},
-                              {"unknowns", result.unknowns},
-                              {"start",
-                               {{"frequency_hz", result.start_frequency_hz},
-                                {"amplitude_m", result.start_amplitude_m},
-                                {"refined", result.start_refined}}},
-                              {"optimum", optimum},
-                              {"status", result.outcome.status},
-                              {"termination", result.outcome.termination},
-                              {"message", result.outcome.message},
-                              {"warnings", result.outcome.warnings},
-                              {"tracking",
-                               {{"termination", result.termination},
-                                {"points", result.peaks.size()},
-                                {"turning_points", result.turning_points}}},
-                              {"wall_time_s",
-                               {{"start_run_s", result.start_seconds},
-                                {"tracking_s", result.tracking_seconds},
-                                {"total_s", result.wall_seconds}}},
-                              {"jumps", jumps},
-                              {"peaks", points}};
+  const nlohmann::json doc = {
+      {"frichb_version", version()},
+      {"scene", result.scene_file.string()},
+      {"parameter",
+       {{"path", result.parameter},
+        {"from", result.from},
+        {"to", result.to},
+        {"axis", result.logarithmic ? "log" : "linear"}}},
+      {"node", result.node},
+      {"unknowns", result.unknowns},
+      {"start",
+       {{"frequency_hz", result.start_frequency_hz},
+        {"amplitude_m", result.start_amplitude_m},
+        {"refined", result.start_refined}}},
+      {"optimum", optimum},
+      {"status", result.outcome.status},
+      {"termination", result.outcome.termination},
+      {"message", result.outcome.message},
+      {"warnings", result.outcome.warnings},
+      {"tracking",
+       {{"termination", result.termination},
+        {"points", result.peaks.size()},
+        {"turning_points", result.turning_points}}},
+      {"wall_time_s",
+       {{"start_run_s", result.start_seconds},
+        {"tracking_s", result.tracking_seconds},
+        {"total_s", result.wall_seconds}}},
+      {"jumps", jumps},
+      {"normalised", normalised ? nlohmann::json{{"mu_over_f_per_n", result.mu_over_force},
+                                                 {"one_over_f_per_n", result.per_force}}
+                                : nlohmann::json(nullptr)},
+      {"peaks", points}};
   write_json(out.path("summary.json"), doc);
   if (result.plots && !result.peaks.empty()) {
     write_text(out.path("peaks.gp"), peaks_plot_script(result));

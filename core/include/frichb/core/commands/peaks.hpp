@@ -33,6 +33,9 @@ struct PeaksOptions {
   // at least a decade).
   std::optional<bool> logarithmic;
   int max_points = 500;
+  // The thesis's normalised design chart: the peak against mu N0 / f, the amplitude over f. For
+  // a contact's normal_load whose law has a `mu`, with one excitation (f: its amplitude).
+  bool normalise = false;
   // The call's stop token: a stop ends the start run or the tracking at its next step
   // (outcome 128 + signal, nothing to write).
   StopToken stop;
@@ -88,6 +91,9 @@ struct PeaksResult {
   bool logarithmic = false;
   bool plots = true;  // the scene's output.plots
   long unknowns = 0;  // harmonic-balance unknowns
+  // With PeaksOptions::normalise, both in 1/N: mu / f (the chart's abscissa mu N0 / f is the
+  // normal load times it) and 1 / f (the amplitude per newton of excitation); else 0.
+  double mu_over_force = 0.0, per_force = 0.0;
   // The start: the peak of an ordinary run at p = from.
   double start_frequency_hz = 0.0, start_amplitude_m = 0.0;
   bool start_refined = false;      // solved along the curve (false: its highest traced point)

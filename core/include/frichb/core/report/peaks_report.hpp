@@ -1,7 +1,8 @@
 // The files of `frichb peaks` (commands/peaks.hpp), staged (support/output.hpp):
 //   peaks.csv     one row per point of the peak curve: point, the parameter (its scene path as
 //                 the column name), peak_frequency_hz, peak_amplitude_m, newton_iterations,
-//                 branch
+//                 branch; normalised (PeaksOptions::normalise), also mu_n0_over_f and
+//                 peak_amplitude_over_f_m_per_n
 //   summary.json  the scene, the parameter and its range (axis linear or log), the node, the
 //                 start peak, the optimum (solved between the traced points, or the lowest
 //                 traced point with why not; whether it lies at an end of the traced range),
@@ -9,8 +10,9 @@
 //                 and every point with the sensitivities of its peak frequency (Hz per unit of
 //                 the parameter) and amplitude (m per unit) along the peak curve (null where the
 //                 curve turns in the parameter)
-//   peaks.gp, peaks.png  peak amplitude and peak frequency against the parameter, the
-//                 optimum marked (log parameter axis on a logarithmic range; result.plots)
+//   peaks.gp, peaks.png  peak amplitude and peak frequency against the parameter (normalised:
+//                 the amplitude over f against mu N0 / f), the optimum marked (log parameter
+//                 axis on a logarithmic range; result.plots)
 // Throws OutputError.
 #pragma once
 
