@@ -313,6 +313,13 @@ TEST_F(Cli, PeaksRefusesABadRangeAndAStructureParameter) {
              " --vary contacts.no_such_contact.params.mu=0.1:0.2 -o " + quoted(out));
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_THAT(r.output, HasSubstr("no_such_contact"));
+  for (const std::string near : {"-5", "0"}) {
+    r = frichb("peaks " + quoted(kQuickstart) +
+               " --vary contacts.root_friction.params.mu=0.1:0.2 --near=" + near + " -o " +
+               quoted(out));
+    EXPECT_EQ(r.code, 1) << near << ": " << r.output;
+    EXPECT_THAT(r.output, HasSubstr("--near takes a frequency above 0 Hz")) << near;
+  }
   EXPECT_FALSE(fs::exists(out));
 }
 

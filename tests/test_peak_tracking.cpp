@@ -4,12 +4,19 @@
 // equations and the same measure, solved along each curve by model/resonance_peak.hpp).
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <filesystem>
+#include <fstream>
 #include <numbers>
+#include <optional>
+#include <sstream>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "frichb/core/commands/peaks.hpp"
@@ -290,6 +297,146 @@ TEST(PeakTracking, NormaliseRefusesAnotherParameter) {
     EXPECT_NE(std::string(e.what()).find("contacts.NAME.params.normal_load"), std::string::npos)
         << e.what();
   }
+}
+
+// Two resonances that exchange being the highest: masses a and b (1 kg each) on 1e6 and
+// 1.44e6 N/m to the ground, coupled by 5e4 N/m, with dampers of 20 and 24 N s/m to the ground;
+// 1 N on a and F1 in antiphase on b (the parameter). Seen at a, the first mode's peak (162.6 Hz)
+// falls as F1 grows and the second's (194.7 Hz) rises. The system is linear: the peaks are
+// those of |X_a(w)| with X = (K - w^2 M + i w C)^-1 (1, -F1), closed form.
+constexpr double kCoupling = 5e4;
+
+std::string two_resonances_scene(bool stability) {
+  std::ostringstream s;
+  s << "name: two_resonances\nstructure:\n  provider: lumped\n  params:\n"
+    << "    masses: [1.0, 1.0]\n    springs:\n"
+    << "      - {between: [ground, 0], k: 1.0e6}\n      - {between: [ground, 1], k: 1.44e6}\n"
+    << "      - {between: [0, 1], k: " << kCoupling << "}\n"
+    << "    dampers:\n      - {between: [ground, 0], c: 20.0}\n"
+    << "      - {between: [ground, 1], c: 24.0}\n  dofs: {a: 0, b: 1}\n"
+    << "excitation:\n  - {dof: a, amplitude: 1.0}\n"
+    << "  - {dof: b, amplitude: 1.0, phase_deg: 180}\ncontacts: []\n"
+    << "harmonic_balance: {max_harmonic: 1, samples_per_period: 16}\n"
+    << "continuation:\n  frequency: {from: 130, to: 230, unit: Hz}\n"
+    << "  step: {initial: 1, min: 1.0e-6, max: 5}\n"
+    << "output: {response: [a], plots: false" << (stability ? ", stability: true" : "") << "}\n";
+  return s.str();
+}
+
+struct LinearPair {
+  Eigen::Matrix2d k, m, c;
+  LinearPair() {
+    m.setIdentity();
+    k << 1e6 + kCoupling, -kCoupling, -kCoupling, 1.44e6 + kCoupling;
+    c << 20.0, 0.0, 0.0, 24.0;
+  }
+  double amplitude(double w, double f1) const {
+    const Eigen::Matrix2cd d = (k - w * w * m).cast<std::complex<double>>() +
+                               std::complex<double>(0, w) * c.cast<std::complex<double>>();
+    const Eigen::Vector2cd x = d.lu().solve(Eigen::Vector2cd(1.0, -f1));
+    return std::abs(x(0));
+  }
+  // The peak of mode r (0 or 1) at a: golden section within 3 % of its natural frequency.
+  std::pair<double, double> peak(int r, double f1) const {
+    Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix2d> eig(k, m);
+    const double w0 = std::sqrt(eig.eigenvalues()(r));
+    double lo = 0.97 * w0, hi = 1.03 * w0;
+    const double g = (std::sqrt(5.0) - 1) / 2;
+    for (int i = 0; i < 200; ++i) {
+      const double c1 = hi - g * (hi - lo), d1 = lo + g * (hi - lo);
+      if (amplitude(c1, f1) > amplitude(d1, f1))
+        hi = d1;
+      else
+        lo = c1;
+    }
+    const double w = 0.5 * (lo + hi);
+    return {amplitude(w, f1), w / (2 * std::numbers::pi)};
+  }
+  // F1 where the two peaks are equally high (bisection).
+  double crossing(double lo, double hi) const {
+    for (int i = 0; i < 100; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      if (peak(1, mid).first > peak(0, mid).first)
+        hi = mid;
+      else
+        lo = mid;
+    }
+    return 0.5 * (lo + hi);
+  }
+};
+
+PeaksResult track_two_resonances(const frichb::test::TempDir& dir, std::optional<double> near,
+                                 bool stability) {
+  const std::filesystem::path file = dir.path() / "two_resonances.yaml";
+  std::ofstream(file) << two_resonances_scene(stability);
+  PeaksOptions options;
+  options.scene.file = file;
+  options.parameter = "excitation.1.amplitude";
+  options.from = 1.0;
+  options.to = 7.0;
+  options.near_hz = near;
+  return track_peaks(options);
+}
+
+// Traced from the highest peak (the first mode's), the second overtakes it: the crossing is
+// solved to the closed form's F1, and every traced point is the first mode's peak.
+TEST(PeakTracking, AnotherPeakOvertakingTheTracedOneIsLocated) {
+  const LinearPair pair;
+  const double crossing = pair.crossing(1.0, 7.0);
+  frichb::test::TempDir dir;
+  const PeaksResult result = track_two_resonances(dir, std::nullopt, false);
+  ASSERT_EQ(result.outcome.status, 0) << result.outcome.message;
+  EXPECT_TRUE(result.jumps.empty());
+  for (const TrackedPeak& p : result.peaks) {
+    const auto [amplitude, hz] = pair.peak(0, p.parameter);
+    EXPECT_NEAR(p.amplitude_m, amplitude, 1e-10 * amplitude) << "F1 = " << p.parameter;
+    EXPECT_NEAR(p.frequency_hz, hz, 2e-9 * hz) << "F1 = " << p.parameter;
+  }
+  ASSERT_TRUE(result.end_run.made);
+  EXPECT_NEAR(result.end_run.amplitude_m, result.peaks.back().amplitude_m,
+              1e-10 * result.peaks.back().amplitude_m);
+  ASSERT_EQ(result.exchanges.size(), 1u);
+  const PeakExchange& e = result.exchanges[0];
+  ASSERT_TRUE(e.located) << e.message;
+  EXPECT_TRUE(e.overtaken);
+  EXPECT_NEAR(e.parameter, crossing, 1e-9 * crossing);
+  const auto [amplitude, hz] = pair.peak(0, crossing);
+  EXPECT_NEAR(e.amplitude_m, amplitude, 1e-10 * amplitude);
+  EXPECT_NEAR(e.frequency_hz, hz, 2e-9 * hz);
+  EXPECT_NEAR(e.other_frequency_hz, pair.peak(1, crossing).second, 2e-9 * hz);
+}
+
+// With --near the second mode's peak is traced: it is lower at the start, so the first mode's
+// falls below it at the same F1; with output.stability every point's largest Floquet
+// multiplier is exp(max Re(s) T), s the eigenvalues of the damped linear system and T the
+// period at the peak.
+TEST(PeakTracking, TheNearPeakIsTracedWithItsStability) {
+  const LinearPair pair;
+  const double crossing = pair.crossing(1.0, 7.0);
+  frichb::test::TempDir dir;
+  const PeaksResult result = track_two_resonances(dir, 195.0, true);
+  ASSERT_EQ(result.outcome.status, 0) << result.outcome.message;
+  ASSERT_FALSE(result.peaks.empty());
+  Eigen::Matrix4d state = Eigen::Matrix4d::Zero();
+  state.topRightCorner<2, 2>().setIdentity();
+  state.bottomLeftCorner<2, 2>() = -pair.k;
+  state.bottomRightCorner<2, 2>() = -pair.c;
+  const double decay = Eigen::EigenSolver<Eigen::Matrix4d>(state).eigenvalues().real().maxCoeff();
+  for (const TrackedPeak& p : result.peaks) {
+    const auto [amplitude, hz] = pair.peak(1, p.parameter);
+    EXPECT_NEAR(p.amplitude_m, amplitude, 1e-10 * amplitude) << "F1 = " << p.parameter;
+    EXPECT_NEAR(p.frequency_hz, hz, 2e-9 * hz) << "F1 = " << p.parameter;
+    ASSERT_TRUE(p.stable.has_value());
+    EXPECT_TRUE(*p.stable);
+    const double expected = std::exp(decay / p.frequency_hz);
+    EXPECT_NEAR(p.largest_multiplier, expected, 1e-9 * expected) << "F1 = " << p.parameter;
+  }
+  ASSERT_EQ(result.exchanges.size(), 1u);
+  const PeakExchange& e = result.exchanges[0];
+  ASSERT_TRUE(e.located) << e.message;
+  EXPECT_FALSE(e.overtaken);
+  EXPECT_NEAR(e.parameter, crossing, 1e-9 * crossing);
+  EXPECT_NEAR(e.frequency_hz, pair.peak(1, crossing).second, 2e-9 * e.frequency_hz);
 }
 
 }  // namespace

@@ -242,6 +242,11 @@ int peaks_verb(const Invocation& call) {
     return usage_error(call,
                        "--vary takes PATH=FROM:TO with two different numbers, not '" + vary + "'");
   if (call.options.count("node")) request.node = call.options["node"].as<std::string>();
+  if (call.options.count("near")) {
+    request.near_hz = call.options["near"].as<double>();
+    if (!(std::isfinite(*request.near_hz) && *request.near_hz > 0))
+      return usage_error(call, "--near takes a frequency above 0 Hz");
+  }
   request.normalise = call.options.count("normalise") > 0;
   if (call.options.count("axis")) {
     const std::string axis = call.options["axis"].as<std::string>();
@@ -502,11 +507,15 @@ Verb peaks_spec() {
   v.missing_arguments = "one scene file";
   v.summary = "trace the resonance peak against a contact or excitation parameter";
   v.description =
-      "Runs the scene at the start of the range, takes the solved peak of --node, and\n"
-      "continues that peak (the harmonic balance with the peak's stationarity along the\n"
-      "response curve) to the end of the range, through folds of the peak curve. Writes\n"
-      "DIR/peaks.csv (parameter, peak frequency, peak amplitude, Newton iterations),\n"
-      "summary.json (the optimum: the lowest peak over the range; the sensitivities of the\n"
+      "Runs the scene at the start of the range, takes the solved peak of --node (the\n"
+      "highest, or the one nearest --near), and continues that peak (the harmonic balance\n"
+      "with the peak's stationarity along the response curve) to the end of the range,\n"
+      "through folds of the peak curve. Where the peak ends (it merges with a valley), it\n"
+      "goes on from the peak nearest it of a run 1 % further on. A run at the range's end\n"
+      "shows where another peak overtakes the traced one; that crossing is solved. Writes\n"
+      "DIR/peaks.csv (parameter, peak frequency, peak amplitude, Newton iterations, and with\n"
+      "the scene's output.stability whether the peak is stable), summary.json (the optimum:\n"
+      "the lowest peak over the range; the jumps and exchanges; the sensitivities of the\n"
       "peak's frequency and amplitude to the parameter at every point) and peaks.png.\n"
       "The parameter is a scene path under contacts or excitation, as study sweeps name it.";
   v.examples = {
@@ -523,6 +532,8 @@ Verb peaks_spec() {
                     "(required)")(
         "node", po::value<std::string>()->value_name("NAME"),
         "the node whose peak is traced (default: the first of output.response)")(
+        "near", po::value<double>()->value_name("HZ"),
+        "trace the start run's peak nearest this frequency (default: its highest)")(
         "axis", po::value<std::string>()->value_name("auto|linear|log"),
         "the parameter's axis (auto: log where the range is above 0 and spans a decade)")(
         "normalise",

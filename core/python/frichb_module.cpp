@@ -993,6 +993,42 @@ void bind_peaks(py::module_& m) {
           },
           "summary.json's jumps: where a branch ended and the tracking went on from a run's "
           "peak.")
+      .def_property_readonly(
+          "exchanges",
+          [](const core::PeaksResult& r) {
+            py::list exchanges;
+            for (const auto& e : r.exchanges) {
+              py::dict d;
+              d["other_peak"] = e.overtaken ? "overtakes" : "falls_below";
+              d["bracket"] = py::make_tuple(e.bracket_from, e.bracket_to);
+              d["located"] = e.located;
+              d["other_frequency_hz"] = e.other_frequency_hz;
+              if (e.located) {
+                d["parameter"] = e.parameter;
+                d["amplitude_m"] = e.amplitude_m;
+                d["frequency_hz"] = e.frequency_hz;
+              } else {
+                d["why_not_located"] = e.message;
+              }
+              exchanges.append(d);
+            }
+            return exchanges;
+          },
+          "summary.json's exchanges: where another peak of the response overtakes the traced "
+          "one (or falls below it again), solved where it could be.")
+      .def_property_readonly(
+          "stable",
+          [](const core::PeaksResult& r) -> py::object {
+            if (r.peaks.empty() || !r.peaks.front().stable) return py::none();
+            std::vector<int> values;
+            for (const auto& p : r.peaks) values.push_back(p.stable ? (*p.stable ? 1 : 0) : -1);
+            return array(values);
+          },
+          "peaks.csv's stable column (1 stable, 0 unstable, -1 not computed), with the scene's "
+          "output.stability; else None.")
+      .def_property_readonly("largest_multiplier", field(&core::TrackedPeak::largest_multiplier),
+                             "The largest Floquet multiplier's modulus at each point (NaN "
+                             "without output.stability).")
       .def_property_readonly("d_frequency_hz_d_parameter",
                              field(&core::TrackedPeak::d_frequency_hz_d_parameter),
                              "Hz per unit of the parameter; NaN where the curve turns in it.")
@@ -1028,10 +1064,11 @@ void bind_peaks(py::module_& m) {
   m.def(
       "peaks",
       [](const py::object& scene, const std::string& parameter, double start, double end,
-         const std::string& node, const std::string& axis, bool normalise, const py::dict& set,
-         bool allow_scene_plugins) {
+         const std::string& node, const py::object& near, const std::string& axis, bool normalise,
+         const py::dict& set, bool allow_scene_plugins) {
         const core::StopSource source;
         core::PeaksOptions options;
+        if (!near.is_none()) options.near_hz = near.cast<double>();
         options.scene = scene_input(scene, set, allow_scene_plugins);
         options.parameter = parameter;
         options.from = start;
@@ -1048,10 +1085,12 @@ void bind_peaks(py::module_& m) {
         return call_stoppable(source, [&] { return core::track_peaks(options); });
       },
       py::arg("scene"), py::arg("parameter"), py::arg("start"), py::arg("end"),
-      py::arg("node") = "", py::arg("axis") = "auto", py::arg("normalise") = false,
-      py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
-      "The resonance peak of `node` (default: the first of output.response) traced against\n"
-      "the scene path `parameter` from `start` to `end`, as `frichb peaks SCENE --vary\n"
+      py::arg("node") = "", py::arg("near") = py::none(), py::arg("axis") = "auto",
+      py::arg("normalise") = false, py::arg("set") = py::dict(),
+      py::arg("allow_scene_plugins") = false,
+      "The resonance peak of `node` (default: the first of output.response; the start run's\n"
+      "highest peak, or with `near` (Hz) the one nearest it) traced against the scene path\n"
+      "`parameter` from `start` to `end`, as `frichb peaks SCENE --vary\n"
       "PARAMETER=START:END` does. Returns a PeaksResult.");
 }
 

@@ -235,6 +235,58 @@ def test_peaks_give_the_programs_peak_curve(tmp_path):
         frichb.peaks(scene, "contacts.shroud.params.mu", 0.3, 0.6, normalise=True)
 
 
+TWO_RESONANCES = """name: two_resonances
+structure:
+  provider: lumped
+  params:
+    masses: [1.0, 1.0]
+    springs:
+      - {between: [ground, 0], k: 1.0e6}
+      - {between: [ground, 1], k: 1.44e6}
+      - {between: [0, 1], k: 5.0e4}
+    dampers:
+      - {between: [ground, 0], c: 20.0}
+      - {between: [ground, 1], c: 24.0}
+  dofs: {a: 0, b: 1}
+excitation:
+  - {dof: a, amplitude: 1.0}
+  - {dof: b, amplitude: 1.0, phase_deg: 180}
+contacts: []
+harmonic_balance: {max_harmonic: 1, samples_per_period: 16}
+continuation:
+  frequency: {from: 130, to: 230, unit: Hz}
+  step: {initial: 1, min: 1.0e-6, max: 5}
+output: {response: [a], plots: false, stability: true}
+"""
+
+
+def test_peaks_near_a_frequency_with_stability_and_exchanges(tmp_path):
+    scene = tmp_path / "two_resonances.yaml"
+    scene.write_text(TWO_RESONANCES)
+    path = "excitation.1.amplitude"
+    result = frichb.peaks(scene, path, 1.0, 7.0, near=195.0)
+    assert result.status == 0, result.message
+    assert abs(result.start_frequency_hz - 195.28) < 0.01
+    assert result.stable.tolist() == [1] * len(result.amplitude_m)
+    assert np.all(result.largest_multiplier < 1)
+    assert len(result.exchanges) == 1 and result.exchanges[0]["located"]
+    assert result.exchanges[0]["other_peak"] == "falls_below"
+    cli = frichb_cli("peaks", str(scene), "--vary", path + "=1:7", "--near", "195",
+                     "-o", str(tmp_path / "cli"))
+    assert cli.returncode == 0, cli.stderr
+    header, rows = read_csv(tmp_path / "cli" / "peaks.csv")
+    assert header[-2:] == ["stable", "largest_multiplier"]
+    np.testing.assert_allclose(result.largest_multiplier, rows[:, -1], rtol=5e-12, atol=0)
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert summary["start"]["near_hz"] == 195.0
+    (cli_exchange,) = summary["exchanges"]
+    assert cli_exchange["parameter"] == pytest.approx(result.exchanges[0]["parameter"], rel=1e-12)
+    assert tuple(cli_exchange["bracket"]) == result.exchanges[0]["bracket"]
+    result.write(tmp_path / "py")
+    assert ((tmp_path / "py" / "peaks.csv").read_bytes()
+            == (tmp_path / "cli" / "peaks.csv").read_bytes())
+
+
 def test_loop_gives_the_programs_energy_and_files(tmp_path):
     loop_input = SOURCE / "configs" / "friction_loops" / "fig3_4_2d_variable_normal_load.yaml"
     result = frichb.loop(loop_input)

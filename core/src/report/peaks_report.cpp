@@ -72,6 +72,10 @@ void write_peaks(const PeaksResult& result, StagedOutput& out) {
       "branch"};
   const bool normalised = result.mu_over_force > 0;
   if (normalised) header.insert(header.end(), {"mu_n0_over_f", "peak_amplitude_over_f_m_per_n"});
+  // With the scene's output.stability: 1 stable, 0 unstable (NaN where not computed).
+  const bool stability = std::any_of(result.peaks.begin(), result.peaks.end(),
+                                     [](const TrackedPeak& p) { return p.stable.has_value(); });
+  if (stability) header.insert(header.end(), {"stable", "largest_multiplier"});
   std::vector<std::vector<double>> rows;
   nlohmann::json points = nlohmann::json::array();
   for (std::size_t i = 0; i < result.peaks.size(); ++i) {
@@ -81,6 +85,9 @@ void write_peaks(const PeaksResult& result, StagedOutput& out) {
     if (normalised)
       rows.back().insert(rows.back().end(),
                          {p.parameter * result.mu_over_force, p.amplitude_m * result.per_force});
+    if (stability)
+      rows.back().insert(rows.back().end(),
+                         {p.stable ? (*p.stable ? 1.0 : 0.0) : std::nan(""), p.largest_multiplier});
     points.push_back({{"parameter", p.parameter},
                       {"frequency_hz", p.frequency_hz},
                       {"amplitude_m", p.amplitude_m},
@@ -88,6 +95,10 @@ void write_peaks(const PeaksResult& result, StagedOutput& out) {
                       {"branch", p.branch},
                       {"d_frequency_hz_d_parameter", number_or_null(p.d_frequency_hz_d_parameter)},
                       {"d_amplitude_m_d_parameter", number_or_null(p.d_amplitude_m_d_parameter)}});
+    if (p.stable) {
+      points.back()["stable"] = *p.stable;
+      points.back()["largest_multiplier"] = number_or_null(p.largest_multiplier);
+    }
   }
   write_csv(out.path("peaks.csv"), header, rows);
   nlohmann::json optimum = nullptr;
@@ -114,6 +125,26 @@ void write_peaks(const PeaksResult& result, StagedOutput& out) {
                      {"to_frequency_hz", j.to_frequency_hz},
                      {"to_amplitude_m", j.to_amplitude_m},
                      {"reason", j.reason}});
+  nlohmann::json exchanges = nlohmann::json::array();
+  for (const PeakExchange& e : result.exchanges) {
+    exchanges.push_back({{"other_peak", e.overtaken ? "overtakes" : "falls_below"},
+                         {"bracket", {e.bracket_from, e.bracket_to}},
+                         {"located", e.located},
+                         {"other_frequency_hz", e.other_frequency_hz}});
+    if (e.located) {
+      exchanges.back()["parameter"] = e.parameter;
+      exchanges.back()["amplitude_m"] = e.amplitude_m;
+      exchanges.back()["frequency_hz"] = e.frequency_hz;
+    } else {
+      exchanges.back()["why_not_located"] = e.message;
+    }
+  }
+  nlohmann::json end_run = nullptr;
+  if (result.end_run.made && !result.peaks.empty())
+    end_run = {{"frequency_hz", result.end_run.frequency_hz},
+               {"amplitude_m", result.end_run.amplitude_m},
+               {"traced_frequency_hz", result.peaks.back().frequency_hz},
+               {"traced_amplitude_m", result.peaks.back().amplitude_m}};
   const nlohmann::json doc = {
       {"frichb_version", version()},
       {"scene", result.scene_file.string()},
@@ -127,7 +158,10 @@ void write_peaks(const PeaksResult& result, StagedOutput& out) {
       {"start",
        {{"frequency_hz", result.start_frequency_hz},
         {"amplitude_m", result.start_amplitude_m},
-        {"refined", result.start_refined}}},
+        {"refined", result.start_refined},
+        {"near_hz", result.near_hz ? nlohmann::json(*result.near_hz) : nlohmann::json(nullptr)}}},
+      {"end_run", end_run},
+      {"exchanges", exchanges},
       {"optimum", optimum},
       {"status", result.outcome.status},
       {"termination", result.outcome.termination},

@@ -29,6 +29,10 @@ struct PeaksOptions {
   double to = 0.0;
   // The node whose peak is traced: one of output.response (empty: the first).
   std::string node;
+  // Which of the start run's peaks is traced: the local maximum of the node's amplitude along
+  // the run's curve nearest this frequency (Hz), solved at `from`; nullopt: the run's peak (the
+  // highest in its frequency window).
+  std::optional<double> near_hz;
   // A logarithmic parameter axis (lambda = ln p): nullopt decides (from and to > 0, spanning
   // at least a decade).
   std::optional<bool> logarithmic;
@@ -52,6 +56,11 @@ struct TrackedPeak {
   // of the peak curve: dp/ds = 0).
   double d_frequency_hz_d_parameter = 0.0;
   double d_amplitude_m_d_parameter = 0.0;
+  // With the scene's output.stability: whether the periodic response at the peak is stable and
+  // its largest Floquet multiplier's modulus (model/stability.hpp; nullopt and NaN without it,
+  // or where the multipliers could not be computed).
+  std::optional<bool> stable;
+  double largest_multiplier = 0.0;
   // The point on the peak curve: the harmonic-balance unknowns, w (rad/s), lambda (p, or ln p
   // on a logarithmic axis).
   Eigen::VectorXd y;
@@ -68,6 +77,28 @@ struct PeakJump {
   double to_frequency_hz = 0.0, to_amplitude_m = 0.0;
   std::string reason;
 };
+// Where another resonance peak of the node's response and the traced one exchange being the
+// highest (the traced peak is overtaken, or becomes the highest again). Seen at the runs the
+// tracking makes (the start, each jump's, and one at the range's end), each holding all the
+// response's peaks at its parameter value: between two of them whose highest peak differs, the
+// other peak is continued in the parameter over that interval and the parameter where the two
+// amplitudes are equal is solved (secant steps, each the two peaks solved at that value). The
+// tracking stays on its own peak. An exchange made and undone between two runs is not seen.
+struct PeakExchange {
+  bool overtaken = true;  // the other peak becomes the highest (false: falls below again)
+  // The interval between the runs that bracket it.
+  double bracket_from = 0.0, bracket_to = 0.0;
+  bool located = false;      // the crossing solved (false: only bracketed; `message` says why)
+  double parameter = 0.0;    // the crossing (the bracket's end when not located)
+  double amplitude_m = 0.0;  // both peaks' amplitude there
+  double frequency_hz = 0.0, other_frequency_hz = 0.0;  // the traced peak's and the other's
+  std::string message;
+};
+// The largest relative difference of amplitude at which a secant step of an exchange's
+// location stops (the peaks' own accuracy is about 1e-11 of the amplitude), and the most steps.
+inline constexpr double kExchangeTolerance = 1e-9;
+inline constexpr int kMaxExchangeSteps = 30;
+
 // The step of a jump, in lambda (ln p, or p over the range's width), and the most jumps.
 inline constexpr double kPeakJumpStep = 0.01;
 inline constexpr int kMaxPeakJumps = 20;
@@ -96,9 +127,17 @@ struct PeaksResult {
   double mu_over_force = 0.0, per_force = 0.0;
   // The start: the peak of an ordinary run at p = from.
   double start_frequency_hz = 0.0, start_amplitude_m = 0.0;
-  bool start_refined = false;      // solved along the curve (false: its highest traced point)
-  std::vector<TrackedPeak> peaks;  // along the peak curve, from `from`
-  std::vector<PeakJump> jumps;     // between its branches, in order
+  bool start_refined = false;           // solved along the curve (false: its highest traced point)
+  std::vector<TrackedPeak> peaks;       // along the peak curve, from `from`
+  std::vector<PeakJump> jumps;          // between its branches, in order
+  std::vector<PeakExchange> exchanges;  // with other peaks of the response, in order
+  std::optional<double> near_hz;        // PeaksOptions::near_hz
+  // The run at the range's end (made when the peak curve reached it, for the exchanges): the
+  // peak of that run nearest the traced one's frequency, against the last traced point.
+  struct EndCheck {
+    bool made = false;
+    double frequency_hz = 0.0, amplitude_m = 0.0;
+  } end_run;
   // The lowest peak amplitude over the traced points (none when nothing was traced), and
   // whether it lies at an end of the traced range (then the optimum may lie beyond it).
   std::optional<std::size_t> optimum;
@@ -147,13 +186,17 @@ class SceneParameterModels final : public ParameterModels {
   mutable long clock_ = 0;
 };
 
-// Runs the scene at p = from (its peak at `node`), then continues that peak to p = to. Where
-// the traced maximum turns into a minimum or the continuation cannot go on, it runs the scene
-// kPeakJumpStep further on and continues from that run's peak (a PeakJump). Logs progress. Throws
-// SceneError for a scene, path or node it cannot use (the run's errors, a path outside contacts and
-// excitation, a node not in output.response), std::invalid_argument for a range that is empty or
-// not positive on a logarithmic axis. A start run that finds no peak, or a tracking that ends
-// early, is an outcome (kExitIncomplete, with what was traced).
+// Runs the scene at p = from and takes its peak at `node` (or the one nearest near_hz), then
+// continues that peak to p = to. Where the traced maximum turns into a minimum or the
+// continuation cannot go on, it runs the scene kPeakJumpStep further on and continues from that
+// run's peak nearest the branch's last frequency (a PeakJump). Once the range's end is reached it
+// runs the scene there too, and reports where another peak of the response and the traced one
+// exchange being the highest (PeakExchange). With the scene's output.stability, each point's
+// Floquet multipliers. Logs progress. Throws SceneError for a scene, path or node it cannot use
+// (the run's errors, a path outside contacts and excitation, a node not in output.response),
+// std::invalid_argument for a range that is empty or not positive on a logarithmic axis or a
+// near_hz that is not a positive frequency. A start run that finds no peak (near near_hz), or a
+// tracking that ends early, is an outcome (kExitIncomplete, with what was traced).
 PeaksResult track_peaks(const PeaksOptions& options);
 
 }  // namespace frichb::core
