@@ -247,6 +247,10 @@ int peaks_verb(const Invocation& call) {
     if (!(std::isfinite(*request.near_hz) && *request.near_hz > 0))
       return usage_error(call, "--near takes a frequency above 0 Hz");
   }
+  if (call.options.count("check-runs")) {
+    request.check_runs = call.options["check-runs"].as<int>();
+    if (request.check_runs < 0) return usage_error(call, "--check-runs takes 0 or more");
+  }
   request.normalise = call.options.count("normalise") > 0;
   if (call.options.count("axis")) {
     const std::string axis = call.options["axis"].as<std::string>();
@@ -511,8 +515,9 @@ Verb peaks_spec() {
       "highest, or the one nearest --near), and continues that peak (the harmonic balance\n"
       "with the peak's stationarity along the response curve) to the end of the range,\n"
       "through folds of the peak curve. Where the peak ends (it merges with a valley), it\n"
-      "goes on from the peak nearest it of a run 1 % further on. A run at the range's end\n"
-      "shows where another peak overtakes the traced one; that crossing is solved. Writes\n"
+      "goes on from the peak nearest it of a run 1 % further on. Runs at the range's end and\n"
+      "at --check-runs points between show where another peak overtakes the traced one;\n"
+      "that crossing is solved. Writes\n"
       "DIR/peaks.csv (parameter, peak frequency, peak amplitude, Newton iterations, and with\n"
       "the scene's output.stability whether the peak is stable), summary.json (the optimum:\n"
       "the lowest peak over the range; the jumps and exchanges; the sensitivities of the\n"
@@ -534,6 +539,9 @@ Verb peaks_spec() {
         "the node whose peak is traced (default: the first of output.response)")(
         "near", po::value<double>()->value_name("HZ"),
         "trace the start run's peak nearest this frequency (default: its highest)")(
+        "check-runs", po::value<int>()->value_name("N"),
+        "ordinary runs at N traced points between the range's ends, where another peak may "
+        "overtake the traced one (default 8; 0: none, only the start's, jumps' and end's)")(
         "axis", po::value<std::string>()->value_name("auto|linear|log"),
         "the parameter's axis (auto: log where the range is above 0 and spans a decade)")(
         "normalise",

@@ -1064,11 +1064,13 @@ void bind_peaks(py::module_& m) {
   m.def(
       "peaks",
       [](const py::object& scene, const std::string& parameter, double start, double end,
-         const std::string& node, const py::object& near, const std::string& axis, bool normalise,
-         const py::dict& set, bool allow_scene_plugins) {
+         const std::string& node, const py::object& near, int check_runs, const std::string& axis,
+         bool normalise, const py::dict& set, bool allow_scene_plugins) {
         const core::StopSource source;
         core::PeaksOptions options;
         if (!near.is_none()) options.near_hz = near.cast<double>();
+        if (check_runs < 0) throw py::value_error("check_runs: 0 or more");
+        options.check_runs = check_runs;
         options.scene = scene_input(scene, set, allow_scene_plugins);
         options.parameter = parameter;
         options.from = start;
@@ -1085,7 +1087,8 @@ void bind_peaks(py::module_& m) {
         return call_stoppable(source, [&] { return core::track_peaks(options); });
       },
       py::arg("scene"), py::arg("parameter"), py::arg("start"), py::arg("end"),
-      py::arg("node") = "", py::arg("near") = py::none(), py::arg("axis") = "auto",
+      py::arg("node") = "", py::arg("near") = py::none(),
+      py::arg("check_runs") = core::kDefaultCheckRuns, py::arg("axis") = "auto",
       py::arg("normalise") = false, py::arg("set") = py::dict(),
       py::arg("allow_scene_plugins") = false,
       "The resonance peak of `node` (default: the first of output.response; the start run's\n"

@@ -562,8 +562,10 @@ PeakExchange locate_exchange(const PeakCondition& problem, const ContinuationOpt
   // The amplitudes' difference at the traced points between the runs, and its sign change.
   std::optional<std::size_t> previous;
   double previous_difference = 0.0;
-  for (std::size_t j = a.first_peak; j < b.first_peak && j < result.peaks.size(); ++j) {
+  const int on_branch = result.peaks[a.first_peak].branch;
+  for (std::size_t j = a.first_peak; j <= b.first_peak && j < result.peaks.size(); ++j) {
     const TrackedPeak& traced = result.peaks[j];
+    if (traced.branch != on_branch) break;
     const auto at = polyline_at(other_points, traced.y(n + 1));
     if (!at) continue;
     const double difference = problem.amplitude(*at) - traced.amplitude_m;
@@ -762,7 +764,38 @@ void check_range_end(Tracking& t, PeaksResult& result) {
     result.end_run.frequency_hz = peak.omega_rad_s / (2 * std::numbers::pi);
     result.end_run.amplitude_m = peak.amplitude_m;
   }
-  t.checks.push_back(check_run(run, t.k, lambda, last.frequency_hz, result.peaks.size()));
+  t.checks.push_back(check_run(run, t.k, lambda, last.frequency_hz, result.peaks.size() - 1));
+}
+
+// Runs at PeaksOptions::check_runs traced points between the range's ends (those nearest equal
+// steps of lambda, the points of the runs already made excepted), for the exchanges between
+// them; the checks then in the order of the peak curve.
+void check_between(Tracking& t, PeaksResult& result) {
+  const auto& peaks = result.peaks;
+  const int runs = t.options.check_runs;
+  if (runs <= 0 || peaks.size() < 3) return;
+  const double first = peaks.front().y(t.n + 1), last = peaks.back().y(t.n + 1);
+  std::vector<bool> checked(peaks.size(), false);
+  for (const RunCheck& c : t.checks) checked[std::min(c.first_peak, peaks.size() - 1)] = true;
+  for (int r = 1; r <= runs; ++r) {
+    const double target = first + (last - first) * r / (runs + 1);
+    std::size_t nearest = 0;
+    for (std::size_t j = 1; j < peaks.size(); ++j)
+      if (std::abs(peaks[j].y(t.n + 1) - target) < std::abs(peaks[nearest].y(t.n + 1) - target))
+        nearest = j;
+    if (checked[nearest]) continue;
+    checked[nearest] = true;
+    const TrackedPeak& p = peaks[nearest];
+    spdlog::info("a run at {} = {} for the peaks there", t.options.parameter,
+                 format_number(p.parameter));
+    const RunResult run =
+        run_with_parameter(t.scene, t.registry, t.options.parameter, p.parameter, t.run_options);
+    if (t.options.stop.stop_requested()) return;
+    t.checks.push_back(check_run(run, t.k, p.y(t.n + 1), p.frequency_hz, nearest));
+  }
+  std::stable_sort(t.checks.begin(), t.checks.end(), [](const RunCheck& a, const RunCheck& b) {
+    return a.first_peak < b.first_peak;
+  });
 }
 
 // The exchanges between the runs made: where the highest of the others changes side.
@@ -900,6 +933,7 @@ PeaksResult track_peaks(const PeaksOptions& options) {
   std::string ended;
   if (!trace_branches(t, result, y0, ended)) return result;
   if (ended.empty()) check_range_end(t, result);
+  check_between(t, result);
   find_exchanges(t, result);
   find_optimum(result, problem, t.copt, options.stop, scene.file.string());
   if (interrupted(result, options.stop)) return result;

@@ -216,6 +216,10 @@ void locate_changes(const Scene& scene, const HarmonicBalanceModel& model,
   }
 }
 
+// A contact component's force energy below this fraction of its largest component's is
+// rounding (the check_truncation below skips it).
+constexpr double kNegligibleForceEnergy = 1e-12;
+
 // The harmonic truncation at the curve's highest point (of the first response node, column 3
 // of `rows`); warns above kHighestHarmonicShare.
 std::optional<HarmonicTruncation> check_truncation(const Scene& scene,
@@ -237,10 +241,16 @@ std::optional<HarmonicTruncation> check_truncation(const Scene& scene,
     if (highest > (static_cast<int>(trace.force.rows()) - 1) / 2) continue;
     const auto& comps = model.contacts()[c].tracer->components();
     const ForceHarmonics table = force_harmonics(trace.force, comps, highest);
-    for (std::size_t a = 0; a < comps.size(); ++a) {
-      double total = 0.0;
+    std::vector<double> totals(comps.size(), 0.0);
+    for (std::size_t a = 0; a < comps.size(); ++a)
       for (int h : kept)
-        if (h > 0) total += std::pow(table.amplitude[a][static_cast<std::size_t>(h)], 2);
+        if (h > 0) totals[a] += std::pow(table.amplitude[a][static_cast<std::size_t>(h)], 2);
+    const double largest = *std::max_element(totals.begin(), totals.end());
+    for (std::size_t a = 0; a < comps.size(); ++a) {
+      // A component that carries no force (rounding beside the others': a direction the
+      // motion never takes) has no spectrum to cut.
+      const double total = totals[a];
+      if (total <= kNegligibleForceEnergy * largest) continue;
       const double top_share =
           total > 0 ? std::pow(table.amplitude[a][static_cast<std::size_t>(highest)], 2) / total
                     : 0.0;

@@ -18,6 +18,8 @@
 
 namespace frichb::core {
 
+inline constexpr int kDefaultCheckRuns = 8;
+
 struct PeaksOptions {
   SceneInput scene;
   // The design parameter: a scene-key path (scene.hpp's paths, as study sweeps take them)
@@ -37,6 +39,10 @@ struct PeaksOptions {
   // at least a decade).
   std::optional<bool> logarithmic;
   int max_points = 500;
+  // Runs of the whole response at this many traced points between the range's ends (besides
+  // the start's, the jumps' and the end's), for where another peak overtakes the traced one
+  // (PeakExchange); 0: none. Each costs one ordinary run.
+  int check_runs = kDefaultCheckRuns;
   // The thesis's normalised design chart: the peak against mu N0 / f, the amplitude over f. For
   // a contact's normal_load whose law has a `mu`, with one excitation (f: its amplitude).
   bool normalise = false;
@@ -79,11 +85,12 @@ struct PeakJump {
 };
 // Where another resonance peak of the node's response and the traced one exchange being the
 // highest (the traced peak is overtaken, or becomes the highest again). Seen at the runs the
-// tracking makes (the start, each jump's, and one at the range's end), each holding all the
-// response's peaks at its parameter value: between two of them whose highest peak differs, the
-// other peak is continued in the parameter over that interval and the parameter where the two
-// amplitudes are equal is solved (secant steps, each the two peaks solved at that value). The
-// tracking stays on its own peak. An exchange made and undone between two runs is not seen.
+// tracking makes (the start, each jump's, one at the range's end and PeaksOptions::check_runs
+// between), each holding all the response's peaks at its parameter value: between two of them whose
+// highest peak differs, the other peak is continued in the parameter over that interval and the
+// parameter where the two amplitudes are equal is solved (secant steps, each the two peaks solved
+// at that value). The tracking stays on its own peak. An exchange made and undone between two runs
+// is not seen.
 struct PeakExchange {
   bool overtaken = true;  // the other peak becomes the highest (false: falls below again)
   // The interval between the runs that bracket it.
