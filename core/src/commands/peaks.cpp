@@ -351,7 +351,8 @@ struct Branch {
   std::string end_reason() const {
     if (became_minimum) return "the traced maximum merged with a valley of the response curve";
     if (stalled)
-      return "the peak curve's steps collapsed (a response with corners: a sample-by-sample law)";
+      return "the peak curve's steps collapsed (a response with corners, as a sample-by-sample "
+             "law gives, or a kink of the peak curve where a contact starts to stick)";
     return "the peak curve could not be continued (" + summary.message + ")";
   }
 };
@@ -539,6 +540,10 @@ PeakExchange locate_exchange(const PeakCondition& problem, const ContinuationOpt
   exchange.bracket_from = problem.parameter(a.lambda);
   exchange.bracket_to = problem.parameter(b.lambda);
   exchange.parameter = exchange.bracket_to;
+  if (a.first_peak >= result.peaks.size()) {
+    exchange.message = "no traced point at the bracket's start (its branch did not start)";
+    return exchange;
+  }
   const RunCheck& side = b.other_highest ? b : a;
   exchange.other_frequency_hz = side.other_hz;
   const RunPeak other = solve_peak_at(problem, options, side.other_z, side.lambda);
