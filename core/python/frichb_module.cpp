@@ -930,8 +930,8 @@ void bind_modes(py::module_& m) {
       "engine-order excitation lines. Returns a ModesResult.");
 }
 
-// frichb.peaks and PeaksResult.
-void bind_peaks(py::module_& m) {
+// PeaksResult.
+void bind_peaks_result(py::module_& m) {
   py::class_<core::PeaksResult> peaks_result(
       m, "PeaksResult",
       "The resonance peak of one node traced against a contact or excitation parameter "
@@ -1060,7 +1060,11 @@ void bind_peaks(py::module_& m) {
             write_folder(r, folder, core::peaks_outputs(), core::write_peaks);
           },
           py::arg("folder"), "Writes what `frichb peaks -o folder` writes.");
+}
 
+// frichb.peaks.
+void bind_peaks(py::module_& m) {
+  bind_peaks_result(m);
   m.def(
       "peaks",
       [](const py::object& scene, const std::string& parameter, double start, double end,
