@@ -283,9 +283,11 @@ void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::Vector
   };
   // Traces with the Jacobian are worth threads (0.1 to 1 ms per contact); the forces alone
   // (tens of microseconds per contact, less than starting a thread) only for many contacts.
+  // At least one range, empty for a scene without contacts.
   const std::size_t threads =
       with_jacobian || count >= kThreadedForceTraces
-          ? std::min<std::size_t>(static_cast<std::size_t>(std::max(1, contact_threads_)), count)
+          ? std::clamp<std::size_t>(count, 1,
+                                    static_cast<std::size_t>(std::max(1, contact_threads_)))
           : 1;
   run_on_threads(
       threads, [&](std::size_t t) { trace_range(t * count / threads, (t + 1) * count / threads); });
