@@ -267,6 +267,13 @@ TEST(FeSector, MassNormalisedModesAndReceptanceInvertTheHarmonicDynamicStiffness
       const Eigen::VectorXcd force = Eigen::VectorXcd::LinSpaced(nk, 1.0, -2.0) * (1.0 + 0.5 * h);
       const Eigen::VectorXcd x = rs.respond(h, omega, force);
       EXPECT_LT((d * x - force).norm(), 1e-8 * force.norm()) << "h = " << h << ", W = " << omega;
+      // Its derivative in W against central differences of the response.
+      Eigen::VectorXcd dx;
+      rs.respond(h, omega, force, &dx);
+      const double step = 1e-6 * omega;
+      const Eigen::VectorXcd difference =
+          (rs.respond(h, omega + step, force) - rs.respond(h, omega - step, force)) / (2 * step);
+      EXPECT_LT((dx - difference).norm(), 1e-6 * dx.norm()) << "h = " << h << ", W = " << omega;
     }
   }
   std::printf("[ measured ] all modes kept: |R_h D_h - I| worst %.2e\n", worst);

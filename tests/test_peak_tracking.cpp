@@ -119,6 +119,64 @@ SceneInput damper(double normal_load = 3.0) {
   return input;
 }
 
+// The measure's analytic gradient in (x, w) (the node's harmonics at the instant of the maximum
+// times their derivatives through the contacts' force blocks and the receptances) against
+// central differences of the measure, one unknown at a time, at a point off any solution: half
+// the contact-free response at `hz`, where the contacts stick over part of the period and slip
+// over the rest. `value`: the scene's value of `parameter`. Returns the largest error relative
+// to the gradient's largest scaled entry.
+double gradient_error_against_central_differences(const SceneInput& input,
+                                                  const std::string& parameter, double value,
+                                                  double hz) {
+  BoundScene bound = load_bound_scene(input);
+  const Scene& scene = bound.scene;
+  const PreparedRun prepared = prepare_run(scene, 1);
+  const HarmonicBalanceModel& model = *prepared.model;
+  const Eigen::Index n = model.equation_count();
+  SceneParameterModels models(scene, *bound.registry, parameter, 1);
+  std::vector<Eigen::Index> kept;
+  for (std::size_t d : scene.structure.find(scene.output.response.at(0))->dofs)
+    kept.push_back(model.kept_index(d));
+  const Eigen::VectorXd z_scale = prepared.setup.options.unknown_scale;
+  const PeakCondition problem(models, kept, model.layout().harmonics(),
+                              std::max(256, 8 * model.layout().samples()), z_scale, false, value);
+  const double w = 2 * std::numbers::pi * hz;
+  Eigen::VectorXd y(n + 2);
+  y << 0.5 * model.linear_response(w), w, value;
+  Eigen::VectorXd gradient;
+  std::string why;
+  EXPECT_TRUE(problem.amplitude_gradient(y, gradient, &why)) << why;
+  if (gradient.size() != n + 1) return 1.0;
+  const Eigen::VectorXd scaled = gradient.cwiseProduct(z_scale);
+  double worst = 0.0;
+  for (Eigen::Index j = 0; j <= n; ++j) {
+    Eigen::VectorXd unit = Eigen::VectorXd::Zero(n + 2);
+    unit(j) = 1.0;
+    const double difference = problem.directional_amplitude(y, unit);
+    worst = std::max(worst, std::abs(difference - gradient(j)) * z_scale(j));
+  }
+  return worst / scaled.cwiseAbs().maxCoeff();
+}
+
+TEST(PeakTracking, TheMeasuresAnalyticGradientMatchesCentralDifferences) {
+  // The planar tip: the coupled law on two DOFs of one node.
+  EXPECT_LE(gradient_error_against_central_differences(
+                planar_tip(), "contacts.shroud.params.normal_load", 5.0, 350.0),
+            1e-7);
+  // The damper study's blade: the response node is not a contact's.
+  EXPECT_LE(gradient_error_against_central_differences(
+                damper(), "contacts.platform_friction.params.normal_load", 3.0, 280.0),
+            1e-7);
+  // The lumped bladed disk: complex gathers across the cyclic boundary, a harmonic index per
+  // harmonic.
+  SceneInput disk;
+  disk.file = std::filesystem::path(FRICHB_SOURCE_DIR) / "configs/bladed_disk_lumped_eo3.yaml";
+  disk.overrides = {{"harmonic_balance.samples_per_period", "64"}, {"output.plots", "false"}};
+  EXPECT_LE(gradient_error_against_central_differences(disk, "contacts.shroud.params.normal_load",
+                                                       5.0, 300.0),
+            1e-7);
+}
+
 // The traced peaks of `scene(p)` from `from` to `to` equal the peaks of full response curves
 // run at the same values of p (both solve the harmonic balance and the same measure's
 // stationarity; the run's along its curve), at the range's ends, around the optimum and between
@@ -417,6 +475,20 @@ PeaksResult track_two_resonances(const frichb::test::TempDir& dir, std::optional
   options.to = 7.0;
   options.near_hz = near;
   return track_peaks(options);
+}
+
+// Non-proportional dampers give a non-diagonal modal damping: the measure's derivative in the
+// frequency goes through the formed modal impedance (ReducedStructure::respond's derivative).
+TEST(PeakTracking, TheMeasuresFrequencyDerivativeHoldsWithNonDiagonalDamping) {
+  frichb::test::TempDir dir;
+  const std::filesystem::path file = dir.path() / "two_resonances.yaml";
+  std::ofstream(file) << two_resonances_scene(false);
+  SceneInput input;
+  input.file = file;
+  for (const double hz : {150.0, 162.6, 190.0})
+    EXPECT_LE(gradient_error_against_central_differences(input, "excitation.1.amplitude", 1.0, hz),
+              1e-7)
+        << hz << " Hz";
 }
 
 // Traced from the highest peak (the first mode's), the second overtakes it: the crossing is

@@ -267,6 +267,7 @@ void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::Vector
   const std::size_t count = contacts_.size();
   forces.setZero(unknown_count_);
   ok = true;
+  work_.jacobian_at.resize(0);  // traces_ are overwritten from here on
   // Each contact is traced into its own traces_[i], with its own tracer and law instance;
   // failures and statistics are gathered afterwards, in contact order, on this thread.
   std::vector<char> traced(count, 0);
@@ -310,6 +311,7 @@ void HarmonicBalanceModel::gather_forces(const Eigen::VectorXd& y, Eigen::Vector
     forces.segment(static_cast<Eigen::Index>(contact.offset) * c, contact.tracer->unknown_count()) =
         t.force_coefficients;
   }
+  if (with_jacobian) work_.jacobian_at = y;
 }
 
 Eigen::VectorXd HarmonicBalanceModel::linear_response(double w) const {
@@ -624,6 +626,59 @@ std::vector<Eigen::VectorXcd> HarmonicBalanceModel::kept_response(
     }
     out.push_back(structure_->respond(harmonic_index_[k], h[k] * w,
                                       excitation_[k] - gather_[k].adjoint() * f_local));
+  }
+  return out;
+}
+
+std::vector<Eigen::MatrixXcd> HarmonicBalanceModel::kept_response_jacobian(
+    const Eigen::VectorXd& y, const std::vector<Eigen::Index>& dofs) const {
+  const Workspace& ws = work_;
+  if (ws.jacobian_at.size() != y.size() || (ws.jacobian_at.array() != y.array()).any() ||
+      ws.forces_at.size() != y.size() || (ws.forces_at.array() != y.array()).any())
+    throw std::logic_error(
+        "kept_response_jacobian: the last evaluation with the Jacobian was not at this point");
+  const int c = layout_.coefficient_count();
+  const Eigen::Index n = unknown_count_;
+  const double w = y(n);
+  const auto& h = layout_.harmonics();
+  const auto rows = static_cast<Eigen::Index>(dofs.size());
+  const std::complex<double> imaginary_unit(0.0, 1.0);
+  std::vector<Eigen::MatrixXcd> out;
+  Eigen::MatrixXcd by_forces(rows, n);  // dX/dF
+  Eigen::VectorXcd unit = Eigen::VectorXcd::Zero(components_);
+  Eigen::VectorXcd f_local(components_);
+  Eigen::VectorXcd derivative;
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    const int hn = h[k];
+    const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
+    const double big_w = hn * w;
+    const SparseGather& g = gather_[k];
+    // X_k = R (f - G^H F_k) with F_k(a) = F_c - i F_s: dX/dF_c = -R G^H e_a, dX/dF_s = i R G^H e_a.
+    by_forces.setZero();
+    for (int a = 0; a < components_; ++a) {
+      unit(a) = 1.0;
+      const Eigen::VectorXcd x = structure_->respond(harmonic_index_[k], big_w, g.adjoint() * unit);
+      unit(a) = 0.0;
+      for (Eigen::Index r = 0; r < rows; ++r) {
+        by_forces(r, a * c + ci) = -x(dofs[static_cast<std::size_t>(r)]);
+        if (hn > 0)
+          by_forces(r, a * c + si) = imaginary_unit * x(dofs[static_cast<std::size_t>(r)]);
+      }
+      f_local(a) =
+          std::complex<double>(ws.forces(a * c + ci), hn > 0 ? -ws.forces(a * c + si) : 0.0);
+    }
+    Eigen::MatrixXcd d = Eigen::MatrixXcd::Zero(rows, n + 1);
+    for (std::size_t i = 0; i < contacts_.size(); ++i) {
+      const Eigen::Index first = static_cast<Eigen::Index>(contacts_[i].offset) * c;
+      const Eigen::Index size = contacts_[i].tracer->unknown_count();
+      d.middleCols(first, size).noalias() =
+          by_forces.middleCols(first, size) * traces_[i].jacobian.cast<std::complex<double>>();
+    }
+    structure_->respond(harmonic_index_[k], big_w, excitation_[k] - g.adjoint() * f_local,
+                        &derivative);
+    for (Eigen::Index r = 0; r < rows; ++r)
+      d(r, n) = static_cast<double>(hn) * derivative(dofs[static_cast<std::size_t>(r)]);
+    out.push_back(std::move(d));
   }
   return out;
 }

@@ -50,12 +50,21 @@ double PeakCondition::measure(const HarmonicBalanceModel& model, const Eigen::Ve
 
 double PeakCondition::slope(const HarmonicBalanceModel& model, const Eigen::VectorXd& z,
                             const Eigen::VectorXd& t) const {
-  const double h = kMeasureStep / t.cwiseQuotient(z_scale_).norm();
-  return (measure(model, z + h * t) - measure(model, z - h * t)) / (2 * h);
+  return gradient(model, z).dot(t);
 }
 
 Eigen::VectorXd PeakCondition::gradient(const HarmonicBalanceModel& model,
                                         const Eigen::VectorXd& z) const {
+  sampler_->peak_amplitude(model.kept_response(z, model.point_record(z)), kept_);
+  const std::vector<Eigen::VectorXcd> q = sampler_->peak_gradient();
+  const std::vector<Eigen::MatrixXcd> d = model.kept_response_jacobian(z, kept_);
+  Eigen::VectorXd a = Eigen::VectorXd::Zero(n_ + 1);
+  for (std::size_t k = 0; k < d.size(); ++k) a += (q[k].adjoint() * d[k]).real().transpose();
+  return a.allFinite() ? a : difference_gradient(model, z);
+}
+
+Eigen::VectorXd PeakCondition::difference_gradient(const HarmonicBalanceModel& model,
+                                                   const Eigen::VectorXd& z) const {
   Eigen::VectorXd a(n_ + 1);
   Eigen::VectorXd probe = z;
   for (Eigen::Index j = 0; j <= n_; ++j) {
@@ -141,6 +150,20 @@ double PeakCondition::amplitude(const Eigen::VectorXd& y) const {
   return measure(models_.at(parameter(y(n_ + 1))), y.head(n_ + 1));
 }
 
+bool PeakCondition::amplitude_gradient(const Eigen::VectorXd& y, Eigen::VectorXd& out,
+                                       std::string* message) const {
+  try {
+    const HarmonicBalanceModel& model = models_.at(parameter(y(n_ + 1)));
+    Local here;
+    if (!local(model, y.head(n_ + 1), here, message)) return false;
+    out = gradient(model, y.head(n_ + 1));
+    return true;
+  } catch (const std::exception& e) {
+    if (message != nullptr) *message = e.what();
+    return false;
+  }
+}
+
 double PeakCondition::directional_amplitude(const Eigen::VectorXd& y,
                                             const Eigen::VectorXd& dy) const {
   Eigen::VectorXd scale(n_ + 2);
@@ -170,18 +193,18 @@ bool PeakCondition::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual
       const Eigen::VectorXd a = gradient(model, z);
       residual(n_) = a.dot(here.tangent);
       // R_z's derivative along t: its columns are d2R/dz_j dt (the second derivatives are
-      // symmetric), a central difference of the quasi-analytical Jacobian along t.
+      // symmetric), and t^T d2A/dz2, grad A's derivative along t: central differences of the
+      // quasi-analytical Jacobian and of the analytic gradient along t.
       const Eigen::VectorXd& t = here.tangent;
       const double s = kCurvatureStep / t.cwiseQuotient(z_scale_).norm();
       Eigen::VectorXd r(n_);
       Eigen::MatrixXd up(n_, m), down(n_, m);
-      if (!model.evaluate(z + s * t, r, &up, message) ||
-          !model.evaluate(z - s * t, r, &down, message))
-        return false;
+      if (!model.evaluate(z + s * t, r, &up, message)) return false;
+      const Eigen::VectorXd gradient_up = gradient(model, z + s * t);
+      if (!model.evaluate(z - s * t, r, &down, message)) return false;
+      const Eigen::VectorXd gradient_down = gradient(model, z - s * t);
       const Eigen::MatrixXd along = (up - down) / (2 * s);
-      // t^T d2A/dz2: grad A's derivative along t.
-      const Eigen::VectorXd hessian_t =
-          (gradient(model, z + s * t) - gradient(model, z - s * t)) / (2 * s);
+      const Eigen::VectorXd hessian_t = (gradient_up - gradient_down) / (2 * s);
       // dt/dz = -B^-1 [along; 0], so grad A . dt/dz = -l^T along with B^T l = grad A.
       const Eigen::VectorXd l = here.bordered.transpose().solve(a);
       jacobian->row(n_).head(m) = hessian_t.transpose() - l.head(n_).transpose() * along;

@@ -127,25 +127,46 @@ void ReducedStructure::receptance(int harmonic_index, double w, Eigen::MatrixXcd
 }
 
 Eigen::VectorXcd ReducedStructure::respond(int harmonic_index, double w,
-                                           const Eigen::VectorXcd& force) const {
+                                           const Eigen::VectorXcd& force,
+                                           Eigen::VectorXcd* derivative) const {
   const Basis& b = basis(harmonic_index);
   if (force.size() != b.rows.rows())
     throw std::invalid_argument("ReducedStructure::respond: force of the wrong size");
-  Eigen::VectorXcd modal = b.rows.adjoint() * force;
+  const Eigen::VectorXcd projected = b.rows.adjoint() * force;
+  Eigen::VectorXcd modal(projected.size());
+  Eigen::VectorXcd modal_derivative;  // d(Z^-1)/dW Phi^H f = -Z^-1 Z' Z^-1 Phi^H f
   if (b.diagonal_damping) {
-    for (Eigen::Index k = 0; k < modal.size(); ++k) modal(k) /= modal_impedance(b, k, w);
+    if (derivative) modal_derivative.resize(projected.size());
+    for (Eigen::Index k = 0; k < modal.size(); ++k) {
+      const std::complex<double> z = modal_impedance(b, k, w);
+      modal(k) = projected(k) / z;
+      if (derivative)
+        modal_derivative(k) = -(-2.0 * w + kImaginaryUnit * b.damping(k, k)) * modal(k) / z;
+    }
   } else {
-    modal = modal_impedance_matrix(b, w).partialPivLu().solve(modal).eval();
+    const Eigen::PartialPivLU<Eigen::MatrixXcd> lu(modal_impedance_matrix(b, w));
+    modal = lu.solve(projected);
+    if (derivative) {
+      const Eigen::MatrixXcd dz =
+          -2.0 * w * Eigen::MatrixXcd::Identity(modal.size(), modal.size()) +
+          kImaginaryUnit * b.damping.cast<std::complex<double>>();
+      modal_derivative = -lu.solve(dz * modal);
+    }
   }
   if (b.flexibility_reduced) {
-    Eigen::VectorXcd x = Eigen::VectorXcd::Constant(
-        b.rows.rows(), std::complex<double>(std::numeric_limits<double>::quiet_NaN(),
-                                            std::numeric_limits<double>::quiet_NaN()));
+    const std::complex<double> nan(std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN());
+    Eigen::VectorXcd x = Eigen::VectorXcd::Constant(b.rows.rows(), nan);
     x(response_rows_) = b.rows(response_rows_, Eigen::all) * modal + b.flexibility_rows * force;
+    if (derivative) {
+      *derivative = Eigen::VectorXcd::Constant(b.rows.rows(), nan);
+      (*derivative)(response_rows_) = b.rows(response_rows_, Eigen::all) * modal_derivative;
+    }
     return x;
   }
   Eigen::VectorXcd x = b.rows * modal;
   if (b.residual_flexibility.size()) x += b.residual_flexibility * force;
+  if (derivative) *derivative = b.rows * modal_derivative;
   return x;
 }
 

@@ -1,7 +1,10 @@
 #include "frichb/core/model/response.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <utility>
+#include <vector>
 
 namespace frichb::core {
 
@@ -11,6 +14,10 @@ namespace {
 // (a lower one cannot overtake the largest by more than the grid's error, far below it).
 constexpr double kCandidateBand = 1e-2;
 constexpr int kMaxPolishIterations = 30;
+// Maxima whose norms agree to this share are tied (their gradients are averaged), and two
+// polished maxima this close in phase (rad) are the same one.
+constexpr double kTiedMaxima = 1e-9;
+constexpr double kSamePhase = 1e-6;
 
 }  // namespace
 
@@ -40,7 +47,9 @@ double AmplitudeSampler::peak_amplitude(const std::vector<Eigen::VectorXcd>& per
     aft_.to_time(coefficients_.data(), samples_.data());
     squared_ += samples_.cwiseAbs2();
   }
-  const double top = squared_.maxCoeff();
+  Eigen::Index top_sample = 0;
+  const double top = squared_.maxCoeff(&top_sample);
+  peak_ = 0.0;
   if (!(top > 0)) return 0.0;
 
   // |x|^2 and its first two derivatives in the phase tau = omega t, from the series.
@@ -68,6 +77,8 @@ double AmplitudeSampler::peak_amplitude(const std::vector<Eigen::VectorXcd>& per
   };
   const double spacing = 2 * std::numbers::pi / n;
   double best = top;
+  // Each candidate's maximum: (|x|^2, phase).
+  std::vector<std::pair<double, double>> maxima{{top, spacing * static_cast<double>(top_sample)}};
   for (int j = 0; j < n; ++j) {
     const double here = squared_(j);
     if (here < (1 - kCandidateBand) * top || here < squared_((j + n - 1) % n) ||
@@ -77,17 +88,59 @@ double AmplitudeSampler::peak_amplitude(const std::vector<Eigen::VectorXcd>& per
     // it belongs to lies there) and stopped where the curvature says it is no maximum.
     const double tau0 = spacing * j;
     double tau = tau0, value = 0, slope = 0, curvature = 0;
+    std::pair<double, double> found{here, tau0};
     for (int it = 0; it < kMaxPolishIterations; ++it) {
       evaluate(tau, &value, &slope, &curvature);
-      if (value > best) best = value;
+      if (value > found.first) found = {value, tau};
       if (!(curvature < 0)) break;
       const double step = -slope / curvature;
       if (std::abs(tau + step - tau0) > spacing || std::abs(step) <= 1e-15 * (1 + std::abs(tau)))
         break;
       tau += step;
     }
+    best = std::max(best, found.first);
+    maxima.push_back(found);
   }
-  return std::sqrt(best);
+  // The maxima tied with the largest (the two of a motion symmetric over half a period), once
+  // each.
+  peak_phases_.clear();
+  for (const auto& [value, phase] : maxima) {
+    if (value < (1 - 2 * kTiedMaxima) * best) continue;
+    const bool seen = std::any_of(peak_phases_.begin(), peak_phases_.end(), [&](double other) {
+      const double apart = std::remainder(phase - other, 2 * std::numbers::pi);
+      return std::abs(apart) < kSamePhase;
+    });
+    if (!seen) peak_phases_.push_back(phase);
+  }
+  peak_ = std::sqrt(best);
+  return peak_;
+}
+
+std::vector<Eigen::VectorXcd> AmplitudeSampler::peak_gradient() const {
+  const auto& h = layout_.harmonics();
+  const auto kept = static_cast<Eigen::Index>(h.size());
+  const Eigen::Index d = cos_.cols();
+  std::vector<Eigen::VectorXcd> out(h.size(), Eigen::VectorXcd::Zero(d));
+  if (!(peak_ > 0) || peak_phases_.empty()) return out;
+  // A = |x(tau*)|, x_a = sum_k c_ka cos(n_k tau) + s_ka sin(n_k tau), X = c - i s:
+  // dA/dc = x_a cos / A, dA/ds = x_a sin / A, and q = dA/dc - i dA/ds. Tied maxima: the mean
+  // of their gradients, which is what central differences of the measure see.
+  const double share = 1.0 / (peak_ * static_cast<double>(peak_phases_.size()));
+  for (const double phase : peak_phases_) {
+    for (Eigen::Index a = 0; a < d; ++a) {
+      double x = 0;
+      for (Eigen::Index k = 0; k < kept; ++k) {
+        const double angle = h[static_cast<std::size_t>(k)] * phase;
+        x += cos_(k, a) * std::cos(angle) + sin_(k, a) * std::sin(angle);
+      }
+      for (Eigen::Index k = 0; k < kept; ++k) {
+        const double angle = h[static_cast<std::size_t>(k)] * phase;
+        out[static_cast<std::size_t>(k)](a) +=
+            std::complex<double>(x * std::cos(angle) * share, -x * std::sin(angle) * share);
+      }
+    }
+  }
+  return out;
 }
 
 std::vector<double> AmplitudeSampler::harmonic_amplitudes(

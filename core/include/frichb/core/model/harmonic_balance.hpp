@@ -103,6 +103,15 @@ class HarmonicBalanceModel final : public CurveProblem {
   // nodes are computed: the entries of the other kept DOFs are NaN.
   std::vector<Eigen::VectorXcd> kept_response(const Eigen::VectorXd& y,
                                               const Eigen::VectorXd& forces = {}) const;
+  // The derivatives of kept_response at the kept DOFs `dofs` (kept indices) in y = [U; w]: per
+  // kept harmonic k, a dofs x (n + 1) complex matrix D_k with dX_k = D_k dy. Analytic: the
+  // contacts' force blocks dF/dU of the last evaluation, the receptances from the contacts to
+  // the DOFs (one structure response per contact component and harmonic) and dR/dW (the
+  // forces do not depend on w). The last contact trace must have been the one of an evaluation
+  // with the Jacobian (evaluate or evaluate_operator) at y: throws std::logic_error otherwise.
+  // Entries are NaN where kept_response's are (a DOF outside a reduced flexibility's rows).
+  std::vector<Eigen::MatrixXcd> kept_response_jacobian(const Eigen::VectorXd& y,
+                                                       const std::vector<Eigen::Index>& dofs) const;
   // Index of a structure DOF among the kept DOFs.
   Eigen::Index kept_index(std::size_t dof) const;
   // Traces contact c at the solution y (for friction loops).
@@ -226,6 +235,8 @@ class HarmonicBalanceModel final : public CurveProblem {
   struct Workspace {
     Eigen::VectorXd forces;
     Eigen::VectorXd forces_at;  // the y of `forces` (empty when they failed or were never traced)
+    // The y of the contacts' last trace when it carried their force blocks (traces_), else empty.
+    Eigen::VectorXd jacobian_at;
     Eigen::MatrixXcd contact_receptance, receptance, receptance_derivative, product;
     Eigen::MatrixXcd force_block, scaled;
     Eigen::MatrixXd scaled_real, stacked_real;

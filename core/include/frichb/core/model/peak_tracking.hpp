@@ -22,14 +22,17 @@
 //   row of g       dg/dz = t^T (d2A/dz2) - l^T (d/ds R_z(z + s t)), with [R_z; c^T]^T l = grad A:
 //                  the second derivatives of R enter only along t, by a central directional
 //                  difference of the quasi-analytical Jacobian (two Jacobian evaluations), and
-//                  grad A and its derivative along t by central differences of the measure
-//                  (4 (n + 1) + 2 response recoveries: the measure depends on the contacts'
-//                  forces through the recovered response, and no analytic gradient of it is
-//                  kept);
+//                  d2A/dz2 along t by the same difference of grad A; grad A is analytic: the
+//                  measure's derivative in the node's harmonics at the instant of its maximum
+//                  (AmplitudeSampler::peak_gradient) times their derivatives in z
+//                  (HarmonicBalanceModel::kept_response_jacobian: the contacts' force blocks of
+//                  the evaluation at z, no further trace). Where that is not finite (the node
+//                  outside a reduced flexibility's response rows) it falls back to central
+//                  differences of the measure, 2 (n + 1) traces each;
 //   column of lambda  central differences of the residual between the models at
 //                  lambda +- kParameterStep (ParameterModels: the plugin ABI has no derivative
 //                  in a law's parameter, so the laws are instantiated again at each value).
-// Residual-only evaluations compute g as the central difference of A along t (two recoveries).
+// Residual-only evaluations compute g from the same analytic gradient (no trace beyond R_z's).
 //
 // Failure: an evaluation the model or the scene refuses (a parameter value a law rejects, a
 // trace that fails) is a failed evaluation (false with the message), which the continuation
@@ -95,6 +98,10 @@ class PeakCondition final : public CurveProblem {
   bool logarithmic() const { return logarithmic_; }
   // The measure A at y (its model at y's parameter), m.
   double amplitude(const Eigen::VectorXd& y) const;
+  // grad A in z = (x, w) at y (n + 1 entries, unscaled), as the peak condition uses it; false
+  // (with the message) when the model refuses y.
+  bool amplitude_gradient(const Eigen::VectorXd& y, Eigen::VectorXd& out,
+                          std::string* message) const;
   // dA along the direction dy (unscaled, n + 2 entries): the central difference of A over
   // +- kMeasureStep dy / |dy|_scaled, divided by that step. For the peak's sensitivities
   // along the peak curve's tangent.
@@ -128,7 +135,11 @@ class PeakCondition final : public CurveProblem {
   double measure(const HarmonicBalanceModel& model, const Eigen::VectorXd& z) const;
   double slope(const HarmonicBalanceModel& model, const Eigen::VectorXd& z,
                const Eigen::VectorXd& t) const;
+  // grad A at z: analytic; `model`'s last evaluation must have been at z with the Jacobian.
   Eigen::VectorXd gradient(const HarmonicBalanceModel& model, const Eigen::VectorXd& z) const;
+  // grad A at z by central differences of the measure (any model state).
+  Eigen::VectorXd difference_gradient(const HarmonicBalanceModel& model,
+                                      const Eigen::VectorXd& z) const;
 
   const ParameterModels& models_;
   std::vector<Eigen::Index> kept_;

@@ -48,9 +48,11 @@ class ReducedStructure {
   // The response R(W) f to the force amplitudes f (kept DOFs, N) without forming R:
   // Phi (Z^-1 (Phi^H f)) + F f, modes x kept operations instead of kept^2 x modes. Where the
   // residual flexibility was reduced, only the response rows are computed: the other entries
-  // are NaN.
+  // are NaN. `derivative`, when given: dR/dW f (the residual flexibility does not depend on W),
+  // NaN where the response is.
   Eigen::VectorXcd respond(int harmonic_index, double circular_frequency,
-                           const Eigen::VectorXcd& force) const;
+                           const Eigen::VectorXcd& force,
+                           Eigen::VectorXcd* derivative = nullptr) const;
 
  public:
   // The modal basis of a harmonic index at the kept DOFs (as the provider gave it).

@@ -28,6 +28,14 @@ class AmplitudeSampler {
   // `components`, m when the amplitudes are in m; 0 for no motion.
   double peak_amplitude(const std::vector<Eigen::VectorXcd>& per_harmonic,
                         const std::vector<Eigen::Index>& components);
+  // The gradient of the last peak_amplitude in the amplitudes it was given: per kept harmonic k,
+  // q_k over the `components` (in their order), with dA = sum_k Re(q_k^H dX_k). It is the
+  // norm's derivative at the instant of the maximum (which does not move to first order): exact
+  // where the measure is smooth (a single, strict maximum). Where maxima of the period tie (to
+  // 1e-9, as the two of a motion symmetric over half a period do), the measure has a kink and
+  // this is the mean of their gradients: the derivative central differences see. Zero for no
+  // motion.
+  std::vector<Eigen::VectorXcd> peak_gradient() const;
   // sqrt(sum_i |X_k,i|^2) for each kept harmonic k (|c0| for harmonic 0).
   static std::vector<double> harmonic_amplitudes(const std::vector<Eigen::VectorXcd>& per_harmonic,
                                                  const std::vector<Eigen::Index>& components);
@@ -37,6 +45,8 @@ class AmplitudeSampler {
   Aft aft_;
   Eigen::MatrixXd cos_, sin_;  // per component (column), per kept harmonic (row)
   Eigen::VectorXd squared_, samples_, coefficients_;
+  double peak_ = 0.0;                // the last peak_amplitude
+  std::vector<double> peak_phases_;  // omega t of its maximum (of each tied one)
 };
 
 }  // namespace frichb::core
