@@ -11,6 +11,7 @@
 #include <complex>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <sstream>
@@ -475,6 +476,72 @@ PeaksResult track_two_resonances(const frichb::test::TempDir& dir, std::optional
   options.to = 7.0;
   options.near_hz = near;
   return track_peaks(options);
+}
+
+// The models of a contact's parameter share one reduction of the structure
+// (HarmonicBalanceModel::with_contact_params): on the lumped bladed disk (complex gathers
+// across the cyclic boundary) such a model's residual and Jacobian equal those of a model built
+// from the scene at that value.
+TEST(PeakTracking, AContactParametersModelsShareTheStructureAndEqualFreshOnes) {
+  SceneInput disk;
+  disk.file = std::filesystem::path(FRICHB_SOURCE_DIR) / "configs/bladed_disk_lumped_eo3.yaml";
+  disk.overrides = {{"harmonic_balance.samples_per_period", "64"}, {"output.plots", "false"}};
+  const BoundScene bound = load_bound_scene(disk);
+  const PreparedRun prepared = prepare_run(bound.scene, 1);
+  SceneInput other = disk;
+  other.overrides.emplace_back("contacts.shroud.params.normal_load", "7.5");
+  const BoundScene bound_other = load_bound_scene(other);
+  const PreparedRun fresh = prepare_run(bound_other.scene, 1);
+  const std::unique_ptr<HarmonicBalanceModel> shared =
+      prepared.model->with_contact_params(bound_other.scene);
+  EXPECT_EQ(&shared->structure(), &prepared.model->structure());
+  const Eigen::Index n = shared->equation_count();
+  const double w = 2 * std::numbers::pi * 300.0;
+  Eigen::VectorXd y(n + 1);
+  y << 0.5 * shared->linear_response(w), w;
+  Eigen::VectorXd r_shared, r_fresh;
+  Eigen::MatrixXd j_shared, j_fresh;
+  std::string why;
+  ASSERT_TRUE(shared->evaluate(y, r_shared, &j_shared, &why)) << why;
+  ASSERT_TRUE(fresh.model->evaluate(y, r_fresh, &j_fresh, &why)) << why;
+  EXPECT_LE((r_shared - r_fresh).cwiseAbs().maxCoeff(), 1e-14 * r_fresh.cwiseAbs().maxCoeff());
+  EXPECT_LE((j_shared - j_fresh).cwiseAbs().maxCoeff(), 1e-14 * j_fresh.cwiseAbs().maxCoeff());
+  // The normal load differs: so do the residuals of the two values.
+  Eigen::VectorXd r_base;
+  ASSERT_TRUE(prepared.model->evaluate(y, r_base, nullptr, &why)) << why;
+  EXPECT_GT((r_base - r_fresh).cwiseAbs().maxCoeff(), 1e-6 * r_fresh.cwiseAbs().maxCoeff());
+}
+
+// At a bound of the parameter (a normal load of 0, below which the law refuses it) the
+// parameter's column is one-sided: it agrees with a forward difference of the residual.
+TEST(PeakTracking, TheParametersColumnIsOneSidedAtItsBound) {
+  Started s = run_at(planar_tip(0.0));
+  const HarmonicBalanceModel& model = *s.run.prepared.model;
+  const Eigen::Index n = model.equation_count();
+  ASSERT_TRUE(s.run.table.peaks.at(0));
+  SceneParameterModels models(s.bound.scene, *s.bound.registry,
+                              "contacts.shroud.params.normal_load", 1);
+  std::vector<Eigen::Index> kept;
+  for (std::size_t d : s.bound.scene.structure.find("tip")->dofs)
+    kept.push_back(model.kept_index(d));
+  const Eigen::VectorXd z_scale = s.run.prepared.setup.options.unknown_scale;
+  const PeakCondition problem(models, kept, model.layout().harmonics(),
+                              std::max(256, 8 * model.layout().samples()), z_scale, false, 5.0);
+  Eigen::VectorXd y(n + 2);
+  y << s.run.table.peaks[0]->y, 0.0;
+  Eigen::VectorXd r, r_up;
+  Eigen::MatrixXd j;
+  std::string why;
+  ASSERT_TRUE(problem.evaluate(y, r, &j, &why)) << why;
+  const double h = 1e-4;
+  Eigen::VectorXd up = y;
+  up(n + 1) = h;
+  ASSERT_TRUE(problem.evaluate(up, r_up, nullptr, &why)) << why;
+  const Eigen::VectorXd forward = (r_up - r) / h;
+  EXPECT_GT(forward.head(n).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_LE((forward - j.col(n + 1)).head(n).cwiseAbs().maxCoeff(),
+            1e-3 * forward.head(n).cwiseAbs().maxCoeff());
+  EXPECT_NEAR(forward(n), j(n, n + 1), 1e-2 * std::abs(forward(n)) + 1e-12);
 }
 
 // Non-proportional dampers give a non-diagonal modal damping: the measure's derivative in the

@@ -257,7 +257,12 @@ const HarmonicBalanceModel& SceneParameterModels::at(double p) const {
   set_scene_value(document, path_, p);
   entry.scene = std::make_unique<Scene>(load_scene_variant(document, base_));
   bind_plugins(*entry.scene, registry_);
-  entry.model = std::make_unique<HarmonicBalanceModel>(*entry.scene, *structure_);
+  // A contact's parameter changes the contacts' laws only: the structure's reduction (the modal
+  // bases, for an FE sector seconds to fetch) is shared with a model already built.
+  const bool contact_parameter = path_.rfind("contacts.", 0) == 0;
+  entry.model = contact_parameter && !cache_.empty()
+                    ? cache_.front().model->with_contact_params(*entry.scene)
+                    : std::make_unique<HarmonicBalanceModel>(*entry.scene, *structure_);
   entry.model->set_contact_threads(threads_);
   if (cache_.size() >= kKept) {
     std::size_t oldest = 0;

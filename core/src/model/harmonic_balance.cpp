@@ -106,15 +106,10 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
   // factors below.
   std::vector<std::vector<Eigen::Triplet<double>>> by_offset(3);
 
-  TraceOptions trace_options;
-  trace_options.max_passes = scene.harmonic_balance.max_trace_passes;
-  trace_options.newton_on_periodic_state = scene.harmonic_balance.periodic_state_newton;
-  trace_options.along_motion = scene.harmonic_balance.trace_along_motion;
-  for (const auto& spec : scene.contacts) {
-    ContactModel c;
-    c.name = spec.name;
-    c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
-    c.tracer = std::make_unique<PeriodicTracer>(*c.law, trace_layout_, trace_options);
+  contacts_ = instantiate_contacts(scene, trace_layout_);
+  for (std::size_t i = 0; i < scene.contacts.size(); ++i) {
+    const ContactSpec& spec = scene.contacts[i];
+    ContactModel& c = contacts_[i];
     const auto& comps = c.tracer->components();
     for (std::size_t a = 0; a < comps.size(); ++a) {
       const std::vector<double>& dir =
@@ -137,7 +132,6 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     }
     c.offset = components_;
     components_ += static_cast<int>(comps.size());
-    contacts_.push_back(std::move(c));
   }
   // Sector s + o moves like the reference sector delayed by o Delta t: harmonic n of its
   // displacement is the reference's times e^{-i n m phi o} (thesis eqs. 2.7, 2.16-2.17). The
@@ -194,7 +188,7 @@ HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance
     }
     if (stability) keep_index_flexibility(index, f);
   };
-  structure_ = std::make_unique<ReducedStructure>(structure, kept_dofs_, indices, &use);
+  structure_ = std::make_shared<const ReducedStructure>(structure, kept_dofs_, indices, &use);
   for (int index : indices) {  // a basis with non-diagonal damping keeps F whole
     const ReducedStructure::Basis& b = structure_->basis(index);
     if (stability && b.residual_flexibility.size() > 0)
@@ -235,6 +229,60 @@ Eigen::MatrixXcd gather_hermitian(const SparseGather& g, const Eigen::MatrixXcd&
 }
 
 HarmonicBalanceModel::~HarmonicBalanceModel() = default;
+
+std::vector<ContactModel> HarmonicBalanceModel::instantiate_contacts(
+    const Scene& scene, const HarmonicLayout& trace_layout) {
+  TraceOptions trace_options;
+  trace_options.max_passes = scene.harmonic_balance.max_trace_passes;
+  trace_options.newton_on_periodic_state = scene.harmonic_balance.periodic_state_newton;
+  trace_options.along_motion = scene.harmonic_balance.trace_along_motion;
+  std::vector<ContactModel> contacts;
+  for (const auto& spec : scene.contacts) {
+    ContactModel c;
+    c.name = spec.name;
+    c.law = std::make_unique<ContactLawInstance>(spec.plugin, spec.values);
+    c.tracer = std::make_unique<PeriodicTracer>(*c.law, trace_layout, trace_options);
+    contacts.push_back(std::move(c));
+  }
+  return contacts;
+}
+
+HarmonicBalanceModel::HarmonicBalanceModel(const HarmonicBalanceModel& base, const Scene& scene)
+    : layout_(base.layout_),
+      trace_layout_(base.trace_layout_),
+      mode_(base.mode_),
+      structure_(base.structure_),
+      kept_dofs_(base.kept_dofs_),
+      contacts_(instantiate_contacts(scene, trace_layout_)),
+      gather_(base.gather_),
+      harmonic_index_(base.harmonic_index_),
+      cyclic_(base.cyclic_),
+      side_gather_(base.side_gather_),
+      index_flexibility_(base.index_flexibility_),
+      contact_receptance_(base.contact_receptance_),
+      excitation_(base.excitation_),
+      components_(base.components_),
+      contact_threads_(base.contact_threads_),
+      unknown_count_(base.unknown_count_),
+      traces_(base.contacts_.size()) {
+  if (contacts_.size() != base.contacts_.size())
+    throw std::invalid_argument(
+        "HarmonicBalanceModel::with_contact_params: " + std::to_string(contacts_.size()) +
+        " contacts, not " + std::to_string(base.contacts_.size()));
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    ContactModel& c = contacts_[i];
+    const ContactModel& was = base.contacts_[i];
+    if (c.name != was.name || c.tracer->components() != was.tracer->components())
+      throw std::invalid_argument("HarmonicBalanceModel::with_contact_params: contact '" + c.name +
+                                  "' is not '" + was.name + "' with the same components");
+    c.offset = was.offset;
+  }
+}
+
+std::unique_ptr<HarmonicBalanceModel> HarmonicBalanceModel::with_contact_params(
+    const Scene& scene) const {
+  return std::unique_ptr<HarmonicBalanceModel>(new HarmonicBalanceModel(*this, scene));
+}
 
 std::vector<HarmonicBalanceModel::ReceptanceForm> HarmonicBalanceModel::receptance_forms() const {
   std::vector<ReceptanceForm> out;

@@ -169,7 +169,19 @@ double PeakCondition::directional_amplitude(const Eigen::VectorXd& y,
   Eigen::VectorXd scale(n_ + 2);
   scale << z_scale_, lambda_scale_;
   const double h = kMeasureStep / dy.cwiseQuotient(scale).norm();
-  return (amplitude(y + h * dy) - amplitude(y - h * dy)) / (2 * h);
+  // One-sided where the scene refuses the parameter on one side (p at a bound of its range).
+  double ends[2] = {0.0, 0.0};
+  bool made[2] = {false, false};
+  for (int side = 0; side < 2; ++side) {
+    try {
+      ends[side] = amplitude(y + (side == 0 ? h : -h) * dy);
+      made[side] = true;
+    } catch (const std::exception&) {
+      if (side == 1 && !made[0]) throw;
+    }
+  }
+  if (made[0] && made[1]) return (ends[0] - ends[1]) / (2 * h);
+  return made[0] ? (ends[0] - amplitude(y)) / h : (amplitude(y) - ends[1]) / h;
 }
 
 bool PeakCondition::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
@@ -209,18 +221,36 @@ bool PeakCondition::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual
       const Eigen::VectorXd l = here.bordered.transpose().solve(a);
       jacobian->row(n_).head(m) = hessian_t.transpose() - l.head(n_).transpose() * along;
     }
-    // The parameter's column: the models at lambda +- h.
+    // The parameter's column: the models at lambda +- h, central; one-sided where the scene
+    // refuses one of the values (a range that starts at a bound of the parameter, such as a
+    // normal load of 0).
     const double h = kParameterStep * lambda_scale_;
     Eigen::VectorXd ends[2];
+    std::string refused;
     for (int side = 0; side < 2; ++side) {
-      const HarmonicBalanceModel& model = models_.at(parameter(lambda + (side == 0 ? h : -h)));
+      const HarmonicBalanceModel* model = nullptr;
+      try {
+        model = &models_.at(parameter(lambda + (side == 0 ? h : -h)));
+      } catch (const std::exception& e) {
+        refused = e.what();
+        continue;
+      }
       Local there;
-      if (!local(model, z, there, message)) return false;
+      if (!local(*model, z, there, message)) return false;
       ends[side].resize(m);
       ends[side].head(n_) = there.residual;
-      ends[side](n_) = slope(model, z, there.tangent);
+      ends[side](n_) = slope(*model, z, there.tangent);
     }
-    jacobian->col(m) = (ends[0] - ends[1]) / (2 * h);
+    if (ends[0].size() != 0 && ends[1].size() != 0) {
+      jacobian->col(m) = (ends[0] - ends[1]) / (2 * h);
+    } else if (ends[0].size() != 0) {
+      jacobian->col(m) = (ends[0] - residual) / h;
+    } else if (ends[1].size() != 0) {
+      jacobian->col(m) = (residual - ends[1]) / h;
+    } else {
+      if (message != nullptr) *message = refused;
+      return false;
+    }
     if (!residual.allFinite() || !jacobian->allFinite()) {
       if (message != nullptr) *message = "the peak condition is not finite there";
       return false;

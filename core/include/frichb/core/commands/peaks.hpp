@@ -166,9 +166,11 @@ struct PeaksResult {
 
 // The scene at values of its design parameter `path` (ParameterModels): the document read
 // again with the parameter set, bound to the same plugins, each model on one structure built
-// from `base` (the parameter must lie outside the structure: PeaksOptions::parameter). Keeps
-// the last four models (the tracking asks for p and p +- h in turn). `base` and `registry`
-// outlive it. Not thread-safe.
+// from `base` (the parameter must lie outside the structure: PeaksOptions::parameter); for a
+// contact's parameter, the models share one reduction of the structure
+// (HarmonicBalanceModel::with_contact_params) and only the laws are instantiated per value.
+// Keeps the last four models (the tracking asks for p and p +- h in turn). `base` and
+// `registry` outlive it. Not thread-safe.
 class SceneParameterModels final : public ParameterModels {
  public:
   SceneParameterModels(const Scene& base, const Registry& registry, std::string path,

@@ -75,6 +75,14 @@ class HarmonicBalanceModel final : public CurveProblem {
   HarmonicBalanceModel(const Scene& scene, StructureInstance& structure);
   ~HarmonicBalanceModel() override;
 
+  // The model of `scene`, which differs from this model's scene at most in its contacts' law
+  // parameters (the same contacts, in the same order, with the same laws, sides and frames, and
+  // the same structure, excitation, harmonics and output): it shares this model's reduced
+  // structure, so that no modal basis is fetched again, and instantiates the contacts' laws
+  // anew. The new model does not refer to this one. Throws PluginError where a law refuses
+  // its params and std::invalid_argument where a contact uses other components than here.
+  std::unique_ptr<HarmonicBalanceModel> with_contact_params(const Scene& scene) const;
+
   Eigen::Index equation_count() const override { return unknown_count_; }
   bool evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
                 std::string* message) const override;
@@ -168,6 +176,13 @@ class HarmonicBalanceModel final : public CurveProblem {
   void set_contact_threads(int n);
 
  private:
+  // with_contact_params: `base`'s structure, gathers, receptances and excitation, the contacts
+  // of `scene`.
+  HarmonicBalanceModel(const HarmonicBalanceModel& base, const Scene& scene);
+  // The law and tracer of each of the scene's contacts, in order.
+  static std::vector<ContactModel> instantiate_contacts(const Scene& scene,
+                                                        const HarmonicLayout& trace_layout);
+
   // Traces every contact at y: their force coefficients into `forces`; with_jacobian: each
   // contact's block dF/dU into traces_[i].jacobian.
   void gather_forces(const Eigen::VectorXd& y, Eigen::VectorXd& forces, bool with_jacobian,
@@ -201,7 +216,7 @@ class HarmonicBalanceModel final : public CurveProblem {
   HarmonicLayout layout_;
   HarmonicLayout trace_layout_;  // the contacts' tracing grid (oversampled layout_)
   JacobianMode mode_;
-  std::unique_ptr<ReducedStructure> structure_;
+  std::shared_ptr<const ReducedStructure> structure_;  // shared by with_contact_params
   std::vector<std::size_t> kept_dofs_;
   std::vector<ContactModel> contacts_;
   // Per kept harmonic: u_n = G_n x_n (components x kept DOFs), with the cyclic phase factors of

@@ -31,7 +31,9 @@
 //                  differences of the measure, 2 (n + 1) traces each;
 //   column of lambda  central differences of the residual between the models at
 //                  lambda +- kParameterStep (ParameterModels: the plugin ABI has no derivative
-//                  in a law's parameter, so the laws are instantiated again at each value).
+//                  in a law's parameter, so the laws are instantiated again at each value);
+//                  one-sided where the scene refuses one of the two values (p at a bound of
+//                  its range, such as a normal load of 0).
 // Residual-only evaluations compute g from the same analytic gradient (no trace beyond R_z's).
 //
 // Failure: an evaluation the model or the scene refuses (a parameter value a law rejects, a
@@ -103,7 +105,9 @@ class PeakCondition final : public CurveProblem {
   bool amplitude_gradient(const Eigen::VectorXd& y, Eigen::VectorXd& out,
                           std::string* message) const;
   // dA along the direction dy (unscaled, n + 2 entries): the central difference of A over
-  // +- kMeasureStep dy / |dy|_scaled, divided by that step. For the peak's sensitivities
+  // +- kMeasureStep dy / |dy|_scaled, divided by that step (one-sided where the scene refuses
+  // the parameter's value on one side; throws what it throws where it refuses both). For the
+  // peak's sensitivities
   // along the peak curve's tangent.
   double directional_amplitude(const Eigen::VectorXd& y, const Eigen::VectorXd& dy) const;
   // What a point of the peak curve says beyond its position, from one evaluation with the
