@@ -430,8 +430,8 @@ RunPeak peak_near(const RunResult& run, std::size_t k, const PeakCondition& prob
 struct RunCheck {
   double lambda = 0.0;
   std::size_t first_peak = 0;  // PeaksResult::peaks' index of the traced point at lambda
-  bool has_other = false, other_highest = false;
-  Eigen::VectorXd other_z;  // the other's point of the run's curve
+  bool other_highest = false;
+  Eigen::VectorXd other_z;  // the other's point of the run's curve (empty: no other maximum)
   double other_hz = 0.0;
 };
 
@@ -449,7 +449,6 @@ RunCheck check_run(const RunResult& run, std::size_t k, double lambda, double hz
   for (const std::size_t i : maxima)
     if (i != *mine && (other == *mine || a[i] > a[other])) other = i;
   if (other == *mine) return check;
-  check.has_other = true;
   check.other_highest = a[other] > a[*mine];
   check.other_z = run.summary.points[other].y;
   check.other_hz = curve.frequency_hz[other];

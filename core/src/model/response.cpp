@@ -104,8 +104,9 @@ double AmplitudeSampler::peak_amplitude(const std::vector<Eigen::VectorXcd>& per
   // The maxima tied with the largest (the two of a motion symmetric over half a period), once
   // each.
   peak_phases_.clear();
-  for (const auto& [value, phase] : maxima) {
-    if (value < (1 - 2 * kTiedMaxima) * best) continue;
+  for (const auto& maximum : maxima) {
+    const double phase = maximum.second;
+    if (maximum.first < (1 - 2 * kTiedMaxima) * best) continue;
     const bool seen = std::any_of(peak_phases_.begin(), peak_phases_.end(), [&](double other) {
       const double apart = std::remainder(phase - other, 2 * std::numbers::pi);
       return std::abs(apart) < kSamePhase;

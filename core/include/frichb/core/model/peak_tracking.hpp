@@ -55,13 +55,14 @@ namespace frichb::core {
 
 // Steps of the central differences, in the continuation's scaled unknowns (lambda's scale for
 // kParameterStep).
-inline constexpr double kMeasureStep = 1e-5;    // grad A and the stationarity's slope
+inline constexpr double kMeasureStep = 1e-5;    // A's central differences (sensitivities)
 inline constexpr double kCurvatureStep = 1e-4;  // grad A and R_z along t
 inline constexpr double kParameterStep = 1e-5;  // the laws at lambda +- this
 
-// The tightest Newton tolerances (scaled) the peak condition can meet: its central differences
-// carry rounding of about 1e-11 of the amplitude, which places the peak along the response
-// curve to about 1e-8 in the scaled arclength.
+// The Newton tolerances (scaled) of the peak condition: the contacts' traces, periodic to about
+// 1e-11, and the central differences of its Jacobian's second derivatives bound what Newton
+// converges to; the peak is placed along the response curve to about 1e-8 in the scaled
+// arclength.
 inline constexpr double kPeakResidualTolerance = 1e-9;
 inline constexpr double kPeakStepTolerance = 1e-7;
 
