@@ -11,6 +11,7 @@
 #include <complex>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -23,6 +24,7 @@
 #include "frichb/core/commands/peaks.hpp"
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/model/peak_tracking.hpp"
+#include "frichb/core/report/peaks_report.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "test_support.hpp"
 
@@ -489,7 +491,7 @@ TEST(PeakTracking, AContactParametersModelsShareTheStructureAndEqualFreshOnes) {
   const BoundScene bound = load_bound_scene(disk);
   const PreparedRun prepared = prepare_run(bound.scene, 1);
   SceneInput other = disk;
-  other.overrides.emplace_back("contacts.shroud.params.normal_load", "7.5");
+  other.overrides.push_back({"contacts.shroud.params.normal_load", "7.5"});
   const BoundScene bound_other = load_bound_scene(other);
   const PreparedRun fresh = prepare_run(bound_other.scene, 1);
   const std::unique_ptr<HarmonicBalanceModel> shared =
@@ -617,6 +619,16 @@ TEST(PeakTracking, TheNearPeakIsTracedWithItsStability) {
   EXPECT_FALSE(e.overtaken);
   EXPECT_NEAR(e.parameter, crossing, 1e-9 * crossing);
   EXPECT_NEAR(e.frequency_hz, pair.peak(1, crossing).second, 2e-9 * e.frequency_hz);
+  // peaks.png: the unstable stretches dashed under the stable points, the exchange marked with
+  // the other peak's frequency (the first mode's, 162.5 Hz there).
+  const std::string script = peaks_plot_script(result);
+  EXPECT_NE(script.find("column('stable') > 0.5"), std::string::npos) << script;
+  EXPECT_NE(script.find("dt 2"), std::string::npos) << script;
+  std::ostringstream label;
+  label << std::setprecision(4) << "highest again over the " << e.other_frequency_hz
+        << " Hz peak' at " << std::setprecision(6) << e.parameter;
+  EXPECT_NEAR(e.other_frequency_hz, 162.5, 0.1);
+  EXPECT_NE(script.find(label.str()), std::string::npos) << label.str() << "\n" << script;
 }
 
 }  // namespace

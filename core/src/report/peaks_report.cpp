@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -15,6 +16,8 @@ namespace {
 nlohmann::json number_or_null(double x) {
   return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
 }
+
+}  // namespace
 
 std::string peaks_plot_script(const PeaksResult& result) {
   // The normalised chart plots mu N0 / f and the amplitude over f (columns 7 and 8).
@@ -51,16 +54,46 @@ std::string peaks_plot_script(const PeaksResult& result) {
        << (solved.solved ? solved.amplitude_m : best.amplitude_m) * y_factor * scale.factor
        << " point pt 7 ps 1.5 offset 1,1\n";
   }
-  gp << "plot 'peaks.csv' using " << x << ":" << a << " with linespoints lt 1 pt 7 ps 0.5\n"
-     << "unset label 1\nunset logscale y\n"
+  // Each located exchange with another peak: where the two are equally high, with the other
+  // peak's frequency (the frequency panel marks the traced peak's).
+  int label = 2;
+  for (const PeakExchange& e : result.exchanges) {
+    if (!e.located) continue;
+    std::ostringstream text;
+    text << std::setprecision(4) << (e.overtaken ? "overtaken by the " : "highest again over the ")
+         << e.other_frequency_hz << " Hz peak";
+    gp << "set label " << label++ << " " << gnuplot_string(text.str()) << " at "
+       << e.parameter * x_factor << "," << e.amplitude_m * y_factor * scale.factor
+       << " point pt 6 ps 1.5 offset 1,-1\n";
+  }
+  // With the peaks' stability: the stable points solid over the whole curve dashed, so that
+  // the unstable stretches show dashed.
+  const bool stability = std::any_of(result.peaks.begin(), result.peaks.end(),
+                                     [](const TrackedPeak& p) { return p.stable.has_value(); });
+  const auto curve = [&](const std::string& y, int type) {
+    std::ostringstream c;
+    if (stability)
+      c << "'peaks.csv' using " << x << ":" << y << " with lines lt " << type
+        << " dt 2 lw 1.5, 'peaks.csv' using " << x << ":(column('stable') > 0.5 ? " << y
+        << " : NaN)";
+    else
+      c << "'peaks.csv' using " << x << ":" << y;
+    c << " with linespoints lt " << type << " pt 7 ps 0.5";
+    return c.str();
+  };
+  gp << "plot " << curve(a, 1) << "\n";
+  for (int l = 1; l < label; ++l) gp << "unset label " << l << "\n";
+  gp << "unset logscale y\n"
      << log_axes(result.logarithmic, false)
-     << "set ylabel 'peak frequency [Hz]'\nset title 'peak frequency'\n"
-     << "plot 'peaks.csv' using " << x << ":3 with linespoints lt 2 pt 7 ps 0.5\n"
-     << "unset multiplot\n";
+     << "set ylabel 'peak frequency [Hz]'\nset title 'peak frequency'\n";
+  for (const PeakExchange& e : result.exchanges) {
+    if (!e.located) continue;
+    gp << "set label " << label++ << " \"\" at " << e.parameter * x_factor << "," << e.frequency_hz
+       << " point pt 6 ps 1.5\n";
+  }
+  gp << "plot " << curve("($3)", 2) << "\nunset multiplot\n";
   return gp.str();
 }
-
-}  // namespace
 
 std::vector<std::string> peaks_outputs() {
   return {"peaks.csv", "summary.json", "peaks.gp", "peaks.png"};
