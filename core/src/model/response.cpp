@@ -47,8 +47,7 @@ double AmplitudeSampler::peak_amplitude(const std::vector<Eigen::VectorXcd>& per
     aft_.to_time(coefficients_.data(), samples_.data());
     squared_ += samples_.cwiseAbs2();
   }
-  Eigen::Index top_sample = 0;
-  const double top = squared_.maxCoeff(&top_sample);
+  const double top = squared_.maxCoeff();
   peak_ = 0.0;
   if (!(top > 0)) return 0.0;
 
@@ -77,8 +76,8 @@ double AmplitudeSampler::peak_amplitude(const std::vector<Eigen::VectorXcd>& per
   };
   const double spacing = 2 * std::numbers::pi / n;
   double best = top;
-  // Each candidate's maximum: (|x|^2, phase).
-  std::vector<std::pair<double, double>> maxima{{top, spacing * static_cast<double>(top_sample)}};
+  // Each candidate's polished maximum: (|x|^2, phase). The largest sample is always a candidate.
+  std::vector<std::pair<double, double>> maxima;
   for (int j = 0; j < n; ++j) {
     const double here = squared_(j);
     if (here < (1 - kCandidateBand) * top || here < squared_((j + n - 1) % n) ||
