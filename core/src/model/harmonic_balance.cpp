@@ -464,10 +464,97 @@ bool HarmonicBalanceModel::evaluate_operator(const Eigen::VectorXd& y, Eigen::Ve
   return evaluate_into(y, residual, nullptr, jacobian, message);
 }
 
+bool HarmonicBalanceModel::evaluate_autonomous(const Eigen::VectorXd& y, double xi,
+                                               Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
+                                               std::string* message) const {
+  if (!std::isfinite(xi)) {
+    if (message) *message = "the damping shift xi is not finite";
+    return false;
+  }
+  Autonomy autonomy{xi, {}};
+  Eigen::MatrixXd formed;
+  if (!evaluate_into(y, residual, jacobian != nullptr ? &formed : nullptr, nullptr, message,
+                     &autonomy))
+    return false;
+  if (jacobian != nullptr) {
+    const Eigen::Index n = unknown_count_;
+    jacobian->resize(n, n + 2);
+    jacobian->leftCols(n + 1) = formed;
+    jacobian->col(n + 1) = autonomy.xi_column;
+  }
+  return true;
+}
+
+std::complex<double> HarmonicBalanceModel::modal_coordinate(const Eigen::VectorXd& y, double xi,
+                                                            std::size_t k, Eigen::Index mode,
+                                                            Eigen::VectorXcd* gradient) const {
+  const auto& h = layout_.harmonics();
+  if (k >= h.size() || h[k] < 1)
+    throw std::invalid_argument("modal_coordinate: not a kept harmonic n >= 1");
+  const ContactReceptance& cr = contact_receptance_[k];
+  if (!cr.modal)
+    throw std::invalid_argument(
+        "modal_coordinate: harmonic " + std::to_string(h[k]) +
+        " has non-diagonal modal damping (its receptance is formed, not modal)");
+  if (mode < 0 || mode >= cr.projected.cols())
+    throw std::invalid_argument("modal_coordinate: mode " + std::to_string(mode) + " of " +
+                                std::to_string(cr.projected.cols()));
+  const int c = layout_.coefficient_count();
+  const Eigen::Index n = unknown_count_;
+  const int hn = h[k];
+  const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
+  Eigen::VectorXd traced;
+  const Eigen::VectorXd* forces = &work_.forces;
+  if (work_.forces_at.size() != y.size() || (work_.forces_at.array() != y.array()).any()) {
+    bool ok = true;
+    std::string message;
+    gather_forces(y, traced, false, &message, ok);
+    if (!ok) throw std::runtime_error("modal_coordinate: " + message);
+    forces = &traced;
+  }
+  const Eigen::VectorXcd p = cr.projected.col(mode);
+  std::complex<double> projected_force = 0.0;  // p^H F_n, F_n(a) = F_c - i F_s
+  for (int a = 0; a < components_; ++a)
+    projected_force +=
+        std::conj(p(a)) * std::complex<double>((*forces)(a * c + ci), -(*forces)(a * c + si));
+  const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
+  const double big_w = hn * y(n);
+  const double wr = b.frequencies(mode);
+  const double damping = b.damping(mode, mode) - xi;
+  const std::complex<double> imaginary_unit(0.0, 1.0);
+  const std::complex<double> z = wr * wr - big_w * big_w + imaginary_unit * big_w * damping;
+  const std::complex<double> q = -projected_force / z;
+  if (gradient == nullptr) return q;
+  const Workspace& ws = work_;
+  if (ws.jacobian_at.size() != y.size() || (ws.jacobian_at.array() != y.array()).any())
+    throw std::logic_error(
+        "modal_coordinate: the last evaluation with the Jacobian was not at this point");
+  gradient->setZero(n + 2);
+  // dq/dU = -(1/z) p^H dF_n/dU, row by row of the contacts' force blocks.
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const int first_component = contacts_[i].offset;
+    const Eigen::Index first = static_cast<Eigen::Index>(first_component) * c;
+    const Eigen::Index size = contacts_[i].tracer->unknown_count();
+    const Eigen::MatrixXd& block = traces_[i].jacobian;
+    for (Eigen::Index local = 0; local < size / c; ++local) {
+      const auto a = static_cast<Eigen::Index>(first_component) + local;
+      const std::complex<double> weight = -std::conj(p(a)) / z;
+      const auto cos_row = block.row(local * c + ci);
+      const auto sin_row = block.row(local * c + si);
+      for (Eigen::Index col = 0; col < size; ++col)
+        (*gradient)(first + col) += weight * std::complex<double>(cos_row(col), -sin_row(col));
+    }
+  }
+  // dz/dw = n (-2 W + i (c - xi)), dz/dxi = -i W; dq/d. = -q / z dz/d.
+  (*gradient)(n) = -q / z * (static_cast<double>(hn) * (-2.0 * big_w + imaginary_unit * damping));
+  (*gradient)(n + 1) = -q / z * (-imaginary_unit * big_w);
+  return q;
+}
+
 bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
                                          Eigen::MatrixXd* jacobian,
                                          std::shared_ptr<const JacobianOperator>* op,
-                                         std::string* message) const {
+                                         std::string* message, Autonomy* autonomy) const {
   using Clock = std::chrono::steady_clock;
   const auto elapsed = [](Clock::time_point since) {
     return std::chrono::duration<double>(Clock::now() - since).count();
@@ -506,10 +593,14 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
   std::vector<HarmonicReceptance> receptances(op != nullptr ? h.size() : 0);
   Eigen::VectorXd parameter_column;
   if (op != nullptr) parameter_column.setZero(n);
+  const double xi = autonomy != nullptr ? autonomy->xi : 0.0;
+  if (autonomy != nullptr && derivatives) autonomy->xi_column.setZero(n);
   for (std::size_t k = 0; k < h.size(); ++k) {
     const int hn = h[k];
     const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
     const ContactReceptance& cr = contact_receptance_[k];
+    // The autonomous form drops the dynamic excitation (harmonic 0's static load stays).
+    const bool excited = autonomy == nullptr || hn == 0;
     ws.force.resize(components_);
     for (int a = 0; a < components_; ++a)
       ws.force(a) = std::complex<double>(forces(a * c + ci), hn > 0 ? -forces(a * c + si) : 0.0);
@@ -522,25 +613,35 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
       const Eigen::Index m = b.frequencies.size();
       ws.inv_z.resize(m);
       ws.dinv_z.resize(m);
+      if (autonomy != nullptr && derivatives) ws.xi_inv_z.resize(m);
       for (Eigen::Index q = 0; q < m; ++q) {
         const double wr = b.frequencies(q);
-        const std::complex<double> z =
-            wr * wr - big_w * big_w + imaginary_unit * big_w * b.damping(q, q);
+        const double damping = b.damping(q, q) - xi;
+        const std::complex<double> z = wr * wr - big_w * big_w + imaginary_unit * big_w * damping;
         ws.inv_z(q) = 1.0 / z;
         ws.dinv_z(q) =
-            -static_cast<double>(hn) * (-2.0 * big_w + imaginary_unit * b.damping(q, q)) / (z * z);
+            -static_cast<double>(hn) * (-2.0 * big_w + imaginary_unit * damping) / (z * z);
+        // d(1/z)/dxi = -(dz/dxi) / z^2 = i W / z^2
+        if (autonomy != nullptr && derivatives) ws.xi_inv_z(q) = imaginary_unit * big_w / (z * z);
       }
       // Phi^H (G^H F - f) = P^H F - q
       ws.modal.noalias() = cr.projected.adjoint() * ws.force;
-      ws.modal -= cr.modal_force;
+      if (excited) ws.modal -= cr.modal_force;
       ws.motion.noalias() = cr.projected * ws.inv_z.cwiseProduct(ws.modal);
       if (cr.flexibility.size()) {
         // G F G^H is Hermitian: its lower triangle is read once (half the bytes).
         ws.motion.noalias() += cr.flexibility.selfadjointView<Eigen::Lower>() * ws.force;
-        ws.motion -= cr.flexible_motion;
+        if (excited) ws.motion -= cr.flexible_motion;
       }
       if (derivatives)
         ws.motion_derivative.noalias() = cr.projected * ws.dinv_z.cwiseProduct(ws.modal);
+      if (autonomy != nullptr && derivatives) {
+        ws.xi_motion.noalias() = cr.projected * ws.xi_inv_z.cwiseProduct(ws.modal);
+        for (int a = 0; a < components_; ++a) {
+          autonomy->xi_column(a * c + ci) += ws.xi_motion(a).real();
+          if (hn > 0) autonomy->xi_column(a * c + si) -= ws.xi_motion(a).imag();
+        }
+      }
       if (jacobian) {
         form_modal_receptance(cr, ws, rc);
         if (cr.flexibility.size()) rc += cr.flexibility;
@@ -551,6 +652,14 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
         receptances[k].inv_z = ws.inv_z;
       }
     } else {
+      if (autonomy != nullptr && hn > 0) {
+        if (message)
+          *message = "harmonic " + std::to_string(hn) +
+                     ": the autonomous form needs diagonal modal damping (this structure's "
+                     "receptance is formed from a non-diagonal one)";
+        stats_.receptance_seconds += elapsed(t_part);
+        return false;
+      }
       structure_->receptance(harmonic_index_[k], hn * w, ws.receptance,
                              derivatives ? &ws.receptance_derivative : nullptr);
       const SparseGather& g = gather_[k];

@@ -120,6 +120,32 @@ class HarmonicBalanceModel final : public CurveProblem {
   // Entries are NaN where kept_response's are (a DOF outside a reduced flexibility's rows).
   std::vector<Eigen::MatrixXcd> kept_response_jacobian(const Eigen::VectorXd& y,
                                                        const std::vector<Eigen::Index>& dofs) const;
+  // The extended periodic motion concept (EPMC; Krack, Computers & Structures 154, 2015): the
+  // same equations at y = [U; w] without the dynamic excitation (the harmonics n >= 1 of the
+  // external force; harmonic 0's static load stays) and with every retained mode's damping
+  // lowered by `xi` (rad/s): a damping -xi M in physical coordinates, so that the damped
+  // motion is periodic. Mode r's impedance at W = n w is w_r^2 - W^2 + i W (c_rr - xi). The
+  // residual flexibility, massless, is unchanged. `jacobian` (n x (n + 2)): d/dU, d/dw and
+  // d/dxi. Needs diagonal modal damping at every kept harmonic n >= 1: false with `message`
+  // otherwise, and where the evaluation fails as evaluate's does. Not thread-safe.
+  bool evaluate_autonomous(const Eigen::VectorXd& y, double xi, Eigen::VectorXd& residual,
+                           Eigen::MatrixXd* jacobian, std::string* message) const;
+  // The modal coordinate q of retained mode `mode` (the structure's basis of kept harmonic k,
+  // ascending frequency, mass-normalised) in harmonic k >= 1 of the autonomous motion at
+  // y = [U; w] and xi: the complex amplitude with q(t) = Re(q e^{i n w t}),
+  // q = -(Phi^H G^H F_n)_mode / z_mode(n w, xi). `gradient`, when given: dq/d[U; w; xi]
+  // (n + 2 entries; from the contacts' force blocks dF/dU of the last evaluation, which must
+  // have been one with the Jacobian at y: throws std::logic_error otherwise).
+  // Throws std::invalid_argument for a harmonic 0, a mode out of range or a harmonic whose
+  // receptance is formed (non-diagonal damping).
+  std::complex<double> modal_coordinate(const Eigen::VectorXd& y, double xi, std::size_t k,
+                                        Eigen::Index mode,
+                                        Eigen::VectorXcd* gradient = nullptr) const;
+  // P = G_n Phi of kept harmonic k: the structure's retained modes at the contact components
+  // (components x modes), where harmonic k's modal damping is diagonal; else empty.
+  const Eigen::MatrixXcd& contact_modes(std::size_t k) const {
+    return contact_receptance_[k].projected;
+  }
   // Index of a structure DOF among the kept DOFs.
   Eigen::Index kept_index(std::size_t dof) const;
   // Traces contact c at the solution y (for friction loops).
@@ -190,8 +216,15 @@ class HarmonicBalanceModel final : public CurveProblem {
 
   // evaluate and evaluate_operator: the Jacobian formed into `jacobian`, or as an operator
   // into `op` (at most one of them not null).
+  // The autonomous (EPMC) form of an evaluation: the damping shift xi and, with the Jacobian,
+  // the residual's derivative in xi (n entries) written into xi_column.
+  struct Autonomy {
+    double xi = 0.0;
+    Eigen::VectorXd xi_column;
+  };
   bool evaluate_into(const Eigen::VectorXd& y, Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
-                     std::shared_ptr<const JacobianOperator>* op, std::string* message) const;
+                     std::shared_ptr<const JacobianOperator>* op, std::string* message,
+                     Autonomy* autonomy = nullptr) const;
   // evaluate_into's Jacobian at frequency w from the contacts' blocks (traces_): as an operator
   // into `op` over the harmonics' `receptances` and `parameter_column`, or formed into
   // `jacobian` (neither: nothing). False, with `message`, where it is not finite.
@@ -256,6 +289,9 @@ class HarmonicBalanceModel final : public CurveProblem {
     Eigen::MatrixXcd force_block, scaled;
     Eigen::MatrixXd scaled_real, stacked_real;
     Eigen::VectorXcd inv_z, dinv_z, force, motion, motion_derivative, modal;
+    // evaluate_autonomous: d(1/z)/dxi and the motion's derivative in xi of the harmonic
+    // being assembled.
+    Eigen::VectorXcd xi_inv_z, xi_motion;
   };
   mutable Workspace work_;
 };
