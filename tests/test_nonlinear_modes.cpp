@@ -7,15 +7,21 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <string>
 #include <vector>
 
+#include "frichb/core/commands/nma.hpp"
 #include "frichb/core/model/harmonic_balance.hpp"
 #include "frichb/core/model/nonlinear_modes.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/plugin_host/schema.hpp"
+#include "frichb/core/report/nma_report.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/solver/continuation.hpp"
+#include "frichb/core/support/output.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -248,6 +254,79 @@ TEST(NonlinearModes, SmallAmplitudeIsTheStuckStructuresDampedMode) {
       solved.y(n), root(0), solved.y(n + 1), root(1), problem.linear_guess(amplitude)(n + 1));
   EXPECT_NEAR(solved.y(n), root(0), 1e-10 * root(0));
   EXPECT_NEAR(solved.y(n + 1), root(1), 1e-8 * root(1));
+}
+
+// The verb: the backbone of the Jenkins oscillator traced by continuation over A from 0.5 to
+// 20 times the stick limit equals the describing function at every point it stops at (1e-6),
+// and the files hold it.
+TEST(NonlinearModes, TheVerbsBackboneOfTheJenkinsOscillatorEqualsTheDescribingFunction) {
+  test::TempDir dir;
+  NmaOptions options;
+  options.scene.file =
+      dir.write("oscillator.yaml", jenkins_oscillator(8192) + "output: {plots: false}\n");
+  const double xs = kSlipForce / kKt, to_modal = std::sqrt(kMass);
+  options.from = 0.5 * xs * to_modal;
+  options.to = 20 * xs * to_modal;
+  const NmaResult result = compute_nonlinear_modes(options);
+  ASSERT_EQ(result.outcome.status, 0) << result.outcome.message;
+  ASSERT_GE(result.points.size(), 10U);
+  EXPECT_NEAR(result.free_frequency_hz, std::sqrt(kStiffness / kMass) / (2 * std::numbers::pi),
+              1e-12 * result.free_frequency_hz);
+  EXPECT_NEAR(result.start_frequency_hz,
+              std::sqrt((kStiffness + kKt) / kMass) / (2 * std::numbers::pi),
+              1e-12 * result.start_frequency_hz);
+  double worst_frequency = 0, worst_xi = 0;
+  for (const NmaPoint& p : result.points) {
+    const DescribingFunction expected = jenkins_describing_function(p.amplitude / to_modal);
+    worst_frequency = std::max(
+        worst_frequency,
+        std::abs(2 * std::numbers::pi * p.frequency_hz - expected.frequency) / expected.frequency);
+    worst_xi = std::max(worst_xi, std::abs(p.xi - expected.xi) / expected.xi);
+    EXPECT_NEAR(p.damping_ratio, p.xi / (4 * std::numbers::pi * p.frequency_hz), 1e-15);
+    EXPECT_NEAR(p.stuck + p.slipping + p.open, 1.0, 1e-12);
+  }
+  std::printf("%zu points: worst frequency error %.1e, worst xi error %.1e\n", result.points.size(),
+              worst_frequency, worst_xi);
+  EXPECT_LT(worst_frequency, 1e-6);
+  EXPECT_LT(worst_xi, 1e-6);
+  EXPECT_NEAR(result.points.front().amplitude, *options.from, 1e-12 * *options.from);
+  EXPECT_NEAR(result.points.back().amplitude, *options.to, 1e-9 * *options.to);
+  // Stuck below x_s: no energy, no slip; slipping above, dissipating what the describing
+  // function's quadrature force says: 4 mu N (A - x_s).
+  EXPECT_EQ(result.points.front().slipping, 0.0);
+  const NmaPoint& last = result.points.back();
+  const double a_last = last.amplitude / to_modal;
+  EXPECT_NEAR(last.contact_energy_j, 4 * kSlipForce * (a_last - xs), 1e-6 * last.contact_energy_j);
+
+  StagedOutput out(dir.path() / "nma", nma_outputs());
+  write_nma(result, out);
+  out.commit();
+  std::ifstream csv(dir.path() / "nma" / "nma.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_EQ(header.rfind("point,amplitude_m_sqrt_kg,frequency_hz,damping_ratio,xi_rad_s", 0), 0U)
+      << header;
+  std::size_t rows = 0;
+  for (std::string line; std::getline(csv, line);) ++rows;
+  EXPECT_EQ(rows, result.points.size());
+  std::ifstream json(dir.path() / "nma" / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(json);
+  EXPECT_EQ(summary["mode"]["mode"], 1);
+  EXPECT_EQ(summary["points"], result.points.size());
+  EXPECT_EQ(summary["most_damped"]["point"], *most_damped_point(result));
+}
+
+// A mode the structure does not have, and a range that is not 0 < from < to, are refused.
+TEST(NonlinearModes, TheVerbRefusesAModeOutOfRangeAndABadRange) {
+  test::TempDir dir;
+  NmaOptions options;
+  options.scene.file = dir.write("oscillator.yaml", jenkins_oscillator(64));
+  options.mode = 2;
+  EXPECT_THROW(compute_nonlinear_modes(options), SceneError);
+  options.mode = 1;
+  options.from = 1e-6;
+  options.to = 1e-7;
+  EXPECT_THROW(compute_nonlinear_modes(options), std::invalid_argument);
 }
 
 }  // namespace

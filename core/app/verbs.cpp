@@ -16,6 +16,7 @@
 #include "frichb/core/commands/import.hpp"
 #include "frichb/core/commands/loop.hpp"
 #include "frichb/core/commands/modes.hpp"
+#include "frichb/core/commands/nma.hpp"
 #include "frichb/core/commands/peaks.hpp"
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/commands/study.hpp"
@@ -26,6 +27,7 @@
 #include "frichb/core/report/import_report.hpp"
 #include "frichb/core/report/loop_report.hpp"
 #include "frichb/core/report/modes_report.hpp"
+#include "frichb/core/report/nma_report.hpp"
 #include "frichb/core/report/peaks_report.hpp"
 #include "frichb/core/report/run_report.hpp"
 #include "frichb/core/report/study_report.hpp"
@@ -266,6 +268,40 @@ int peaks_verb(const Invocation& call) {
   return conclude_into(
       call, call.arguments[0], call.output_folder("-peaks"), core::peaks_outputs(),
       [&](core::StagedOutput&) { return core::track_peaks(request); }, core::write_peaks);
+}
+
+int nma_verb(const Invocation& call) {
+  core::NmaOptions request;
+  request.scene = call.scene_input();
+  request.stop = call.stop.token();
+  if (call.options.count("mode")) {
+    request.mode = call.options["mode"].as<int>();
+    if (request.mode < 1) return usage_error(call, "--mode counts from 1 (the lowest mode)");
+  }
+  if (call.options.count("amplitude")) {
+    const std::string text = call.options["amplitude"].as<std::string>();
+    const auto colon = text.find(':');
+    bool parsed = colon != std::string::npos;
+    if (parsed) {
+      try {
+        std::size_t used = 0;
+        const std::string from = text.substr(0, colon), to = text.substr(colon + 1);
+        request.from = std::stod(from, &used);
+        parsed = used == from.size();
+        request.to = std::stod(to, &used);
+        parsed = parsed && used == to.size();
+      } catch (const std::exception&) {
+        parsed = false;
+      }
+    }
+    if (!parsed || !(*request.from > 0) || !(*request.to > *request.from) ||
+        !std::isfinite(*request.to))
+      return usage_error(
+          call, "--amplitude takes FROM:TO with 0 < FROM < TO (m sqrt(kg)), not '" + text + "'");
+  }
+  return conclude_into(
+      call, call.arguments[0], call.output_folder("-nma"), core::nma_outputs(),
+      [&](core::StagedOutput&) { return core::compute_nonlinear_modes(request); }, core::write_nma);
 }
 
 int timesim_verb(const Invocation& call) {
@@ -552,6 +588,44 @@ Verb peaks_spec() {
   return v;
 }
 
+Verb nma_spec() {
+  Verb v;
+  v.name = "nma";
+  v.arguments = "SCENE.yaml";
+  v.min_arguments = 1;
+  v.max_arguments = 1;
+  v.missing_arguments = "one scene file";
+  v.summary = "a nonlinear mode: frequency and damping ratio against amplitude";
+  v.description =
+      "Computes mode --mode of the structure with its contacts as a nonlinear mode (the\n"
+      "extended periodic motion concept: the free motion made periodic by a negative\n"
+      "mass-proportional damping, with the scene's harmonics, contacts and static loads,\n"
+      "without its dynamic excitation), continued in the mode's amplitude from where the\n"
+      "contacts stick. For a cyclic scene, the mode of the harmonic index the engine order\n"
+      "excites, as a travelling wave. The amplitude a is the mode's fundamental modal\n"
+      "coordinate (m sqrt(kg), mass-normalised modes); by default from where the contacts'\n"
+      "largest motion is 1 nm to where it is 1 mm. Writes DIR/nma.csv (amplitude,\n"
+      "frequency, damping ratio, energy the contacts dissipate per cycle, shares of the\n"
+      "contacts' samples stuck, slipping and open, harmonic content), summary.json (the\n"
+      "mode's frequencies without contacts and with them at rest, the most damped point)\n"
+      "and nma.png.";
+  v.examples = {"frichb nma configs/two_dof_blade_damper.yaml --mode 1 -o out/damper_nma"};
+  v.reads_scene = true;
+  v.input_plugins = true;
+  v.writes_output = true;
+  v.output_default = "out/<scene file stem>-nma";
+  v.polls_interrupts = true;
+  v.add_options = [](po::options_description& d) {
+    d.add_options()("mode", po::value<int>()->value_name("K"),
+                    "the mode, 1 for the structure's lowest at harmonic 1 (default 1)")(
+        "amplitude", po::value<std::string>()->value_name("FROM:TO"),
+        "the range of the modal amplitude a, m sqrt(kg), traced on a log axis (default: "
+        "contact motion from 1 nm to 1 mm)");
+  };
+  v.run = nma_verb;
+  return v;
+}
+
 Verb timesim_spec() {
   Verb v;
   v.name = "timesim";
@@ -722,10 +796,10 @@ Verb reference_spec() {
 }  // namespace
 
 const std::vector<Verb>& verbs() {
-  static const std::vector<Verb> list = {run_spec(),     validate_spec(),    study_spec(),
-                                         loop_spec(),    modes_spec(),       peaks_spec(),
-                                         timesim_spec(), convergence_spec(), import_spec(),
-                                         plugins_spec(), describe_spec(),    reference_spec()};
+  static const std::vector<Verb> list = {
+      run_spec(),     validate_spec(), study_spec(),    loop_spec(),        modes_spec(),
+      nma_spec(),     peaks_spec(),    timesim_spec(),  convergence_spec(), import_spec(),
+      plugins_spec(), describe_spec(), reference_spec()};
   return list;
 }
 

@@ -1,0 +1,215 @@
+#include "frichb/core/commands/nma.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <numbers>
+#include <stdexcept>
+
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/model/nonlinear_modes.hpp"
+#include "frichb/core/plugin_host/periodic_trace.hpp"
+#include "frichb/core/plugin_host/registry.hpp"
+#include "frichb/core/plugin_host/schema.hpp"
+#include "frichb/core/scene/plugin_checks.hpp"
+#include "frichb/core/solver/continuation.hpp"
+#include "frichb/core/support/format.hpp"
+
+namespace frichb::core {
+
+namespace {
+
+// The default range: the amplitudes at which the start mode's largest contact motion is
+// kLowestMotion and kHighestMotion (m).
+constexpr double kLowestMotion = 1e-9, kHighestMotion = 1e-3;
+// Continuation steps in the scaled unknowns (ln a's scale is 1: a step of 0.25 is 28 % in a).
+constexpr double kInitialStep = 0.05, kMaxStep = 0.25, kMinStep = 1e-7;
+
+double seconds_since(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// The largest amplitude over the contact components of harmonic k's coefficients in `u`.
+double largest_motion(const HarmonicBalanceModel& model, const Eigen::VectorXd& u, std::size_t k) {
+  const int c = model.layout().coefficient_count();
+  const int ci = model.layout().cos_index(k), si = model.layout().sin_index(k);
+  double largest = 0.0;
+  for (int a = 0; a < model.component_count(); ++a)
+    largest = std::max(largest, std::hypot(u(a * c + ci), u(a * c + si)));
+  return largest;
+}
+
+// The point's quantities at the backbone's y: the contacts traced at the motion.
+NmaPoint describe(const NonlinearModeProblem& problem, const ContinuationPoint& p) {
+  const HarmonicBalanceModel& model = problem.model();
+  const Eigen::Index n = problem.harmonic_unknowns();
+  const Eigen::VectorXd z = problem.balance_point(p.y);
+  NmaPoint point;
+  point.y = p.y;
+  point.amplitude = std::exp(p.y(n + 2));
+  point.frequency_hz = p.y(n) / (2 * std::numbers::pi);
+  point.xi = p.y(n + 1);
+  point.damping_ratio = point.xi / (2 * p.y(n));
+  point.newton_iterations = p.newton_iterations;
+  double samples = 0.0;
+  for (std::size_t i = 0; i < model.contacts().size(); ++i) {
+    ContactTrace trace;
+    std::string error;
+    if (!model.trace_contact(i, z, trace, &error))
+      throw std::runtime_error("contact " + model.contacts()[i].name + ": " + error);
+    point.contact_energy_j += trace.energy_per_cycle;
+    const SlipShares shares = slip_shares(trace, model.contacts()[i].tracer->components());
+    const auto count = static_cast<double>(trace.force.rows());
+    point.stuck += shares.stuck * count;
+    point.slipping += shares.slipping * count;
+    point.open += shares.open * count;
+    samples += count;
+  }
+  if (samples > 0) {
+    point.stuck /= samples;
+    point.slipping /= samples;
+    point.open /= samples;
+  }
+  point.contact_motion_m = largest_motion(model, z, problem.first_harmonic());
+  const auto& h = model.layout().harmonics();
+  double first = 0.0, higher = 0.0;
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    if (h[k] == 0) continue;
+    const int c = model.layout().coefficient_count();
+    const int ci = model.layout().cos_index(k), si = model.layout().sin_index(k);
+    for (int a = 0; a < model.component_count(); ++a) {
+      const double squared = z(a * c + ci) * z(a * c + ci) + z(a * c + si) * z(a * c + si);
+      (h[k] == 1 ? first : higher) += squared;
+    }
+  }
+  point.higher_harmonics = first + higher > 0 ? std::sqrt(higher / (first + higher)) : 0.0;
+  return point;
+}
+
+}  // namespace
+
+NmaResult compute_nonlinear_modes(const NmaOptions& options) {
+  const auto started = std::chrono::steady_clock::now();
+  if (options.mode < 1) throw std::invalid_argument("the mode is counted from 1");
+  if (options.from.has_value() != options.to.has_value() ||
+      (options.from &&
+       !(*options.from > 0 && *options.to > *options.from && std::isfinite(*options.to))))
+    throw std::invalid_argument("the amplitude range needs 0 < from < to, both finite");
+  const BoundScene bound = load_bound_scene(options.scene);
+  const Scene& scene = bound.scene;
+  const std::string file = scene.file.string();
+  StructureInstance structure(scene.structure.plugin, scene.structure.values);
+  check_scene_against_plugins(scene, structure);
+  const HarmonicBalanceModel model(scene, structure);
+  NmaResult result;
+  result.scene_file = scene.file;
+  result.plots = scene.output.plots;
+  result.mode = options.mode;
+  result.harmonics = scene.harmonic_balance.harmonics;
+  result.unknowns = static_cast<long>(model.equation_count());
+  std::unique_ptr<NonlinearModeProblem> made;
+  try {
+    made = std::make_unique<NonlinearModeProblem>(model, options.mode - 1);
+  } catch (const std::invalid_argument& e) {
+    throw SceneError(file, 0, 0, "harmonic_balance", e.what());
+  }
+  const NonlinearModeProblem& problem = *made;
+  const Eigen::Index n = problem.harmonic_unknowns();
+  const std::size_t k1 = problem.first_harmonic();
+  result.harmonic_index = model.receptance_forms()[k1].harmonic_index;
+  result.free_frequency_hz =
+      model.structure().natural_frequencies(result.harmonic_index)(options.mode - 1) /
+      (2 * std::numbers::pi);
+
+  Eigen::VectorXd guess = problem.linear_guess(1.0);
+  result.start_frequency_hz = guess(n) / (2 * std::numbers::pi);
+  const double per_amplitude = largest_motion(model, guess.head(n), k1);  // m per m sqrt(kg)
+  if (!(per_amplitude > 0))
+    throw SceneError(file, 0, 0, "contacts",
+                     "mode " + std::to_string(options.mode) + " does not move the contacts");
+  result.default_range = !options.from.has_value();
+  result.from = options.from.value_or(kLowestMotion / per_amplitude);
+  result.to = options.to.value_or(kHighestMotion / per_amplitude);
+  spdlog::info(
+      "{}: mode {} ({} Hz without contacts, {} Hz with the contacts at rest), amplitude "
+      "{} to {} m sqrt(kg)",
+      file, options.mode, format_number(result.free_frequency_hz, 6),
+      format_number(result.start_frequency_hz, 6), format_number(result.from, 4),
+      format_number(result.to, 4));
+
+  // Scales: V by its largest entry (m per m sqrt(kg)), harmonic 0's unknowns (m) by the
+  // smallest amplitude's motion, w by the start frequency, xi by 1 % of it.
+  const Eigen::ArrayXd dynamic = problem.dynamic_unknowns().array();
+  const double w0 = guess(n);
+  ContinuationOptions copt;
+  const auto set_scales = [&](double static_scale) {
+    copt.unknown_scale.resize(n + 3);
+    copt.unknown_scale.head(n) =
+        (dynamic > 0).select(per_amplitude, Eigen::ArrayXd::Constant(n, static_scale)).matrix();
+    copt.unknown_scale(n) = w0;
+    copt.unknown_scale(n + 1) = 1e-2 * w0;
+    copt.unknown_scale(n + 2) = 1.0;
+    copt.residual_scale.resize(n + 2);
+    copt.residual_scale.head(n) = copt.unknown_scale.head(n);
+    copt.residual_scale(n) = copt.residual_scale(n + 1) = 1.0;
+  };
+  set_scales(per_amplitude * result.from);
+  copt.lambda_start = std::log(result.from);
+  copt.lambda_end = std::log(result.to);
+  copt.initial_step = kInitialStep;
+  copt.max_step = kMaxStep;
+  copt.min_step = kMinStep;
+  copt.max_points = options.max_points;
+  copt.max_wall_seconds = 1e9;
+  copt.newton.stop = options.stop;
+  guess(n + 2) = copt.lambda_start;
+  const NewtonResult start = solve_fixed_parameter(problem, guess, copt);
+  const auto stopped = [&] {
+    if (!options.stop.stop_requested()) return false;
+    result.outcome.status = options.stop.exit_code();
+    result.outcome.termination = "interrupted";
+    result.outcome.message = options.stop.reason();
+    return true;
+  };
+  if (stopped()) return result;
+  if (!start.converged) {
+    result.outcome.status = kExitIncomplete;
+    result.outcome.termination = result.termination = "start_failed";
+    result.outcome.message = "the mode did not converge at a = " + format_number(result.from, 4) +
+                             " m sqrt(kg): " + start.message;
+    spdlog::warn("{}: {}", file, result.outcome.message);
+    result.wall_seconds = seconds_since(started);
+    return result;
+  }
+  // Harmonic 0's scale: what the start holds (a preload's static motion) if larger.
+  set_scales(std::max(per_amplitude * result.from,
+                      (start.y.head(n).array() * (1 - dynamic)).abs().maxCoeff()));
+
+  const ContinuationSummary summary =
+      trace_curve(problem, start.y, copt, [&](const ContinuationPoint& p, std::size_t index) {
+        result.points.push_back(describe(problem, p));
+        const NmaPoint& last = result.points.back();
+        if (index % 10 == 0)
+          spdlog::info("  a = {} m sqrt(kg): {} Hz, damping ratio {}, {} % slipping",
+                       format_number(last.amplitude, 4), format_number(last.frequency_hz, 7),
+                       format_number(last.damping_ratio, 4), format_number(100 * last.slipping, 3));
+        return !options.stop.stop_requested();
+      });
+  result.termination = to_string(summary.termination);
+  result.wall_seconds = seconds_since(started);
+  if (stopped()) return result;
+  if (!summary.reached_end()) {
+    result.outcome.status = kExitIncomplete;
+    result.outcome.termination = result.termination;
+    result.outcome.message = "the backbone ended early: " + summary.message;
+    spdlog::warn("{}: {}", file, result.outcome.message);
+  }
+  spdlog::info("{}: {} points of the backbone in {} s", file, result.points.size(),
+               format_number(result.wall_seconds, 3));
+  return result;
+}
+
+}  // namespace frichb::core
