@@ -213,7 +213,7 @@ TEST(NonlinearModes, SmallAmplitudeIsTheStuckStructuresDampedMode) {
   Eigen::Matrix3d k;
   k << 6.5e5, -2.5e5, 0.0, -2.5e5, 2.5e5, 0.0, 0.0, 0.0, 2.5e5;
   const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix3d> free(k, m);
-  const Eigen::Matrix3d phi = free.eigenvectors();  // mass-normalised
+  const Eigen::Matrix3d& phi = free.eigenvectors();  // mass-normalised
   const Eigen::Vector3d wr = free.eigenvalues().cwiseSqrt();
   const Eigen::Matrix3d c = m * phi * (2 * 0.002 * wr).asDiagonal() * phi.transpose() * m;
   Eigen::Matrix3d stuck = k;

@@ -34,6 +34,7 @@
 #include "frichb/core/commands/convergence.hpp"
 #include "frichb/core/commands/loop.hpp"
 #include "frichb/core/commands/modes.hpp"
+#include "frichb/core/commands/nma.hpp"
 #include "frichb/core/commands/peaks.hpp"
 #include "frichb/core/commands/run.hpp"
 #include "frichb/core/commands/study.hpp"
@@ -45,6 +46,7 @@
 #include "frichb/core/report/convergence_report.hpp"
 #include "frichb/core/report/loop_report.hpp"
 #include "frichb/core/report/modes_report.hpp"
+#include "frichb/core/report/nma_report.hpp"
 #include "frichb/core/report/peaks_report.hpp"
 #include "frichb/core/report/run_report.hpp"
 #include "frichb/core/report/study_report.hpp"
@@ -1101,6 +1103,91 @@ void bind_peaks(py::module_& m) {
       "PARAMETER=START:END` does. Returns a PeaksResult.");
 }
 
+// frichb.nma and NmaResult.
+void bind_nma(py::module_& m) {
+  py::class_<core::NmaResult> nma_result(
+      m, "NmaResult",
+      "A nonlinear mode: frequency and damping ratio against amplitude (frichb.nma).");
+  outcome_attributes(nma_result);
+  auto field = [](double core::NmaPoint::*member) {
+    return [member](const core::NmaResult& r) {
+      std::vector<double> values;
+      for (const auto& p : r.points) values.push_back(p.*member);
+      return array(values);
+    };
+  };
+  nma_result.def_readonly("mode", &core::NmaResult::mode, "The mode, counted from 1.")
+      .def_readonly("harmonic_index", &core::NmaResult::harmonic_index,
+                    "The structure's harmonic index of harmonic 1 (0 without cyclic symmetry).")
+      .def_readonly("free_frequency_hz", &core::NmaResult::free_frequency_hz,
+                    "The mode's natural frequency without contacts, Hz.")
+      .def_readonly("start_frequency_hz", &core::NmaResult::start_frequency_hz,
+                    "The mode's undamped frequency with each contact's tangent at rest, Hz.")
+      .def_property_readonly(
+          "amplitude_range", [](const core::NmaResult& r) { return py::make_tuple(r.from, r.to); },
+          "The amplitudes traced, (from, to), m sqrt(kg).")
+      .def_property_readonly("amplitude", field(&core::NmaPoint::amplitude),
+                             "nma.csv's amplitude: the mode's fundamental modal coordinate, "
+                             "m sqrt(kg).")
+      .def_property_readonly("frequency_hz", field(&core::NmaPoint::frequency_hz),
+                             "The mode's frequency at each amplitude, Hz.")
+      .def_property_readonly("damping_ratio", field(&core::NmaPoint::damping_ratio),
+                             "The mode's damping ratio at each amplitude (structure and "
+                             "contacts).")
+      .def_property_readonly("xi", field(&core::NmaPoint::xi),
+                             "The damping shift at each amplitude, rad/s (2 zeta w).")
+      .def_property_readonly("contact_energy_j", field(&core::NmaPoint::contact_energy_j),
+                             "The energy the contacts dissipate per cycle, J.")
+      .def_property_readonly("stuck_share", field(&core::NmaPoint::stuck))
+      .def_property_readonly("slipping_share", field(&core::NmaPoint::slipping))
+      .def_property_readonly("open_share", field(&core::NmaPoint::open))
+      .def_property_readonly("contact_motion_m", field(&core::NmaPoint::contact_motion_m),
+                             "The largest contact component's harmonic-1 amplitude, m.")
+      .def_property_readonly("higher_harmonics_share", field(&core::NmaPoint::higher_harmonics),
+                             "The contacts' motion in harmonics 2 and up against 1 and up.")
+      .def_property_readonly(
+          "most_damped",
+          [](const core::NmaResult& r) -> py::object {
+            const auto best = core::most_damped_point(r);
+            if (!best) return py::none();
+            return py::int_(*best);
+          },
+          "The index of the point with the largest damping ratio (None without points).")
+      .def_readonly("termination_of_continuation", &core::NmaResult::termination,
+                    "How the continuation ended ('reached_end', ...).")
+      .def(
+          "write",
+          [](const core::NmaResult& r, const fs::path& folder) {
+            write_folder(r, folder, core::nma_outputs(), core::write_nma);
+          },
+          py::arg("folder"), "Writes what `frichb nma -o folder` writes.");
+  m.def(
+      "nma",
+      [](const py::object& scene, int mode, const py::object& amplitude, const py::dict& set,
+         bool allow_scene_plugins) {
+        const core::StopSource source;
+        core::NmaOptions options;
+        if (mode < 1) throw py::value_error("mode: counted from 1");
+        options.mode = mode;
+        if (!amplitude.is_none()) {
+          const auto range = amplitude.cast<std::pair<double, double>>();
+          if (!(range.first > 0 && range.second > range.first && std::isfinite(range.second)))
+            throw py::value_error("amplitude: (from, to) with 0 < from < to");
+          options.from = range.first;
+          options.to = range.second;
+        }
+        options.scene = scene_input(scene, set, allow_scene_plugins);
+        options.stop = source.token();
+        return call_stoppable(source, [&] { return core::compute_nonlinear_modes(options); });
+      },
+      py::arg("scene"), py::arg("mode") = 1, py::arg("amplitude") = py::none(),
+      py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
+      "Mode `mode` (1: the lowest) of the scene's structure with its contacts as a nonlinear\n"
+      "mode, continued in its modal amplitude, as `frichb nma SCENE --mode K --amplitude\n"
+      "FROM:TO` does. amplitude: (from, to) in m sqrt(kg), or None for the contact motion from\n"
+      "1 nm to 1 mm. Returns an NmaResult.");
+}
+
 // frichb.loop and LoopResult.
 void bind_loop(py::module_& m) {
   py::class_<core::LoopResult> loop_result(
@@ -1322,6 +1409,7 @@ PYBIND11_MODULE(frichb, m) {
   bind_timesim(m);
   bind_modes(m);
   bind_peaks(m);
+  bind_nma(m);
   bind_loop(m);
   bind_study(m);
   bind_convergence(m);

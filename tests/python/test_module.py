@@ -235,6 +235,37 @@ def test_peaks_give_the_programs_peak_curve(tmp_path):
         frichb.peaks(scene, "contacts.shroud.params.mu", 0.3, 0.6, normalise=True)
 
 
+def test_nma_gives_the_programs_backbone(tmp_path):
+    scene = SOURCE / "configs" / "two_dof_blade_damper.yaml"
+    result = frichb.nma(scene, mode=1, amplitude=(1e-6, 1e-4), set={"output.plots": False})
+    assert result.status == 0, result.message
+    assert result.termination_of_continuation == "reached_end"
+    assert result.amplitude[0] == pytest.approx(1e-6, rel=1e-12)
+    assert result.amplitude[-1] == pytest.approx(1e-4, rel=1e-9)
+    cli = frichb_cli("nma", str(scene), "--mode", "1", "--amplitude", "1e-6:1e-4", "--set",
+                     "output.plots=false", "-o", str(tmp_path / "cli"))
+    assert cli.returncode == 0, cli.stderr
+    header, rows = read_csv(tmp_path / "cli" / "nma.csv")
+    assert header[:5] == ["point", "amplitude_m_sqrt_kg", "frequency_hz", "damping_ratio",
+                          "xi_rad_s"]
+    np.testing.assert_allclose(result.amplitude, rows[:, 1], rtol=5e-12, atol=0)
+    np.testing.assert_allclose(result.frequency_hz, rows[:, 2], rtol=5e-12, atol=0)
+    np.testing.assert_allclose(result.damping_ratio, rows[:, 3], rtol=5e-12, atol=0)
+    # The damper sticks at first (the stuck structure's frequency, shifted by its 0.2 % damping
+    # from the undamped one) and slips later.
+    assert result.frequency_hz[0] == pytest.approx(result.start_frequency_hz, rel=1e-6)
+    assert result.slipping_share[0] == 0 and result.slipping_share[-1] > 0
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert summary["most_damped"]["point"] == result.most_damped
+    result.write(tmp_path / "py")
+    assert ((tmp_path / "py" / "nma.csv").read_bytes()
+            == (tmp_path / "cli" / "nma.csv").read_bytes())
+    with pytest.raises(ValueError):
+        frichb.nma(scene, amplitude=(1e-4, 1e-6))
+    with pytest.raises(frichb.SceneError):
+        frichb.nma(scene, mode=9)
+
+
 TWO_RESONANCES = """name: two_resonances
 structure:
   provider: lumped

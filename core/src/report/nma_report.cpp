@@ -75,7 +75,7 @@ void write_nma(const NmaResult& result, StagedOutput& out) {
                                {{"mode", result.mode},
                                 {"harmonic_index", result.harmonic_index},
                                 {"frequency_without_contacts_hz", result.free_frequency_hz},
-                                {"frequency_contacts_at_rest_hz", result.start_frequency_hz}}},
+                                {"undamped_frequency_contacts_at_rest_hz", result.start_frequency_hz}}},
                               {"amplitude",
                                {{"from_m_sqrt_kg", result.from},
                                 {"to_m_sqrt_kg", result.to},

@@ -58,8 +58,9 @@ struct NmaResult {
   bool plots = true;  // the scene's output.plots
   int mode = 1;
   int harmonic_index = 0;  // the structure's harmonic index of harmonic 1
-  // The mode's natural frequency without contacts (the structure's), and that of the start:
-  // the structure with each contact's tangent at rest (the stuck contacts), Hz.
+  // The mode's natural frequency without contacts (the structure's), and the undamped natural
+  // frequency of the start: the structure's retained modes with each contact's tangent at
+  // rest (the stuck contacts), Hz.
   double free_frequency_hz = 0.0, start_frequency_hz = 0.0;
   double from = 0.0, to = 0.0;  // the amplitude range traced, m sqrt(kg)
   bool default_range = false;   // chosen from the contact motion (NmaOptions::from/to unset)
