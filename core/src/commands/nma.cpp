@@ -141,7 +141,9 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
       format_number(result.to, 4));
 
   // Scales: V by its largest entry (m per m sqrt(kg)), harmonic 0's unknowns (m) by the
-  // smallest amplitude's motion, w by the start frequency, xi by 1 % of it.
+  // largest amplitude's motion (a contact that opens moves its mean by about its motion; at
+  // small amplitudes the static unknowns are those at rest), w by the start frequency, xi by
+  // 1 % of it.
   const Eigen::ArrayXd dynamic = problem.dynamic_unknowns().array();
   const double w0 = guess(n);
   ContinuationOptions copt;
@@ -156,7 +158,7 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
     copt.residual_scale.head(n) = copt.unknown_scale.head(n);
     copt.residual_scale(n) = copt.residual_scale(n + 1) = 1.0;
   };
-  set_scales(per_amplitude * result.from);
+  set_scales(per_amplitude * result.to);
   copt.lambda_start = std::log(result.from);
   copt.lambda_end = std::log(result.to);
   copt.initial_step = kInitialStep;
@@ -184,8 +186,8 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
     result.wall_seconds = seconds_since(started);
     return result;
   }
-  // Harmonic 0's scale: what the start holds (a preload's static motion) if larger.
-  set_scales(std::max(per_amplitude * result.from,
+  // Harmonic 0's scale: what the start holds (a static load's motion) if larger.
+  set_scales(std::max(per_amplitude * result.to,
                       (start.y.head(n).array() * (1 - dynamic)).abs().maxCoeff()));
 
   const ContinuationSummary summary =
