@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -314,6 +315,37 @@ TEST(NonlinearModes, TheVerbsBackboneOfTheJenkinsOscillatorEqualsTheDescribingFu
   EXPECT_EQ(summary["mode"]["mode"], 1);
   EXPECT_EQ(summary["points"], result.points.size());
   EXPECT_EQ(summary["most_damped"]["point"], *most_damped_point(result));
+}
+
+// The quick start (the same oscillator, 7 harmonics, 128 samples) over the default range,
+// contact motion 1 nm to 1 mm: stuck at first (the stiffened oscillator, its damping), and at
+// 1 mm (80 times the stick limit) the describing function's frequency, which lies 0.06 % above
+// the free oscillator's: the large-amplitude limit within the higher harmonics' share.
+TEST(NonlinearModes, TheQuickStartsBackboneGoesFromTheStuckToTheFreeOscillator) {
+  NmaOptions options;
+  options.scene.file =
+      std::filesystem::path(FRICHB_SOURCE_DIR) / "configs/quickstart_friction_oscillator.yaml";
+  options.scene.overrides = {{"output.plots", "false"}};
+  const NmaResult result = compute_nonlinear_modes(options);
+  ASSERT_EQ(result.outcome.status, 0) << result.outcome.message;
+  ASSERT_TRUE(result.default_range);
+  const double to_modal = std::sqrt(kMass);
+  const NmaPoint& first = result.points.front();
+  const NmaPoint& last = result.points.back();
+  EXPECT_NEAR(first.contact_motion_m, 1e-9, 1e-15);
+  EXPECT_NEAR(last.contact_motion_m, 1e-3, 1e-9);
+  const DescribingFunction stuck = jenkins_describing_function(first.amplitude / to_modal);
+  EXPECT_NEAR(2 * std::numbers::pi * first.frequency_hz, stuck.frequency, 1e-12 * stuck.frequency);
+  EXPECT_NEAR(first.xi, stuck.xi, 1e-12 * stuck.xi);
+  const DescribingFunction sliding = jenkins_describing_function(last.amplitude / to_modal);
+  const double free_hz = std::sqrt(kStiffness / kMass) / (2 * std::numbers::pi);
+  std::printf("at 1 mm: %.6f Hz, describing function %.6f Hz, free %.6f Hz\n", last.frequency_hz,
+              sliding.frequency / (2 * std::numbers::pi), free_hz);
+  EXPECT_NEAR(
+      2 * std::numbers::pi * last.frequency_hz, sliding.frequency,
+      1e-4 * (sliding.frequency - 2 * std::numbers::pi * free_hz) + 1e-5 * sliding.frequency);
+  EXPECT_LT(last.frequency_hz - free_hz, 1e-3 * free_hz);
+  EXPECT_GT(last.frequency_hz, free_hz);
 }
 
 // A mode the structure does not have, and a range that is not 0 < from < to, are refused.
