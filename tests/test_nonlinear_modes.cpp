@@ -319,8 +319,8 @@ TEST(NonlinearModes, TheVerbsBackboneOfTheJenkinsOscillatorEqualsTheDescribingFu
 
 // The quick start (the same oscillator, 7 harmonics, 128 samples) over the default range,
 // contact motion 1 nm to 1 mm: stuck at first (the stiffened oscillator, its damping), and at
-// 1 mm (80 times the stick limit) the describing function's frequency, which lies 0.06 % above
-// the free oscillator's: the large-amplitude limit within the higher harmonics' share.
+// 1 mm (80 times the stick limit) the describing function's frequency, 0.06 % above the free
+// oscillator's: the large-amplitude limit.
 TEST(NonlinearModes, TheQuickStartsBackboneGoesFromTheStuckToTheFreeOscillator) {
   NmaOptions options;
   options.scene.file =
@@ -341,9 +341,10 @@ TEST(NonlinearModes, TheQuickStartsBackboneGoesFromTheStuckToTheFreeOscillator) 
   const double free_hz = std::sqrt(kStiffness / kMass) / (2 * std::numbers::pi);
   std::printf("at 1 mm: %.6f Hz, describing function %.6f Hz, free %.6f Hz\n", last.frequency_hz,
               sliding.frequency / (2 * std::numbers::pi), free_hz);
-  EXPECT_NEAR(
-      2 * std::numbers::pi * last.frequency_hz, sliding.frequency,
-      1e-4 * (sliding.frequency - 2 * std::numbers::pi * free_hz) + 1e-5 * sliding.frequency);
+  // The shift above the free frequency as the describing function gives it, to 1 % (the
+  // higher harmonics and the sampled trace move it by 0.3 %).
+  const double shift = sliding.frequency - 2 * std::numbers::pi * free_hz;
+  EXPECT_NEAR(2 * std::numbers::pi * last.frequency_hz, sliding.frequency, 1e-2 * shift);
   EXPECT_LT(last.frequency_hz - free_hz, 1e-3 * free_hz);
   EXPECT_GT(last.frequency_hz, free_hz);
 }
