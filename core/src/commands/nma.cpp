@@ -86,10 +86,69 @@ NmaPoint describe(const NonlinearModeProblem& problem, const ContinuationPoint& 
     }
   }
   point.higher_harmonics = first + higher > 0 ? std::sqrt(higher / (first + higher)) : 0.0;
+  const auto modes = model.contact_modes(problem.first_harmonic()).cols();
+  point.modal_coordinates.resize(modes);
+  for (Eigen::Index r = 0; r < modes; ++r)
+    point.modal_coordinates(r) = model.modal_coordinate(z, point.xi, problem.first_harmonic(), r);
   return point;
 }
 
+// The synthesis's quantities at a point: psi = q / a, the modal mass |psi|^2, |psi^H p|.
+struct ShapeAt {
+  double mass = 0.0, force = 0.0;
+};
+ShapeAt shape_at(const NmaResult& result, const NmaPoint& p) {
+  const Eigen::VectorXcd psi = p.modal_coordinates / p.amplitude;
+  return {psi.squaredNorm(), std::abs(psi.dot(result.modal_excitation))};
+}
+
+// The largest norm over the period of a node's motion with complex amplitudes c:
+// max |Re(c e^{i t})|^2 = (|c|^2 + |c^T c|) / 2.
+double largest_norm(const Eigen::VectorXcd& c) {
+  return std::sqrt(0.5 * (c.squaredNorm() + std::abs(c.cwiseProduct(c).sum())));
+}
+
 }  // namespace
+
+double excitation_scale_at(const NmaResult& result, std::size_t index) {
+  const NmaPoint& p = result.points.at(index);
+  const ShapeAt shape = shape_at(result, p);
+  const double w = 2 * std::numbers::pi * p.frequency_hz, zeta = p.damping_ratio;
+  return 2 * zeta * w * w * std::sqrt(1 - zeta * zeta) * shape.mass * p.amplitude / shape.force;
+}
+
+SynthesisedPeak synthesise_peak(const NmaResult& result, double scale) {
+  SynthesisedPeak peak;
+  if (!(scale > 0)) throw std::invalid_argument("synthesise_peak: the scale must be > 0");
+  if (result.modal_excitation.size() == 0 || result.modal_excitation.norm() == 0) {
+    peak.message = "the scene has no excitation at harmonic 1";
+    return peak;
+  }
+  // g = scale / excitation_scale_at - 1 falls through 0 at the peak (the excitation a point's
+  // amplitude needs grows along the backbone).
+  const auto g = [&](std::size_t i) { return scale / excitation_scale_at(result, i) - 1.0; };
+  for (std::size_t i = 1; i < result.points.size(); ++i) {
+    const double before = g(i - 1), after = g(i);
+    if (!(before > 0 && after <= 0)) continue;
+    const NmaPoint &p0 = result.points[i - 1], &p1 = result.points[i];
+    const double t = before / (before - after);
+    const auto blend = [t](double x0, double x1) { return x0 + t * (x1 - x0); };
+    peak.amplitude = std::exp(blend(std::log(p0.amplitude), std::log(p1.amplitude)));
+    peak.damping_ratio = blend(p0.damping_ratio, p1.damping_ratio);
+    const double w = 2 * std::numbers::pi * blend(p0.frequency_hz, p1.frequency_hz);
+    peak.frequency_hz =
+        w * std::sqrt(1 - 2 * peak.damping_ratio * peak.damping_ratio) / (2 * std::numbers::pi);
+    if (result.node_modes.size() > 0) {
+      const Eigen::VectorXcd psi =
+          (1 - t) * p0.modal_coordinates / p0.amplitude + t * p1.modal_coordinates / p1.amplitude;
+      peak.node_amplitude_m = largest_norm(result.node_modes * psi) * peak.amplitude;
+    }
+    peak.found = true;
+    return peak;
+  }
+  peak.message = "the peak lies outside the traced amplitudes";
+  return peak;
+}
 
 NmaResult compute_nonlinear_modes(const NmaOptions& options) {
   const auto started = std::chrono::steady_clock::now();
@@ -123,6 +182,18 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
   result.free_frequency_hz =
       model.structure().natural_frequencies(result.harmonic_index)(options.mode - 1) /
       (2 * std::numbers::pi);
+  const ReducedStructure::Basis& basis = model.structure().basis(result.harmonic_index);
+  result.modal_excitation = basis.rows.adjoint() * model.excitation(k1);
+  if (!scene.output.response.empty()) {
+    result.node = scene.output.response.front();
+    for (const auto& node : scene.structure.nodes)
+      if (node.name == result.node) {
+        result.node_modes.resize(static_cast<Eigen::Index>(node.dofs.size()), basis.rows.cols());
+        for (std::size_t d = 0; d < node.dofs.size(); ++d)
+          result.node_modes.row(static_cast<Eigen::Index>(d)) =
+              basis.rows.row(model.kept_index(node.dofs[d]));
+      }
+  }
 
   Eigen::VectorXd guess = problem.linear_guess(1.0);
   result.start_frequency_hz = guess(n) / (2 * std::numbers::pi);

@@ -49,6 +49,9 @@ struct NmaPoint {
   // sqrt(sum_{n>=2} |U_n|^2 / sum_{n>=1} |U_n|^2).
   double higher_harmonics = 0.0;
   int newton_iterations = 0;
+  // The retained modes' modal coordinates at harmonic 1 (complex amplitudes, m sqrt(kg); mode
+  // K's is a): the mode's shape at this amplitude, for the forced response's synthesis.
+  Eigen::VectorXcd modal_coordinates;
   Eigen::VectorXd y;  // the problem's unknowns (V, w, xi, ln a): NonlinearModeProblem
 };
 
@@ -69,7 +72,37 @@ struct NmaResult {
   std::vector<NmaPoint> points;  // from `from`, in the order traced
   std::string termination;       // the continuation's (solver/continuation.hpp's words)
   double wall_seconds = 0.0;
+  // For synthesise_peak: the scene's excitation at harmonic 1 projected on the retained modes,
+  // Phi^H f (N / sqrt(kg)), and the response node (the first of output.response; empty without
+  // one) with the modes at its DOFs (node DOFs x modes, m per m sqrt(kg)).
+  Eigen::VectorXcd modal_excitation;
+  std::string node;
+  Eigen::MatrixXcd node_modes;
 };
+
+// The peak of the forced response to the scene's harmonic-1 excitation times `scale`,
+// synthesised from the backbone by single-nonlinear-mode theory: with psi = q / a the mode's
+// shape at amplitude a (modal coordinates q), its modal mass m = |psi|^2 and modal force
+// p = psi^H Phi^H f, the response at frequency W obeys
+//   m (w(a)^2 - W^2 + 2 i zeta(a) w(a) W) a = scale p,
+// whose largest a over W is where scale |p| / (m a) = 2 zeta w^2 sqrt(1 - zeta^2), at
+// W = w sqrt(1 - 2 zeta^2). Accurate near an isolated resonance where the mode's shape holds
+// the response; the off-resonant modes, and interactions between modes, are left out.
+struct SynthesisedPeak {
+  bool found = false;             // false: the backbone does not hold the peak (message says why)
+  double amplitude = 0.0;         // a at the peak, m sqrt(kg)
+  double frequency_hz = 0.0;      // W / 2 pi
+  double damping_ratio = 0.0;     // zeta(a) there
+  double node_amplitude_m = 0.0;  // the response node's harmonic-1 amplitude (its largest
+                                  // displacement norm over the period)
+  std::string message;
+};
+// `scale` > 0 multiplies the scene's excitation. The peak is the first amplitude, going up the
+// backbone, where the condition above is met, between two traced points (interpolated in ln a).
+SynthesisedPeak synthesise_peak(const NmaResult& result, double scale);
+// The excitation scale whose synthesised peak lies at point `index` of the backbone (inverse of
+// synthesise_peak at the traced points).
+double excitation_scale_at(const NmaResult& result, std::size_t index);
 
 // The nonlinear mode of a loaded scene. Throws SceneError for a mode the structure does not
 // have or a scene the formulation cannot take (harmonic 1 not kept, non-diagonal modal
