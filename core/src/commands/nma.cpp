@@ -86,6 +86,11 @@ NmaPoint describe(const NonlinearModeProblem& problem, const ContinuationPoint& 
     }
   }
   point.higher_harmonics = first + higher > 0 ? std::sqrt(higher / (first + higher)) : 0.0;
+  // One evaluation at z keeps the contact forces there for every mode's coordinate.
+  Eigen::VectorXd residual;
+  std::string message;
+  if (!model.evaluate_autonomous(z, point.xi, residual, nullptr, &message))
+    throw std::runtime_error("the backbone's point: " + message);
   const auto modes = model.contact_modes(problem.first_harmonic()).cols();
   point.modal_coordinates.resize(modes);
   for (Eigen::Index r = 0; r < modes; ++r)
