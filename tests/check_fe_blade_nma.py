@@ -24,9 +24,9 @@ Usage: check_fe_blade_nma.py SOURCE_DIR FRICHB WORK_DIR   (exit code 1 on a fail
 import csv
 import json
 import pathlib
-import shutil
-import subprocess
 import sys
+
+import fe_test_case
 
 
 def fail(message):
@@ -34,10 +34,7 @@ def fail(message):
 
 
 def run(command):
-    result = subprocess.run([str(c) for c in command], capture_output=True, text=True)
-    if result.returncode != 0:
-        fail(f"{' '.join(map(str, command))} exited {result.returncode}:\n"
-             f"{result.stdout}{result.stderr}")
+    fe_test_case.run_or_fail(command, fail)
 
 
 def nearest(bands, system, frequency):
@@ -50,18 +47,7 @@ def nearest(bands, system, frequency):
 
 def main():
     source, frichb, work = (pathlib.Path(a).resolve() for a in sys.argv[1:4])
-    shutil.rmtree(work, ignore_errors=True)
-    work.mkdir(parents=True)
-    model = work / "test_case"
-    run([sys.executable, source / "configs/models/shrouded_blade/build_model.py", "--preset",
-         "test_case", "--out", model])
-    generated = work / "configs" / "models" / "generated"
-    generated.mkdir(parents=True)
-    (generated / "test_case").symlink_to(model)
-    scenes = work / "configs" / "case_studies"
-    scenes.mkdir(parents=True)
-    scene = scenes / "test_case_nonlinear_modes.yaml"
-    shutil.copy(source / "configs/case_studies" / scene.name, scene)
+    scene = fe_test_case.prepare(source, work, "test_case_nonlinear_modes.yaml", fail)
     constant_load = ["--set", "contacts.shroud.params.kn=0", "--set", "output.plots=false"]
 
     out = work / "nma"

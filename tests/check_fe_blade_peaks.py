@@ -21,9 +21,9 @@ Usage: check_fe_blade_peaks.py SOURCE_DIR FRICHB WORK_DIR   (exit code 1 on a fa
 import csv
 import json
 import pathlib
-import shutil
-import subprocess
 import sys
+
+import fe_test_case
 
 LOAD = "contacts.shroud.params.normal_load"
 NODE = "shroud_right"
@@ -34,10 +34,7 @@ def fail(message):
 
 
 def run(command):
-    result = subprocess.run([str(c) for c in command], capture_output=True, text=True)
-    if result.returncode != 0:
-        fail(f"{' '.join(map(str, command))} exited {result.returncode}:\n"
-             f"{result.stdout}{result.stderr}")
+    fe_test_case.run_or_fail(command, fail)
 
 
 def full_peak(frichb, scene, work, load):
@@ -60,18 +57,7 @@ def expect_equal(what, traced, full):
 
 def main():
     source, frichb, work = (pathlib.Path(a).resolve() for a in sys.argv[1:4])
-    shutil.rmtree(work, ignore_errors=True)
-    work.mkdir(parents=True)
-    model = work / "test_case"
-    run([sys.executable, source / "configs/models/shrouded_blade/build_model.py", "--preset",
-         "test_case", "--out", model])
-    generated = work / "configs" / "models" / "generated"
-    generated.mkdir(parents=True)
-    (generated / "test_case").symlink_to(model)
-    scenes = work / "configs" / "case_studies"
-    scenes.mkdir(parents=True)
-    scene = scenes / "test_case_2_eo1_gap_to_preload.yaml"
-    shutil.copy(source / "configs/case_studies" / scene.name, scene)
+    scene = fe_test_case.prepare(source, work, "test_case_2_eo1_gap_to_preload.yaml", fail)
 
     out = work / "peaks"
     run([frichb, "--log-level", "warn", "peaks", scene, "--vary", f"{LOAD}=0.05:200",

@@ -8,6 +8,7 @@
 #include <iostream>
 #include <optional>
 #include <sstream>
+#include <utility>
 
 #include "cli.hpp"
 #include "frichb/core/commands/catalog.hpp"
@@ -216,6 +217,23 @@ int modes_verb(const Invocation& call) {
       [&](core::StagedOutput&) { return core::compute_modes(request); }, core::write_modes);
 }
 
+// FROM:TO, two finite numbers written in full; nullopt otherwise.
+std::optional<std::pair<double, double>> number_range(const std::string& text) {
+  const auto colon = text.find(':');
+  if (colon == std::string::npos) return std::nullopt;
+  try {
+    std::size_t used = 0;
+    const std::string from = text.substr(0, colon), to = text.substr(colon + 1);
+    const double low = std::stod(from, &used);
+    if (used != from.size()) return std::nullopt;
+    const double high = std::stod(to, &used);
+    if (used != to.size() || !std::isfinite(low) || !std::isfinite(high)) return std::nullopt;
+    return std::pair{low, high};
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
 int peaks_verb(const Invocation& call) {
   core::PeaksOptions request;
   request.scene = call.scene_input();
@@ -224,23 +242,14 @@ int peaks_verb(const Invocation& call) {
     return usage_error(call, "give the parameter and its range, --vary PATH=FROM:TO");
   const std::string vary = call.options["vary"].as<std::string>();
   const auto eq = vary.find('=');
-  const auto colon = eq == std::string::npos ? eq : vary.find(':', eq);
-  bool parsed = eq != std::string::npos && eq > 0 && colon != std::string::npos;
-  if (parsed) {
+  const auto range =
+      eq == std::string::npos || eq == 0 ? std::nullopt : number_range(vary.substr(eq + 1));
+  if (range) {
     request.parameter = vary.substr(0, eq);
-    try {
-      std::size_t used = 0;
-      const std::string from = vary.substr(eq + 1, colon - eq - 1), to = vary.substr(colon + 1);
-      request.from = std::stod(from, &used);
-      parsed = used == from.size();
-      request.to = std::stod(to, &used);
-      parsed = parsed && used == to.size();
-    } catch (const std::exception&) {
-      parsed = false;
-    }
+    request.from = range->first;
+    request.to = range->second;
   }
-  if (!parsed || !std::isfinite(request.from) || !std::isfinite(request.to) ||
-      request.from == request.to)
+  if (!range || request.from == request.to)
     return usage_error(call,
                        "--vary takes PATH=FROM:TO with two different numbers, not '" + vary + "'");
   if (call.options.count("node")) request.node = call.options["node"].as<std::string>();
@@ -280,22 +289,12 @@ int nma_verb(const Invocation& call) {
   }
   if (call.options.count("amplitude")) {
     const std::string text = call.options["amplitude"].as<std::string>();
-    const auto colon = text.find(':');
-    bool parsed = colon != std::string::npos;
-    if (parsed) {
-      try {
-        std::size_t used = 0;
-        const std::string from = text.substr(0, colon), to = text.substr(colon + 1);
-        request.from = std::stod(from, &used);
-        parsed = used == from.size();
-        request.to = std::stod(to, &used);
-        parsed = parsed && used == to.size();
-      } catch (const std::exception&) {
-        parsed = false;
-      }
+    const auto range = number_range(text);
+    if (range) {
+      request.from = range->first;
+      request.to = range->second;
     }
-    if (!parsed || !(*request.from > 0) || !(*request.to > *request.from) ||
-        !std::isfinite(*request.to))
+    if (!range || !(*request.from > 0) || !(*request.to > *request.from))
       return usage_error(
           call, "--amplitude takes FROM:TO with 0 < FROM < TO (m sqrt(kg)), not '" + text + "'");
   }
