@@ -258,6 +258,12 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
     result.outcome.termination = result.termination = "start_failed";
     result.outcome.message = "the mode did not converge at a = " + format_number(result.from, 4) +
                              " m sqrt(kg): " + start.message;
+    if (std::abs(result.start_frequency_hz / result.free_frequency_hz - 1) < 1e-12)
+      result.outcome.message +=
+          " (the contacts carry no stiffness on this mode at rest, open or without a "
+          "preload: its start is the free mode, where the equations condensed to the contacts "
+          "leave the motion undetermined; give the contact a preload, or start the range "
+          "where the contacts already carry load)";
     spdlog::warn("{}: {}", file, result.outcome.message);
     result.wall_seconds = seconds_since(started);
     return result;
