@@ -262,8 +262,7 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
       result.outcome.message +=
           " (the contacts carry no stiffness on this mode at rest, open or without a "
           "preload: its start is the free mode, where the equations condensed to the contacts "
-          "leave the motion undetermined; give the contact a preload, or start the range "
-          "where the contacts already carry load)";
+          "leave the motion undetermined)";
     spdlog::warn("{}: {}", file, result.outcome.message);
     result.wall_seconds = seconds_since(started);
     return result;
