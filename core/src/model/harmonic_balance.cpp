@@ -551,6 +551,26 @@ std::complex<double> HarmonicBalanceModel::modal_coordinate(const Eigen::VectorX
   return q;
 }
 
+void HarmonicBalanceModel::modal_impedances(const ReducedStructure::Basis& b, int hn, double w,
+                                            double xi, bool xi_derivative, Workspace& ws) {
+  // z_r = w_r^2 - W^2 + i W (c_r - xi) at W = hn w; d(1/z_r)/dw = -hn z_r' / z_r^2.
+  const std::complex<double> imaginary_unit(0.0, 1.0);
+  const double big_w = hn * w;
+  const Eigen::Index m = b.frequencies.size();
+  ws.inv_z.resize(m);
+  ws.dinv_z.resize(m);
+  if (xi_derivative) ws.xi_inv_z.resize(m);
+  for (Eigen::Index q = 0; q < m; ++q) {
+    const double wr = b.frequencies(q);
+    const double damping = b.damping(q, q) - xi;
+    const std::complex<double> z = wr * wr - big_w * big_w + imaginary_unit * big_w * damping;
+    ws.inv_z(q) = 1.0 / z;
+    ws.dinv_z(q) = -static_cast<double>(hn) * (-2.0 * big_w + imaginary_unit * damping) / (z * z);
+    // d(1/z)/dxi = -(dz/dxi) / z^2 = i W / z^2
+    if (xi_derivative) ws.xi_inv_z(q) = imaginary_unit * big_w / (z * z);
+  }
+}
+
 bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::VectorXd& residual,
                                          Eigen::MatrixXd* jacobian,
                                          std::shared_ptr<const JacobianOperator>* op,
@@ -607,23 +627,8 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
     auto rc = ws.contact_receptance.middleCols(static_cast<Eigen::Index>(k) * components_,
                                                jacobian ? components_ : 0);
     if (cr.modal) {
-      // z_r = w_r^2 - W^2 + i W c_r at W = hn w; d(1/z_r)/dw = -hn z_r' / z_r^2.
-      const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
-      const double big_w = hn * w;
-      const Eigen::Index m = b.frequencies.size();
-      ws.inv_z.resize(m);
-      ws.dinv_z.resize(m);
-      if (autonomy != nullptr && derivatives) ws.xi_inv_z.resize(m);
-      for (Eigen::Index q = 0; q < m; ++q) {
-        const double wr = b.frequencies(q);
-        const double damping = b.damping(q, q) - xi;
-        const std::complex<double> z = wr * wr - big_w * big_w + imaginary_unit * big_w * damping;
-        ws.inv_z(q) = 1.0 / z;
-        ws.dinv_z(q) =
-            -static_cast<double>(hn) * (-2.0 * big_w + imaginary_unit * damping) / (z * z);
-        // d(1/z)/dxi = -(dz/dxi) / z^2 = i W / z^2
-        if (autonomy != nullptr && derivatives) ws.xi_inv_z(q) = imaginary_unit * big_w / (z * z);
-      }
+      modal_impedances(structure_->basis(harmonic_index_[k]), hn, w, xi,
+                       autonomy != nullptr && derivatives, ws);
       // Phi^H (G^H F - f) = P^H F - q
       ws.modal.noalias() = cr.projected.adjoint() * ws.force;
       if (excited) ws.modal -= cr.modal_force;

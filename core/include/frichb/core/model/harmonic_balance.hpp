@@ -239,6 +239,11 @@ class HarmonicBalanceModel final : public CurveProblem {
 
   struct ContactReceptance;
   struct Workspace;
+  // ws.inv_z = 1 / z_r and ws.dinv_z = d(1/z_r)/dw of harmonic hn's modes at w, with every
+  // mode's damping lowered by xi (0: the forced equations); with xi_derivative, ws.xi_inv_z =
+  // d(1/z_r)/dxi. Diagonal modal damping.
+  static void modal_impedances(const ReducedStructure::Basis& b, int hn, double w, double xi,
+                               bool xi_derivative, Workspace& ws);
   // Rc_n = P diag(1/z) P^H from ws.inv_z into rc (components x components).
   void form_modal_receptance(const ContactReceptance& cr, Workspace& ws,
                              Eigen::Ref<Eigen::MatrixXcd> rc) const;
