@@ -174,6 +174,13 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
   result.mode = options.mode;
   result.harmonics = scene.harmonic_balance.harmonics;
   result.unknowns = static_cast<long>(model.equation_count());
+  for (const auto& form : model.receptance_forms())
+    if (form.harmonic == 1 &&
+        static_cast<std::size_t>(options.mode) > model.structure().mode_count(form.harmonic_index))
+      throw SceneError(file, 0, 0, "--mode",
+                       "mode " + std::to_string(options.mode) + ": the structure retains " +
+                           std::to_string(model.structure().mode_count(form.harmonic_index)) +
+                           " modes at harmonic index " + std::to_string(form.harmonic_index));
   std::unique_ptr<NonlinearModeProblem> made;
   try {
     made = std::make_unique<NonlinearModeProblem>(model, options.mode - 1);
