@@ -140,6 +140,10 @@ SynthesisedPeak synthesise_peak(const NmaResult& result, double scale) {
     const auto blend = [t](double x0, double x1) { return x0 + t * (x1 - x0); };
     peak.amplitude = std::exp(blend(std::log(p0.amplitude), std::log(p1.amplitude)));
     peak.damping_ratio = blend(p0.damping_ratio, p1.damping_ratio);
+    if (!(2 * peak.damping_ratio * peak.damping_ratio < 1)) {
+      peak.message = "the damping ratio at the peak is above 1 / sqrt(2): no resonance peak";
+      return peak;
+    }
     const double w = 2 * std::numbers::pi * blend(p0.frequency_hz, p1.frequency_hz);
     peak.frequency_hz =
         w * std::sqrt(1 - 2 * peak.damping_ratio * peak.damping_ratio) / (2 * std::numbers::pi);
@@ -207,7 +211,17 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
       }
   }
 
-  Eigen::VectorXd guess = problem.linear_guess(1.0);
+  Eigen::VectorXd guess;
+  try {
+    guess = problem.linear_guess(1.0);
+  } catch (const std::runtime_error& e) {
+    result.outcome.status = kExitIncomplete;
+    result.outcome.termination = result.termination = "start_failed";
+    result.outcome.message = e.what();
+    spdlog::warn("{}: {}", file, result.outcome.message);
+    result.wall_seconds = seconds_since(started);
+    return result;
+  }
   result.start_frequency_hz = guess(n) / (2 * std::numbers::pi);
   const double per_amplitude = largest_motion(model, guess.head(n), k1);  // m per m sqrt(kg)
   if (!(per_amplitude > 0))
@@ -278,9 +292,15 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
   set_scales(std::max(per_amplitude * result.to,
                       (start.y.head(n).array() * (1 - dynamic)).abs().maxCoeff()));
 
+  std::string undescribed;  // why a point could not be described (its contacts' trace)
   const ContinuationSummary summary =
       trace_curve(problem, start.y, copt, [&](const ContinuationPoint& p, std::size_t index) {
-        result.points.push_back(describe(problem, p));
+        try {
+          result.points.push_back(describe(problem, p));
+        } catch (const std::runtime_error& e) {
+          undescribed = e.what();
+          return false;
+        }
         const NmaPoint& last = result.points.back();
         if (index % 10 == 0)
           spdlog::info("  a = {} m sqrt(kg): {} Hz, damping ratio {}, {} % slipping",
@@ -294,7 +314,9 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
   if (!summary.reached_end()) {
     result.outcome.status = kExitIncomplete;
     result.outcome.termination = result.termination;
-    result.outcome.message = "the backbone ended early: " + summary.message;
+    result.outcome.message =
+        "the backbone ended early: " +
+        (undescribed.empty() ? summary.message : "a point's contacts: " + undescribed);
     spdlog::warn("{}: {}", file, result.outcome.message);
   }
   spdlog::info("{}: {} points of the backbone in {} s", file, result.points.size(),

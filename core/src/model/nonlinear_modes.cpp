@@ -116,8 +116,11 @@ Eigen::VectorXd NonlinearModeProblem::linear_guess(double amplitude) const {
   const int components = model_.component_count();
 
   // The contacts' tangents at rest, through q's gradients: g_r = -z_r dq_r/dU = p_r^H dF_1/dU.
+  // The tangents do not depend on w: they are taken at w = 0, where z_r = w_r^2 is no
+  // resonance (at w = w_K an undamped mode's z_K would vanish).
   Eigen::VectorXd z = Eigen::VectorXd::Zero(n + 1);
-  z(n) = basis.frequencies(mode_);
+  if (!(basis.frequencies.minCoeff() > 0))
+    throw std::runtime_error("nonlinear modes: the structure has a rigid-body mode at harmonic 1");
   Eigen::VectorXd residual;
   Eigen::MatrixXd jacobian;
   std::string message;
