@@ -609,7 +609,6 @@ bool HarmonicBalanceModel::evaluate_into(const Eigen::VectorXd& y, Eigen::Vector
                                      static_cast<Eigen::Index>(layout_.harmonics().size()));
   }
   const auto& h = layout_.harmonics();
-  const std::complex<double> imaginary_unit(0.0, 1.0);
   std::vector<HarmonicReceptance> receptances(op != nullptr ? h.size() : 0);
   Eigen::VectorXd parameter_column;
   if (op != nullptr) parameter_column.setZero(n);
