@@ -7,6 +7,7 @@
 #include <cmath>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 
 #include "frichb/core/model/harmonic_balance.hpp"
@@ -159,71 +160,108 @@ SynthesisedPeak synthesise_peak(const NmaResult& result, double scale) {
   return peak;
 }
 
-NmaResult compute_nonlinear_modes(const NmaOptions& options) {
-  const auto started = std::chrono::steady_clock::now();
+namespace {
+
+void check_range(const NmaOptions& options) {
   if (options.mode < 1) throw std::invalid_argument("the mode is counted from 1");
   if (options.from.has_value() != options.to.has_value() ||
       (options.from &&
        !(*options.from > 0 && *options.to > *options.from && std::isfinite(*options.to))))
     throw std::invalid_argument("the amplitude range needs 0 < from < to, both finite");
-  const BoundScene bound = load_bound_scene(options.scene);
-  const Scene& scene = bound.scene;
-  const std::string file = scene.file.string();
-  StructureInstance structure(scene.structure.plugin, scene.structure.values);
-  check_scene_against_plugins(scene, structure);
-  const HarmonicBalanceModel model(scene, structure);
-  NmaResult result;
-  result.scene_file = scene.file;
-  result.plots = scene.output.plots;
-  result.mode = options.mode;
-  result.harmonics = scene.harmonic_balance.harmonics;
-  result.unknowns = static_cast<long>(model.equation_count());
+}
+
+// Refuses a mode the structure does not retain at harmonic 1's harmonic index.
+void check_mode_retained(const std::string& file, const HarmonicBalanceModel& model, int mode) {
   for (const auto& form : model.receptance_forms())
     if (form.harmonic == 1 &&
-        static_cast<std::size_t>(options.mode) > model.structure().mode_count(form.harmonic_index))
+        static_cast<std::size_t>(mode) > model.structure().mode_count(form.harmonic_index))
       throw SceneError(file, 0, 0, "--mode",
-                       "mode " + std::to_string(options.mode) + ": the structure retains " +
+                       "mode " + std::to_string(mode) + ": the structure retains " +
                            std::to_string(model.structure().mode_count(form.harmonic_index)) +
                            " modes at harmonic index " + std::to_string(form.harmonic_index));
-  std::unique_ptr<NonlinearModeProblem> made;
-  try {
-    made = std::make_unique<NonlinearModeProblem>(model, options.mode - 1);
-  } catch (const std::invalid_argument& e) {
-    throw SceneError(file, 0, 0, "harmonic_balance", e.what());
-  }
-  const NonlinearModeProblem& problem = *made;
-  const Eigen::Index n = problem.harmonic_unknowns();
+}
+
+// The result's facts about the structure: the harmonic index, the mode's frequency without
+// contacts, the excitation on the retained modes and the response node's modes.
+void describe_structure(const Scene& scene, const HarmonicBalanceModel& model,
+                        const NonlinearModeProblem& problem, NmaResult& result) {
   const std::size_t k1 = problem.first_harmonic();
   result.harmonic_index = model.receptance_forms()[k1].harmonic_index;
   result.free_frequency_hz =
-      model.structure().natural_frequencies(result.harmonic_index)(options.mode - 1) /
+      model.structure().natural_frequencies(result.harmonic_index)(result.mode - 1) /
       (2 * std::numbers::pi);
   const ReducedStructure::Basis& basis = model.structure().basis(result.harmonic_index);
   result.modal_excitation = basis.rows.adjoint() * model.excitation(k1);
-  if (!scene.output.response.empty()) {
-    result.node = scene.output.response.front();
-    for (const auto& node : scene.structure.nodes)
-      if (node.name == result.node) {
-        result.node_modes.resize(static_cast<Eigen::Index>(node.dofs.size()), basis.rows.cols());
-        for (std::size_t d = 0; d < node.dofs.size(); ++d)
-          result.node_modes.row(static_cast<Eigen::Index>(d)) =
-              basis.rows.row(model.kept_index(node.dofs[d]));
-      }
-  }
+  if (scene.output.response.empty()) return;
+  result.node = scene.output.response.front();
+  for (const auto& node : scene.structure.nodes)
+    if (node.name == result.node) {
+      result.node_modes.resize(static_cast<Eigen::Index>(node.dofs.size()), basis.rows.cols());
+      for (std::size_t d = 0; d < node.dofs.size(); ++d)
+        result.node_modes.row(static_cast<Eigen::Index>(d)) =
+            basis.rows.row(model.kept_index(node.dofs[d]));
+    }
+}
 
+// Ends the computation early as a result: kExitIncomplete with `termination` and `message`.
+void end_early(NmaResult& result, const std::string& file, const std::string& termination,
+               const std::string& message) {
+  result.outcome.status = kExitIncomplete;
+  result.outcome.termination = result.termination = termination;
+  result.outcome.message = message;
+  spdlog::warn("{}: {}", file, message);
+}
+
+// A stop requested: the outcome says so (true), else false.
+bool stopped(const NmaOptions& options, NmaResult& result) {
+  if (!options.stop.stop_requested()) return false;
+  result.outcome.status = options.stop.exit_code();
+  result.outcome.termination = "interrupted";
+  result.outcome.message = options.stop.reason();
+  return true;
+}
+
+// The continuation's scales: V by its largest entry (m per m sqrt(kg)), harmonic 0's unknowns
+// (m) by `static_scale`, w by the start frequency w0, xi by 1 % of it, ln a by 1.
+void set_scales(ContinuationOptions& copt, const NonlinearModeProblem& problem,
+                double per_amplitude, double static_scale, double w0) {
+  const Eigen::Index n = problem.harmonic_unknowns();
+  const Eigen::ArrayXd dynamic = problem.dynamic_unknowns().array();
+  copt.unknown_scale.resize(n + 3);
+  copt.unknown_scale.head(n) =
+      (dynamic > 0).select(per_amplitude, Eigen::ArrayXd::Constant(n, static_scale)).matrix();
+  copt.unknown_scale(n) = w0;
+  copt.unknown_scale(n + 1) = 1e-2 * w0;
+  copt.unknown_scale(n + 2) = 1.0;
+  copt.residual_scale.resize(n + 2);
+  copt.residual_scale.head(n) = copt.unknown_scale.head(n);
+  copt.residual_scale(n) = copt.residual_scale(n + 1) = 1.0;
+}
+
+// The backbone's first point, at a = from, and the continuation's options.
+struct BackboneStart {
+  Eigen::VectorXd y;
+  ContinuationOptions options;
+};
+
+// The start: the linear mode with the contacts at rest, the amplitude range (the default from
+// the contact motion), the scales, the solve at `from`. nullopt where the start fails or a
+// stop ends it (the outcome says which).
+std::optional<BackboneStart> start_backbone(const NonlinearModeProblem& problem,
+                                            const NmaOptions& options, const std::string& file,
+                                            NmaResult& result) {
+  const HarmonicBalanceModel& model = problem.model();
+  const Eigen::Index n = problem.harmonic_unknowns();
   Eigen::VectorXd guess;
   try {
     guess = problem.linear_guess(1.0);
   } catch (const std::runtime_error& e) {
-    result.outcome.status = kExitIncomplete;
-    result.outcome.termination = result.termination = "start_failed";
-    result.outcome.message = e.what();
-    spdlog::warn("{}: {}", file, result.outcome.message);
-    result.wall_seconds = seconds_since(started);
-    return result;
+    end_early(result, file, "start_failed", e.what());
+    return std::nullopt;
   }
   result.start_frequency_hz = guess(n) / (2 * std::numbers::pi);
-  const double per_amplitude = largest_motion(model, guess.head(n), k1);  // m per m sqrt(kg)
+  const double per_amplitude =
+      largest_motion(model, guess.head(n), problem.first_harmonic());  // m per m sqrt(kg)
   if (!(per_amplitude > 0))
     throw SceneError(file, 0, 0, "contacts",
                      "mode " + std::to_string(options.mode) + " does not move the contacts");
@@ -237,25 +275,13 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
       format_number(result.start_frequency_hz, 6), format_number(result.from, 4),
       format_number(result.to, 4));
 
-  // Scales: V by its largest entry (m per m sqrt(kg)), harmonic 0's unknowns (m) by the
-  // largest amplitude's motion (a contact that opens moves its mean by about its motion; at
-  // small amplitudes the static unknowns are those at rest), w by the start frequency, xi by
-  // 1 % of it.
-  const Eigen::ArrayXd dynamic = problem.dynamic_unknowns().array();
+  // Harmonic 0's unknowns are first scaled by the largest amplitude's motion (a contact that
+  // opens moves its mean by about its motion; at small amplitudes the static unknowns are
+  // those at rest).
+  BackboneStart start;
+  ContinuationOptions& copt = start.options;
   const double w0 = guess(n);
-  ContinuationOptions copt;
-  const auto set_scales = [&](double static_scale) {
-    copt.unknown_scale.resize(n + 3);
-    copt.unknown_scale.head(n) =
-        (dynamic > 0).select(per_amplitude, Eigen::ArrayXd::Constant(n, static_scale)).matrix();
-    copt.unknown_scale(n) = w0;
-    copt.unknown_scale(n + 1) = 1e-2 * w0;
-    copt.unknown_scale(n + 2) = 1.0;
-    copt.residual_scale.resize(n + 2);
-    copt.residual_scale.head(n) = copt.unknown_scale.head(n);
-    copt.residual_scale(n) = copt.residual_scale(n + 1) = 1.0;
-  };
-  set_scales(per_amplitude * result.to);
+  set_scales(copt, problem, per_amplitude, per_amplitude * result.to, w0);
   copt.lambda_start = std::log(result.from);
   copt.lambda_end = std::log(result.to);
   copt.initial_step = kInitialStep;
@@ -265,36 +291,35 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
   copt.max_wall_seconds = 1e9;
   copt.newton.stop = options.stop;
   guess(n + 2) = copt.lambda_start;
-  const NewtonResult start = solve_fixed_parameter(problem, guess, copt);
-  const auto stopped = [&] {
-    if (!options.stop.stop_requested()) return false;
-    result.outcome.status = options.stop.exit_code();
-    result.outcome.termination = "interrupted";
-    result.outcome.message = options.stop.reason();
-    return true;
-  };
-  if (stopped()) return result;
-  if (!start.converged) {
-    result.outcome.status = kExitIncomplete;
-    result.outcome.termination = result.termination = "start_failed";
-    result.outcome.message = "the mode did not converge at a = " + format_number(result.from, 4) +
-                             " m sqrt(kg): " + start.message;
+  const NewtonResult solved = solve_fixed_parameter(problem, guess, copt);
+  if (stopped(options, result)) return std::nullopt;
+  if (!solved.converged) {
+    std::string message = "the mode did not converge at a = " + format_number(result.from, 4) +
+                          " m sqrt(kg): " + solved.message;
     if (std::abs(result.start_frequency_hz / result.free_frequency_hz - 1) < 1e-12)
-      result.outcome.message +=
+      message +=
           " (the contacts carry no stiffness on this mode at rest, open or without a "
           "preload: its start is the free mode, where the equations condensed to the contacts "
           "leave the motion undetermined)";
-    spdlog::warn("{}: {}", file, result.outcome.message);
-    result.wall_seconds = seconds_since(started);
-    return result;
+    end_early(result, file, "start_failed", message);
+    return std::nullopt;
   }
   // Harmonic 0's scale: what the start holds (a static load's motion) if larger.
-  set_scales(std::max(per_amplitude * result.to,
-                      (start.y.head(n).array() * (1 - dynamic)).abs().maxCoeff()));
+  const Eigen::ArrayXd dynamic = problem.dynamic_unknowns().array();
+  set_scales(copt, problem, per_amplitude,
+             std::max(per_amplitude * result.to,
+                      (solved.y.head(n).array() * (1 - dynamic)).abs().maxCoeff()),
+             w0);
+  start.y = solved.y;
+  return start;
+}
 
+// Continues the backbone from the start to `to`, describing each point into result.points.
+void trace_backbone(const NonlinearModeProblem& problem, const BackboneStart& start,
+                    const NmaOptions& options, const std::string& file, NmaResult& result) {
   std::string undescribed;  // why a point could not be described (its contacts' trace)
-  const ContinuationSummary summary =
-      trace_curve(problem, start.y, copt, [&](const ContinuationPoint& p, std::size_t index) {
+  const ContinuationSummary summary = trace_curve(
+      problem, start.y, start.options, [&](const ContinuationPoint& p, std::size_t index) {
         try {
           result.points.push_back(describe(problem, p));
         } catch (const std::runtime_error& e) {
@@ -309,18 +334,45 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
         return !options.stop.stop_requested();
       });
   result.termination = to_string(summary.termination);
-  result.wall_seconds = seconds_since(started);
-  if (stopped()) return result;
-  if (!summary.reached_end()) {
-    result.outcome.status = kExitIncomplete;
-    result.outcome.termination = result.termination;
-    result.outcome.message =
-        "the backbone ended early: " +
-        (undescribed.empty() ? summary.message : "a point's contacts: " + undescribed);
-    spdlog::warn("{}: {}", file, result.outcome.message);
+  if (stopped(options, result)) return;
+  if (!summary.reached_end())
+    end_early(result, file, result.termination,
+              "the backbone ended early: " +
+                  (undescribed.empty() ? summary.message : "a point's contacts: " + undescribed));
+}
+
+}  // namespace
+
+NmaResult compute_nonlinear_modes(const NmaOptions& options) {
+  const auto started = std::chrono::steady_clock::now();
+  check_range(options);
+  const BoundScene bound = load_bound_scene(options.scene);
+  const Scene& scene = bound.scene;
+  const std::string file = scene.file.string();
+  StructureInstance structure(scene.structure.plugin, scene.structure.values);
+  check_scene_against_plugins(scene, structure);
+  const HarmonicBalanceModel model(scene, structure);
+  check_mode_retained(file, model, options.mode);
+  NmaResult result;
+  result.scene_file = scene.file;
+  result.plots = scene.output.plots;
+  result.mode = options.mode;
+  result.harmonics = scene.harmonic_balance.harmonics;
+  result.unknowns = static_cast<long>(model.equation_count());
+  std::unique_ptr<NonlinearModeProblem> made;
+  try {
+    made = std::make_unique<NonlinearModeProblem>(model, options.mode - 1);
+  } catch (const std::invalid_argument& e) {
+    throw SceneError(file, 0, 0, "harmonic_balance", e.what());
   }
-  spdlog::info("{}: {} points of the backbone in {} s", file, result.points.size(),
-               format_number(result.wall_seconds, 3));
+  const NonlinearModeProblem& problem = *made;
+  describe_structure(scene, model, problem, result);
+  const std::optional<BackboneStart> start = start_backbone(problem, options, file, result);
+  if (start) trace_backbone(problem, *start, options, file, result);
+  result.wall_seconds = seconds_since(started);
+  if (start && result.outcome.termination != "interrupted")
+    spdlog::info("{}: {} points of the backbone in {} s", file, result.points.size(),
+                 format_number(result.wall_seconds, 3));
   return result;
 }
 
