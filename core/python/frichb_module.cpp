@@ -1155,6 +1155,65 @@ void bind_nma(py::module_& m) {
           "The index of the point with the largest damping ratio (None without points).")
       .def_readonly("termination_of_continuation", &core::NmaResult::termination,
                     "How the continuation ended ('reached_end', ...).")
+      .def_property_readonly(
+          "syntheses",
+          [](const core::NmaResult& r) {
+            py::list out;
+            for (const core::SynthesisedResponse& s : r.syntheses) {
+              py::dict level;
+              level["excitation_scale"] = s.scale;
+              const core::SynthesisedPeak& p = s.peak;
+              level["peak"] = py::dict(
+                  py::arg("found") = p.found, py::arg("frequency_hz") = p.frequency_hz,
+                  py::arg("amplitude") = p.amplitude, py::arg("damping_ratio") = p.damping_ratio,
+                  py::arg("node_amplitude_mode_m") = p.node_amplitude_m,
+                  py::arg("node_amplitude_m") = p.node_amplitude_with_residual_m,
+                  py::arg("residual_share") = p.residual_share, py::arg("message") = p.message);
+              std::vector<double> frequency, amplitude, node_mode, node;
+              for (const core::SynthesisedPoint& c : s.curve) {
+                frequency.push_back(c.frequency_hz);
+                amplitude.push_back(c.amplitude);
+                node_mode.push_back(c.node_amplitude_m);
+                node.push_back(c.node_amplitude_with_residual_m);
+              }
+              level["curve"] = py::dict(py::arg("frequency_hz") = array(frequency),
+                                        py::arg("amplitude") = array(amplitude),
+                                        py::arg("node_amplitude_mode_m") = array(node_mode),
+                                        py::arg("node_amplitude_m") = array(node));
+              level["check"] = py::dict(py::arg("converged") = s.check.converged,
+                                        py::arg("node_amplitude_m") = s.check.node_amplitude_m,
+                                        py::arg("error_mode") = s.check.error,
+                                        py::arg("error") = s.check.error_with_residual,
+                                        py::arg("newton_iterations") = s.check.newton_iterations,
+                                        py::arg("seconds") = s.check.seconds,
+                                        py::arg("message") = s.check.message);
+              if (s.full)
+                level["full_run"] = py::dict(
+                    py::arg("found") = s.full->found,
+                    py::arg("frequency_hz") = s.full->frequency_hz,
+                    py::arg("node_amplitude_m") = s.full->node_amplitude_m,
+                    py::arg("amplitude_error_mode") = s.full->amplitude_error,
+                    py::arg("amplitude_error") = s.full->amplitude_error_with_residual,
+                    py::arg("frequency_error") = s.full->frequency_error,
+                    py::arg("points") = s.full->points, py::arg("seconds") = s.full->seconds,
+                    py::arg("termination") = s.full->termination,
+                    py::arg("message") = s.full->message);
+              else
+                level["full_run"] = py::none();
+              out.append(level);
+            }
+            return out;
+          },
+          "The forced responses synthesised at `synthesise`, one dict per level as\n"
+          "summary.json's synthesis.levels, with the curve as arrays (synthesis.csv's columns).")
+      .def_readonly("backbone_seconds", &core::NmaResult::wall_seconds,
+                    "The backbone's wall time, s.")
+      .def_readonly("synthesis_seconds", &core::NmaResult::synthesis_seconds,
+                    "The syntheses' wall time, s.")
+      .def_readonly("check_seconds", &core::NmaResult::check_seconds,
+                    "The harmonic-balance checks' wall time, s.")
+      .def_readonly("full_run_seconds", &core::NmaResult::full_run_seconds,
+                    "The full runs' wall time (against_run), s.")
       .def(
           "write",
           [](const core::NmaResult& r, const fs::path& folder) {
@@ -1163,10 +1222,17 @@ void bind_nma(py::module_& m) {
           py::arg("folder"), "Writes what `frichb nma -o folder` writes.");
   m.def(
       "nma",
-      [](const py::object& scene, int mode, const py::object& amplitude, const py::dict& set,
+      [](const py::object& scene, int mode, const py::object& amplitude,
+         const std::vector<double>& synthesise, bool against_run, const py::dict& set,
          bool allow_scene_plugins) {
         const core::StopSource source;
         core::NmaOptions options;
+        for (const double level : synthesise)
+          if (!(level > 0)) throw py::value_error("synthesise: excitation levels > 0");
+        if (against_run && synthesise.empty())
+          throw py::value_error("against_run compares syntheses: give synthesise levels");
+        options.synthesise = synthesise;
+        options.against_run = against_run;
         if (mode < 1) throw py::value_error("mode: counted from 1");
         options.mode = mode;
         if (!amplitude.is_none()) {
@@ -1181,11 +1247,15 @@ void bind_nma(py::module_& m) {
         return call_stoppable(source, [&] { return core::compute_nonlinear_modes(options); });
       },
       py::arg("scene"), py::arg("mode") = 1, py::arg("amplitude") = py::none(),
+      py::arg("synthesise") = std::vector<double>{}, py::arg("against_run") = false,
       py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
       "Mode `mode` (1: the lowest) of the scene's structure with its contacts as a nonlinear\n"
       "mode, continued in its modal amplitude, as `frichb nma SCENE --mode K --amplitude\n"
       "FROM:TO` does. amplitude: (from, to) in m sqrt(kg), or None for the contact motion from\n"
-      "1 nm to 1 mm. Returns an NmaResult.");
+      "1 nm to 1 mm. synthesise: excitation levels (multiples of the scene's harmonic-1\n"
+      "excitation) whose forced responses are synthesised from the backbone and checked, as\n"
+      "--synthesise; against_run: also trace each level's full response, as --against-run.\n"
+      "Returns an NmaResult.");
 }
 
 // frichb.loop and LoopResult.

@@ -18,6 +18,7 @@
 #include "frichb/core/scene/plugin_checks.hpp"
 #include "frichb/core/solver/continuation.hpp"
 #include "frichb/core/support/format.hpp"
+#include "nma_synthesis.hpp"
 
 namespace frichb::core {
 
@@ -44,7 +45,10 @@ double largest_motion(const HarmonicBalanceModel& model, const Eigen::VectorXd& 
 }
 
 // The point's quantities at the backbone's y: the contacts traced at the motion.
-NmaPoint describe(const NonlinearModeProblem& problem, const ContinuationPoint& p) {
+// `node`: the kept indices of the response node's DOFs (empty without one); `excitation`: the
+// scene's harmonic-1 excitation on the retained modes.
+NmaPoint describe(const NonlinearModeProblem& problem, const ContinuationPoint& p,
+                  const std::vector<Eigen::Index>& node, const Eigen::VectorXcd& excitation) {
   const HarmonicBalanceModel& model = problem.model();
   const Eigen::Index n = problem.harmonic_unknowns();
   const Eigen::VectorXd z = problem.balance_point(p.y);
@@ -94,73 +98,23 @@ NmaPoint describe(const NonlinearModeProblem& problem, const ContinuationPoint& 
     throw std::runtime_error("the backbone's point: " + message);
   const auto modes = model.contact_modes(problem.first_harmonic()).cols();
   point.modal_coordinates.resize(modes);
+  const std::size_t k1 = problem.first_harmonic();
   for (Eigen::Index r = 0; r < modes; ++r)
-    point.modal_coordinates(r) = model.modal_coordinate(z, point.xi, problem.first_harmonic(), r);
+    point.modal_coordinates(r) = model.modal_coordinate(z, point.xi, k1, r);
+  // The synthesis's modal force and the node's motion, the residual flexibility's share in
+  // each: the contact forces' static motion -F G^H F_1 and the excitation's G F f.
+  const Eigen::VectorXcd forces = model.contact_force_amplitudes(z, k1);
+  point.modal_force = (point.modal_coordinates / point.amplitude).dot(excitation) -
+                      (forces / point.amplitude).dot(model.excitation_flexible_motion(k1));
+  if (!node.empty()) {
+    const int index = model.receptance_forms()[k1].harmonic_index;
+    const ReducedStructure::Basis& basis = model.structure().basis(index);
+    const Eigen::VectorXcd flexible =
+        model.structure().residual_response(index, -(model.gather(k1).adjoint() * forces));
+    point.node_motion = basis.rows(node, Eigen::all) * point.modal_coordinates + flexible(node);
+  }
   return point;
 }
-
-// The synthesis's quantities at a point: psi = q / a, the modal mass |psi|^2, |psi^H p|.
-struct ShapeAt {
-  double mass = 0.0, force = 0.0;
-};
-ShapeAt shape_at(const NmaResult& result, const NmaPoint& p) {
-  const Eigen::VectorXcd psi = p.modal_coordinates / p.amplitude;
-  return {psi.squaredNorm(), std::abs(psi.dot(result.modal_excitation))};
-}
-
-// The largest norm over the period of a node's motion with complex amplitudes c:
-// max |Re(c e^{i t})|^2 = (|c|^2 + |c^T c|) / 2.
-double largest_norm(const Eigen::VectorXcd& c) {
-  return std::sqrt(0.5 * (c.squaredNorm() + std::abs(c.cwiseProduct(c).sum())));
-}
-
-}  // namespace
-
-double excitation_scale_at(const NmaResult& result, std::size_t index) {
-  const NmaPoint& p = result.points.at(index);
-  const ShapeAt shape = shape_at(result, p);
-  const double w = 2 * std::numbers::pi * p.frequency_hz, zeta = p.damping_ratio;
-  return 2 * zeta * w * w * std::sqrt(1 - zeta * zeta) * shape.mass * p.amplitude / shape.force;
-}
-
-SynthesisedPeak synthesise_peak(const NmaResult& result, double scale) {
-  SynthesisedPeak peak;
-  if (!(scale > 0)) throw std::invalid_argument("synthesise_peak: the scale must be > 0");
-  if (result.modal_excitation.size() == 0 || result.modal_excitation.norm() == 0) {
-    peak.message = "the scene has no excitation at harmonic 1";
-    return peak;
-  }
-  // g = scale / excitation_scale_at - 1 falls through 0 at the peak (the excitation a point's
-  // amplitude needs grows along the backbone).
-  const auto g = [&](std::size_t i) { return scale / excitation_scale_at(result, i) - 1.0; };
-  for (std::size_t i = 1; i < result.points.size(); ++i) {
-    const double before = g(i - 1), after = g(i);
-    if (!(before > 0 && after <= 0)) continue;
-    const NmaPoint &p0 = result.points[i - 1], &p1 = result.points[i];
-    const double t = before / (before - after);
-    const auto blend = [t](double x0, double x1) { return x0 + t * (x1 - x0); };
-    peak.amplitude = std::exp(blend(std::log(p0.amplitude), std::log(p1.amplitude)));
-    peak.damping_ratio = blend(p0.damping_ratio, p1.damping_ratio);
-    if (!(2 * peak.damping_ratio * peak.damping_ratio < 1)) {
-      peak.message = "the damping ratio at the peak is above 1 / sqrt(2): no resonance peak";
-      return peak;
-    }
-    const double w = 2 * std::numbers::pi * blend(p0.frequency_hz, p1.frequency_hz);
-    peak.frequency_hz =
-        w * std::sqrt(1 - 2 * peak.damping_ratio * peak.damping_ratio) / (2 * std::numbers::pi);
-    if (result.node_modes.size() > 0) {
-      const Eigen::VectorXcd psi =
-          (1 - t) * p0.modal_coordinates / p0.amplitude + t * p1.modal_coordinates / p1.amplitude;
-      peak.node_amplitude_m = largest_norm(result.node_modes * psi) * peak.amplitude;
-    }
-    peak.found = true;
-    return peak;
-  }
-  peak.message = "the peak lies outside the traced amplitudes";
-  return peak;
-}
-
-namespace {
 
 void check_range(const NmaOptions& options) {
   if (options.mode < 1) throw std::invalid_argument("the mode is counted from 1");
@@ -260,6 +214,11 @@ std::optional<BackboneStart> start_backbone(const NonlinearModeProblem& problem,
     return std::nullopt;
   }
   result.start_frequency_hz = guess(n) / (2 * std::numbers::pi);
+  const NonlinearModeProblem::RestModes rest = problem.rest_modes();
+  result.rest_stiffness = rest.stiffness;
+  result.rest_damping = rest.damping;
+  result.rest_shapes = rest.shapes;
+  result.rest_mode = rest.chosen;
   const double per_amplitude =
       largest_motion(model, guess.head(n), problem.first_harmonic());  // m per m sqrt(kg)
   if (!(per_amplitude > 0))
@@ -314,14 +273,67 @@ std::optional<BackboneStart> start_backbone(const NonlinearModeProblem& problem,
   return start;
 }
 
+// Refinement of the traced backbone (refine_backbone): neighbours whose damping ratios differ
+// by more than kRefineDamping of the larger, or whose frequencies by more than kRefineFrequency,
+// get a point between them, down to kRefineSmallest in ln a and at most kRefinePoints points.
+constexpr double kRefineDamping = 0.05, kRefineFrequency = 1e-3, kRefineSmallest = 1e-4;
+constexpr std::size_t kRefinePoints = 400;
+
+bool needs_point_between(const NmaPoint& p0, const NmaPoint& p1) {
+  const double gap = std::log(p1.amplitude / p0.amplitude);
+  if (!(gap > kRefineSmallest)) return false;
+  return std::abs(p1.damping_ratio - p0.damping_ratio) >
+             kRefineDamping * std::max(std::abs(p0.damping_ratio), std::abs(p1.damping_ratio)) ||
+         std::abs(p1.frequency_hz - p0.frequency_hz) >
+             kRefineFrequency * std::min(p0.frequency_hz, p1.frequency_hz);
+}
+
+// The continuation steps in the arclength of the scaled unknowns and does not see where the
+// damping ratio turns sharply: where a contact starts to slip (a kink: the dissipated energy
+// grows from zero with the motion beyond the stick limit) a step can go from stuck to well
+// into slip. The synthesis interpolates between points, so such intervals get points between
+// them, solved at fixed amplitude (the midpoint in ln a, from the neighbours' mean), until the
+// change is resolved. Returns the points added; an interval whose point does not converge is
+// left as it is (counted in `unsolved`).
+std::size_t refine_backbone(const NonlinearModeProblem& problem, const ContinuationOptions& copt,
+                            const std::vector<Eigen::Index>& node, const NmaOptions& options,
+                            NmaResult& result, std::size_t& unsolved) {
+  const Eigen::Index n = problem.harmonic_unknowns();
+  std::vector<NmaPoint>& points = result.points;
+  std::size_t added = 0;
+  for (std::size_t i = 1; i < points.size() && added < kRefinePoints;) {
+    if (options.stop.stop_requested()) break;
+    if (!needs_point_between(points[i - 1], points[i])) {
+      ++i;
+      continue;
+    }
+    Eigen::VectorXd guess = 0.5 * (points[i - 1].y + points[i].y);
+    guess(n + 2) = 0.5 * (std::log(points[i - 1].amplitude) + std::log(points[i].amplitude));
+    const NewtonResult solved = solve_fixed_parameter(problem, guess, copt);
+    if (!solved.converged) {
+      ++unsolved;
+      ++i;
+      continue;
+    }
+    ContinuationPoint point;
+    point.y = solved.y;
+    point.newton_iterations = solved.iterations;
+    points.insert(points.begin() + static_cast<std::ptrdiff_t>(i),
+                  describe(problem, point, node, result.modal_excitation));
+    ++added;
+  }
+  return added;
+}
+
 // Continues the backbone from the start to `to`, describing each point into result.points.
 void trace_backbone(const NonlinearModeProblem& problem, const BackboneStart& start,
-                    const NmaOptions& options, const std::string& file, NmaResult& result) {
+                    const std::vector<Eigen::Index>& node, const NmaOptions& options,
+                    const std::string& file, NmaResult& result) {
   std::string undescribed;  // why a point could not be described (its contacts' trace)
   const ContinuationSummary summary = trace_curve(
       problem, start.y, start.options, [&](const ContinuationPoint& p, std::size_t index) {
         try {
-          result.points.push_back(describe(problem, p));
+          result.points.push_back(describe(problem, p, node, result.modal_excitation));
         } catch (const std::runtime_error& e) {
           undescribed = e.what();
           return false;
@@ -335,10 +347,86 @@ void trace_backbone(const NonlinearModeProblem& problem, const BackboneStart& st
       });
   result.termination = to_string(summary.termination);
   if (stopped(options, result)) return;
+  if (undescribed.empty()) {
+    std::size_t unsolved = 0;
+    try {
+      const std::size_t added =
+          refine_backbone(problem, start.options, node, options, result, unsolved);
+      if (added > 0)
+        spdlog::info("{}: {} points added where the damping ratio or the frequency turns sharply",
+                     file, added);
+    } catch (const std::runtime_error& e) {
+      undescribed = e.what();
+    }
+    if (unsolved > 0) {
+      const std::string warning =
+          std::to_string(unsolved) +
+          " points between traced ones did not converge: the backbone is coarser there";
+      spdlog::warn("{}: {}", file, warning);
+      result.outcome.warnings.push_back(warning);
+    }
+    if (stopped(options, result)) return;
+  }
   if (!summary.reached_end())
     end_early(result, file, result.termination,
               "the backbone ended early: " +
                   (undescribed.empty() ? summary.message : "a point's contacts: " + undescribed));
+}
+
+// The forced responses at options.synthesise: each synthesised, its peak checked by one
+// harmonic-balance solve, and (options.against_run) the full run traced.
+void synthesise_levels(const Scene& scene, const NonlinearModeProblem& problem,
+                       const NmaOptions& options, NmaResult& result) {
+  const std::string file = scene.file.string();
+  for (const double scale : options.synthesise) {
+    if (stopped(options, result)) return;
+    const auto synthesising = std::chrono::steady_clock::now();
+    SynthesisedResponse& response =
+        result.syntheses.emplace_back(synthesise_response(result, scale));
+    result.synthesis_seconds += seconds_since(synthesising);
+    if (!response.peak.found) {
+      const std::string warning = "excitation x " + format_number(scale, 6) +
+                                  ": no synthesised peak: " + response.peak.message;
+      spdlog::warn("{}: {}", file, warning);
+      result.outcome.warnings.push_back(warning);
+      continue;
+    }
+    response.check =
+        check_synthesised_peak(scene, problem.model(), problem, result, response, options.stop);
+    result.check_seconds += response.check.seconds;
+    if (response.check.converged)
+      spdlog::info(
+          "excitation x {}: synthesised peak {} m at {} Hz (damping ratio {}); the harmonic "
+          "balance there: {} m ({:+.2e})",
+          format_number(scale, 6), format_number(response.peak.node_amplitude_with_residual_m, 6),
+          format_number(response.peak.frequency_hz, 7),
+          format_number(response.peak.damping_ratio, 4),
+          format_number(response.check.node_amplitude_m, 6), response.check.error_with_residual);
+    else {
+      const std::string warning =
+          "excitation x " + format_number(scale, 6) + ": " + response.check.message;
+      spdlog::warn("{}: {}", file, warning);
+      result.outcome.warnings.push_back(warning);
+    }
+    if (!options.against_run || stopped(options, result)) continue;
+    const BoundScene scaled = with_excitation_scaled(options.scene, scene, scale);
+    response.full = compare_with_full_run(scaled.scene, response, options.stop);
+    result.full_run_seconds += response.full->seconds;
+    if (response.full->found)
+      spdlog::info(
+          "excitation x {}: the full run's peak {} m at {} Hz ({} points, {} s): synthesis {:+.2e} "
+          "in amplitude, {:+.2e} in frequency",
+          format_number(scale, 6), format_number(response.full->node_amplitude_m, 6),
+          format_number(response.full->frequency_hz, 7), response.full->points,
+          format_number(response.full->seconds, 3), response.full->amplitude_error_with_residual,
+          response.full->frequency_error);
+    else {
+      const std::string warning =
+          "excitation x " + format_number(scale, 6) + ": full run: " + response.full->message;
+      spdlog::warn("{}: {}", file, warning);
+      result.outcome.warnings.push_back(warning);
+    }
+  }
 }
 
 }  // namespace
@@ -368,11 +456,16 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
   const NonlinearModeProblem& problem = *made;
   describe_structure(scene, model, problem, result);
   const std::optional<BackboneStart> start = start_backbone(problem, options, file, result);
-  if (start) trace_backbone(problem, *start, options, file, result);
+  std::vector<Eigen::Index> node;  // the response node's kept DOFs
+  if (!result.node.empty())
+    for (std::size_t d : scene.structure.find(result.node)->dofs)
+      node.push_back(model.kept_index(d));
+  if (start) trace_backbone(problem, *start, node, options, file, result);
   result.wall_seconds = seconds_since(started);
-  if (start && result.outcome.termination != "interrupted")
-    spdlog::info("{}: {} points of the backbone in {} s", file, result.points.size(),
-                 format_number(result.wall_seconds, 3));
+  if (!start || result.outcome.termination == "interrupted") return result;
+  spdlog::info("{}: {} points of the backbone in {} s", file, result.points.size(),
+               format_number(result.wall_seconds, 3));
+  synthesise_levels(scene, problem, options, result);
   return result;
 }
 

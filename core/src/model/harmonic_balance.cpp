@@ -284,6 +284,22 @@ std::unique_ptr<HarmonicBalanceModel> HarmonicBalanceModel::with_contact_params(
   return std::unique_ptr<HarmonicBalanceModel>(new HarmonicBalanceModel(*this, scene));
 }
 
+std::unique_ptr<HarmonicBalanceModel> HarmonicBalanceModel::with_dynamic_excitation_scaled(
+    const Scene& scene, double scale) const {
+  if (!std::isfinite(scale))
+    throw std::invalid_argument("with_dynamic_excitation_scaled: the scale is not finite");
+  std::unique_ptr<HarmonicBalanceModel> scaled(new HarmonicBalanceModel(*this, scene));
+  const auto& h = layout_.harmonics();
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    if (h[k] == 0) continue;
+    scaled->excitation_[k] *= scale;
+    ContactReceptance& cr = scaled->contact_receptance_[k];
+    cr.modal_force *= scale;
+    cr.flexible_motion *= scale;
+  }
+  return scaled;
+}
+
 std::vector<HarmonicBalanceModel::ReceptanceForm> HarmonicBalanceModel::receptance_forms() const {
   std::vector<ReceptanceForm> out;
   for (std::size_t k = 0; k < contact_receptance_.size(); ++k) {
@@ -483,6 +499,27 @@ bool HarmonicBalanceModel::evaluate_autonomous(const Eigen::VectorXd& y, double 
     jacobian->col(n + 1) = autonomy.xi_column;
   }
   return true;
+}
+
+Eigen::VectorXcd HarmonicBalanceModel::contact_force_amplitudes(const Eigen::VectorXd& y,
+                                                                std::size_t k) const {
+  const auto& h = layout_.harmonics();
+  if (k >= h.size()) throw std::invalid_argument("contact_force_amplitudes: not a kept harmonic");
+  Eigen::VectorXd traced;
+  const Eigen::VectorXd* forces = &work_.forces;
+  if (work_.forces_at.size() != y.size() || (work_.forces_at.array() != y.array()).any()) {
+    bool ok = true;
+    std::string message;
+    gather_forces(y, traced, false, &message, ok);
+    if (!ok) throw std::runtime_error("contact_force_amplitudes: " + message);
+    forces = &traced;
+  }
+  const int c = layout_.coefficient_count();
+  Eigen::VectorXcd out(components_);
+  for (int a = 0; a < components_; ++a)
+    out(a) = std::complex<double>((*forces)(a * c + layout_.cos_index(k)),
+                                  h[k] > 0 ? -(*forces)(a * c + layout_.sin_index(k)) : 0.0);
+  return out;
 }
 
 std::complex<double> HarmonicBalanceModel::modal_coordinate(const Eigen::VectorXd& y, double xi,

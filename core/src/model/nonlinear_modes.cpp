@@ -105,7 +105,7 @@ bool NonlinearModeProblem::evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& r
   return true;
 }
 
-Eigen::VectorXd NonlinearModeProblem::linear_guess(double amplitude) const {
+NonlinearModeProblem::RestModes NonlinearModeProblem::rest_modes() const {
   const Eigen::Index n = n_;
   const HarmonicLayout& layout = model_.layout();
   const int c = layout.coefficient_count();
@@ -126,7 +126,6 @@ Eigen::VectorXd NonlinearModeProblem::linear_guess(double amplitude) const {
   std::string message;
   if (!model_.evaluate_autonomous(z, 0.0, residual, &jacobian, &message))
     throw std::runtime_error("nonlinear modes: the contacts at rest: " + message);
-  const std::complex<double> imaginary_unit(0.0, 1.0);
   // The harmonic-1 unknowns of the motion with complex amplitudes x (components): cos Re x,
   // sin -Im x.
   const auto unknowns_of = [&](const Eigen::VectorXcd& x) {
@@ -141,10 +140,9 @@ Eigen::VectorXd NonlinearModeProblem::linear_guess(double amplitude) const {
   for (Eigen::Index r = 0; r < m; ++r) {
     Eigen::VectorXcd gradient;
     model_.modal_coordinate(z, 0.0, first_harmonic_, r, &gradient);
-    const double w = z(n);
-    const std::complex<double> zr = basis.frequencies(r) * basis.frequencies(r) - w * w +
-                                    imaginary_unit * w * basis.damping(r, r);
-    tangent_rows.row(r) = -zr * gradient.head(n).transpose();
+    // At w = 0: z_r = w_r^2.
+    tangent_rows.row(r) =
+        -(basis.frequencies(r) * basis.frequencies(r)) * gradient.head(n).transpose();
   }
   // Each retained mode at the contacts (P = G Phi at harmonic 1).
   const Eigen::MatrixXcd& modes_at_contacts = model_.contact_modes(first_harmonic_);
@@ -157,18 +155,37 @@ Eigen::VectorXd NonlinearModeProblem::linear_guess(double amplitude) const {
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXcd> eigen(hermitian);
   if (eigen.info() != Eigen::Success)
     throw std::runtime_error("nonlinear modes: the linearised modes did not converge");
-  Eigen::Index chosen = 0;
-  eigen.eigenvectors().row(mode_).cwiseAbs().maxCoeff(&chosen);
-  const Eigen::VectorXcd v = eigen.eigenvectors().col(chosen);
-  const double lambda = eigen.eigenvalues()(chosen);
+  RestModes rest;
+  rest.stiffness = eigen.eigenvalues();
+  rest.shapes = eigen.eigenvectors();
+  rest.shapes.row(mode_).cwiseAbs().maxCoeff(&rest.chosen);
+  rest.damping.resize(m);
+  for (Eigen::Index j = 0; j < m; ++j)
+    rest.damping(j) =
+        (rest.shapes.col(j).cwiseAbs2().array() * basis.damping.diagonal().array()).sum();
+  return rest;
+}
+
+Eigen::VectorXd NonlinearModeProblem::linear_guess(double amplitude) const {
+  const Eigen::Index n = n_;
+  const RestModes rest = rest_modes();
+  const Eigen::VectorXcd v = rest.shapes.col(rest.chosen);
+  const double lambda = rest.stiffness(rest.chosen);
   if (!(lambda > 0))
     throw std::runtime_error("nonlinear modes: the linearised mode has no positive stiffness");
   // V = U / a at harmonic 1 (the motion per unit of a), harmonic 0 at rest.
   const Eigen::VectorXcd q = v / v(mode_);
+  const HarmonicLayout& layout = model_.layout();
+  const int c = layout.coefficient_count();
+  const int ci = layout.cos_index(first_harmonic_), si = layout.sin_index(first_harmonic_);
+  const Eigen::VectorXcd x = model_.contact_modes(first_harmonic_) * q;
   Eigen::VectorXd y = Eigen::VectorXd::Zero(n + 3);
-  y.head(n) = unknowns_of(modes_at_contacts * q);
+  for (int a = 0; a < model_.component_count(); ++a) {
+    y(a * c + ci) = x(a).real();
+    y(a * c + si) = -x(a).imag();
+  }
   y(n) = std::sqrt(lambda);
-  y(n + 1) = (v.cwiseAbs2().array() * basis.damping.diagonal().array()).sum() / v.squaredNorm();
+  y(n + 1) = rest.damping(rest.chosen);
   y(n + 2) = std::log(amplitude);
   return y;
 }

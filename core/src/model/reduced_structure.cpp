@@ -170,4 +170,20 @@ Eigen::VectorXcd ReducedStructure::respond(int harmonic_index, double w,
   return x;
 }
 
+Eigen::VectorXcd ReducedStructure::residual_response(int harmonic_index,
+                                                     const Eigen::VectorXcd& force) const {
+  const Basis& b = basis(harmonic_index);
+  if (force.size() != b.rows.rows())
+    throw std::invalid_argument("ReducedStructure::residual_response: force of the wrong size");
+  if (b.flexibility_reduced) {
+    const std::complex<double> nan(std::numeric_limits<double>::quiet_NaN(),
+                                   std::numeric_limits<double>::quiet_NaN());
+    Eigen::VectorXcd x = Eigen::VectorXcd::Constant(b.rows.rows(), nan);
+    x(response_rows_) = b.flexibility_rows * force;
+    return x;
+  }
+  if (b.residual_flexibility.size()) return b.residual_flexibility * force;
+  return Eigen::VectorXcd::Zero(b.rows.rows());
+}
+
 }  // namespace frichb::core

@@ -1,9 +1,11 @@
 #include "frichb/core/report/nma_report.hpp"
 
+#include <algorithm>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "frichb/core/report/plot_style.hpp"
+#include "frichb/core/support/format.hpp"
 #include "frichb/core/support/version.hpp"
 
 namespace frichb::core {
@@ -42,9 +44,170 @@ std::string nma_plot_script(const NmaResult& result) {
   return gp.str();
 }
 
-std::vector<std::string> nma_outputs() {
-  return {"nma.csv", "summary.json", "nma.gp", "nma.png"};
+std::string synthesis_plot_script(const NmaResult& result) {
+  std::ostringstream gp;
+  ValueSpan span;
+  double largest = 0.0;
+  for (const SynthesisedResponse& s : result.syntheses)
+    for (const SynthesisedPoint& p : s.curve) {
+      span.add(p.node_amplitude_with_residual_m);
+      largest = std::max(largest, p.node_amplitude_with_residual_m);
+    }
+  const LengthScale unit = length_scale(largest);
+  const std::string factor = scale_factor_text(unit);
+  const std::string title = "forced responses synthesised from nonlinear mode " +
+                            std::to_string(result.mode) + " of " +
+                            result.scene_file.filename().string();
+  gp << "# gnuplot script written by frichb nma\n"
+     << plot_header("synthesis.png", 1000, 700) << line_types(result.syntheses.size())
+     << "set title " << gnuplot_string(title) << "\n"
+     << log_axes(false, span.ratio() > 10) << "set xlabel 'frequency [Hz]'\n"
+     << "set ylabel " << gnuplot_string(axis_label(result.node + " amplitude", unit.unit))
+     << "\nset key top right\n";
+  std::vector<std::string> curves;
+  for (std::size_t i = 0; i < result.syntheses.size(); ++i) {
+    const SynthesisedResponse& s = result.syntheses[i];
+    if (s.curve.empty()) continue;
+    const std::string level = std::to_string(i);
+    curves.push_back("'synthesis.csv' using ($1 == " + level + " ? $3 : 1/0):($6 * " + factor +
+                     ") with lines lt " + std::to_string(i + 1) + " lw 2 title " +
+                     gnuplot_string("excitation × " + format_number(s.scale, 6)));
+    if (s.check.converged)
+      curves.push_back("'synthesis_peaks.csv' using ($1 == " + level +
+                       " && $10 == 1 ? $4 : 1/0):($11 * " + factor + ") with points lt " +
+                       std::to_string(i + 1) + " pt 6 ps 2 notitle");
+    if (s.full && s.full->found)
+      curves.push_back("'synthesis_peaks.csv' using ($1 == " + level +
+                       " && $15 == 1 ? $16 : 1/0):($17 * " + factor + ") with points lt " +
+                       std::to_string(i + 1) + " pt 2 ps 2 notitle");
+  }
+  gp << "# circles: the harmonic-balance solve at each synthesised peak; crosses: the full run's "
+        "peak\nplot ";
+  for (std::size_t i = 0; i < curves.size(); ++i) gp << (i ? ", \\\n     " : "") << curves[i];
+  gp << "\n";
+  return gp.str();
 }
+
+std::vector<std::string> nma_outputs() {
+  return {"nma.csv",       "summary.json", "nma.gp",        "nma.png",
+          "synthesis.csv", "synthesis.gp", "synthesis.png", "synthesis_peaks.csv"};
+}
+
+namespace {
+
+void write_syntheses(const NmaResult& result, StagedOutput& out) {
+  std::vector<std::vector<double>> curve, peaks;
+  for (std::size_t i = 0; i < result.syntheses.size(); ++i) {
+    const SynthesisedResponse& s = result.syntheses[i];
+    const auto level = static_cast<double>(i);
+    for (const SynthesisedPoint& p : s.curve)
+      curve.push_back({level, s.scale, p.frequency_hz, p.amplitude, p.node_amplitude_m,
+                       p.node_amplitude_with_residual_m});
+    const SynthesisedPeak& p = s.peak;
+    const bool checked = p.found && s.check.converged;
+    const bool full = s.full && s.full->found;
+    const auto flag = [](bool b) { return b ? 1.0 : 0.0; };
+    const auto only = [](bool b, double x) { return b ? x : 0.0; };
+    peaks.push_back({level,
+                     s.scale,
+                     flag(p.found),
+                     only(p.found, p.frequency_hz),
+                     only(p.found, p.amplitude),
+                     only(p.found, p.damping_ratio),
+                     only(p.found, p.node_amplitude_m),
+                     only(p.found, p.node_amplitude_with_residual_m),
+                     only(p.found, p.residual_share),
+                     flag(checked),
+                     only(checked, s.check.node_amplitude_m),
+                     only(checked, s.check.error),
+                     only(checked, s.check.error_with_residual),
+                     only(p.found, s.check.seconds),
+                     flag(full),
+                     only(full, full ? s.full->frequency_hz : 0.0),
+                     only(full, full ? s.full->node_amplitude_m : 0.0),
+                     only(full, full ? s.full->amplitude_error : 0.0),
+                     only(full, full ? s.full->amplitude_error_with_residual : 0.0),
+                     only(full, full ? s.full->frequency_error : 0.0),
+                     s.full ? s.full->seconds : 0.0});
+  }
+  write_csv(out.path("synthesis.csv"),
+            {"level", "excitation_scale", "frequency_hz", "amplitude_m_sqrt_kg",
+             "node_amplitude_mode_m", "node_amplitude_m"},
+            curve);
+  write_csv(out.path("synthesis_peaks.csv"),
+            {"level",
+             "excitation_scale",
+             "peak_found",
+             "frequency_hz",
+             "amplitude_m_sqrt_kg",
+             "damping_ratio",
+             "node_amplitude_mode_m",
+             "node_amplitude_m",
+             "residual_share",
+             "check_converged",
+             "check_node_amplitude_m",
+             "check_error_mode",
+             "check_error",
+             "check_seconds",
+             "full_run_found",
+             "full_run_frequency_hz",
+             "full_run_node_amplitude_m",
+             "full_run_amplitude_error_mode",
+             "full_run_amplitude_error",
+             "full_run_frequency_error",
+             "full_run_seconds"},
+            peaks);
+  if (result.plots) {
+    write_text(out.path("synthesis.gp"), synthesis_plot_script(result));
+    run_gnuplot(out.path("synthesis.gp"), out.stop());
+  }
+}
+
+nlohmann::json synthesis_json(const NmaResult& result) {
+  nlohmann::json levels = nlohmann::json::array();
+  for (const SynthesisedResponse& s : result.syntheses) {
+    const SynthesisedPeak& p = s.peak;
+    nlohmann::json level = {{"excitation_scale", s.scale}, {"found", p.found}};
+    if (!p.found) {
+      level["message"] = p.message;
+      levels.push_back(level);
+      continue;
+    }
+    level["peak"] = {{"frequency_hz", p.frequency_hz},
+                     {"amplitude_m_sqrt_kg", p.amplitude},
+                     {"damping_ratio", p.damping_ratio},
+                     {"node_amplitude_mode_m", p.node_amplitude_m},
+                     {"node_amplitude_m", p.node_amplitude_with_residual_m},
+                     {"residual_share", p.residual_share}};
+    level["check"] = {{"converged", s.check.converged},
+                      {"node_amplitude_m", s.check.node_amplitude_m},
+                      {"error_mode", s.check.error},
+                      {"error", s.check.error_with_residual},
+                      {"newton_iterations", s.check.newton_iterations},
+                      {"seconds", s.check.seconds},
+                      {"message", s.check.message}};
+    if (s.full)
+      level["full_run"] = {{"found", s.full->found},
+                           {"frequency_hz", s.full->frequency_hz},
+                           {"node_amplitude_m", s.full->node_amplitude_m},
+                           {"amplitude_error_mode", s.full->amplitude_error},
+                           {"amplitude_error", s.full->amplitude_error_with_residual},
+                           {"frequency_error", s.full->frequency_error},
+                           {"points", s.full->points},
+                           {"seconds", s.full->seconds},
+                           {"termination", s.full->termination},
+                           {"message", s.full->message}};
+    levels.push_back(level);
+  }
+  return {{"node", result.node},
+          {"levels", levels},
+          {"backbone_seconds", result.wall_seconds},
+          {"synthesis_seconds", result.synthesis_seconds},
+          {"check_seconds", result.check_seconds},
+          {"full_run_seconds", result.full_run_seconds}};
+}
+
+}  // namespace
 
 void write_nma(const NmaResult& result, StagedOutput& out) {
   std::vector<std::vector<double>> rows;
@@ -91,7 +254,10 @@ void write_nma(const NmaResult& result, StagedOutput& out) {
       {"warnings", result.outcome.warnings},
       {"continuation", {{"termination", result.termination}}},
       {"wall_time_s", result.wall_seconds}};
-  write_json(out.path("summary.json"), doc);
+  nlohmann::json summary = doc;
+  if (!result.syntheses.empty()) summary["synthesis"] = synthesis_json(result);
+  write_json(out.path("summary.json"), summary);
+  if (!result.syntheses.empty()) write_syntheses(result, out);
   if (result.plots && !result.points.empty()) {
     write_text(out.path("nma.gp"), nma_plot_script(result));
     run_gnuplot(out.path("nma.gp"), out.stop());

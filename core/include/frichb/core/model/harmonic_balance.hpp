@@ -82,6 +82,12 @@ class HarmonicBalanceModel final : public CurveProblem {
   // anew. The new model does not refer to this one. Throws PluginError where a law refuses
   // its params and std::invalid_argument where a contact uses other components than here.
   std::unique_ptr<HarmonicBalanceModel> with_contact_params(const Scene& scene) const;
+  // A model of the same scene with the excitation of harmonics n >= 1 times `scale` (the
+  // static load as it is): it shares this model's reduced structure and instantiates the
+  // contacts anew from `scene` (this model's). Throws as with_contact_params and
+  // std::invalid_argument for a scale that is not finite.
+  std::unique_ptr<HarmonicBalanceModel> with_dynamic_excitation_scaled(const Scene& scene,
+                                                                       double scale) const;
 
   Eigen::Index equation_count() const override { return unknown_count_; }
   bool evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
@@ -141,6 +147,16 @@ class HarmonicBalanceModel final : public CurveProblem {
   std::complex<double> modal_coordinate(const Eigen::VectorXd& y, double xi, std::size_t k,
                                         Eigen::Index mode,
                                         Eigen::VectorXcd* gradient = nullptr) const;
+  // The contact forces' complex amplitudes at kept harmonic k and y = [U; w], F_c - i F_s per
+  // contact component (N): those of the last evaluation when it was at y, else traced. Throws
+  // std::runtime_error where a trace fails.
+  Eigen::VectorXcd contact_force_amplitudes(const Eigen::VectorXd& y, std::size_t k) const;
+  // G F f_k: the contacts' static relative motion under kept harmonic k's excitation through
+  // the residual flexibility (components, m); zero without one.
+  Eigen::VectorXcd excitation_flexible_motion(std::size_t k) const {
+    const Eigen::VectorXcd& motion = contact_receptance_[k].flexible_motion;
+    return motion.size() ? motion : Eigen::VectorXcd::Zero(components_);
+  }
   // P = G_n Phi of kept harmonic k: the structure's retained modes at the contact components
   // (components x modes), where harmonic k's modal damping is diagonal; else empty.
   const Eigen::MatrixXcd& contact_modes(std::size_t k) const {

@@ -63,6 +63,19 @@ class NonlinearModeProblem final : public CurveProblem {
   // left out), chosen as the one whose mode K participation is largest; xi is that mode's
   // modal damping. Throws std::runtime_error where the contacts cannot be traced at rest.
   Eigen::VectorXd linear_guess(double amplitude) const;
+  // The linear modes of the structure with each contact replaced by its tangent at rest (at
+  // harmonic 1, over the retained modes, the residual flexibility left out): the Hermitian
+  // eigenproblem of diag(w_r^2) + P^H dF_1/dU P. `stiffness`: the eigenvalues, rad^2/s^2,
+  // ascending; `shapes`: the eigenvectors in the retained modes' coordinates (columns, unit
+  // norm: mass-normalised); `damping`: each one's modal damping v^H C v (rad/s, the
+  // structure's diagonal C, the coupling between them left out); `chosen`: the one whose
+  // participation of mode K is largest (linear_guess's). Throws as linear_guess.
+  struct RestModes {
+    Eigen::VectorXd stiffness, damping;
+    Eigen::MatrixXcd shapes;
+    Eigen::Index chosen = 0;
+  };
+  RestModes rest_modes() const;
 
  private:
   const HarmonicBalanceModel& model_;

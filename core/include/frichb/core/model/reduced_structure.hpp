@@ -53,6 +53,9 @@ class ReducedStructure {
   Eigen::VectorXcd respond(int harmonic_index, double circular_frequency,
                            const Eigen::VectorXcd& force,
                            Eigen::VectorXcd* derivative = nullptr) const;
+  // F f: the residual flexibility's static response to the force amplitudes f (kept DOFs, N),
+  // m; where F was reduced, its response rows only (NaN elsewhere); zero without one.
+  Eigen::VectorXcd residual_response(int harmonic_index, const Eigen::VectorXcd& force) const;
 
  public:
   // The modal basis of a harmonic index at the kept DOFs (as the provider gave it).

@@ -11,6 +11,20 @@
 //                 continuation ended, and the timings
 //   nma.gp, nma.png  frequency and damping ratio against the amplitude (log axis), the most
 //                 damped point marked (result.plots)
+// With syntheses (NmaOptions::synthesise), also:
+//   synthesis.csv  the synthesised curves, one row per point: level (0-based), excitation_scale,
+//                 frequency_hz, amplitude_m_sqrt_kg (the mode's a), node_amplitude_mode_m (the
+//                 response node's harmonic-1 amplitude, the mode alone), node_amplitude_m (with
+//                 the off-resonant modes' residual terms)
+//   synthesis_peaks.csv  one row per level: the synthesised peak (peak_found; frequency, a,
+//                 damping ratio, node amplitudes, the residual terms' share), the
+//                 harmonic-balance check at its frequency (check_converged; node amplitude,
+//                 errors, seconds) and the full run's peak (full_run_found; frequency, node
+//                 amplitude, errors, seconds); a flag 0 and its fields 0 where there is none
+//   synthesis.gp, synthesis.png  the curves (node amplitude against frequency, log axis where
+//                 they span a decade), the checks as circles, the full runs' peaks as crosses
+//   summary.json's "synthesis": the same per level, and the backbone's, the syntheses', the
+//                 checks' and the full runs' seconds
 // Throws OutputError.
 #pragma once
 
@@ -29,6 +43,8 @@ std::vector<std::string> nma_outputs();
 void write_nma(const NmaResult& result, StagedOutput& out);
 // nma.gp's gnuplot script (it reads nma.csv in its folder and writes nma.png).
 std::string nma_plot_script(const NmaResult& result);
+// synthesis.gp's gnuplot script (it reads synthesis.csv and synthesis_peaks.csv).
+std::string synthesis_plot_script(const NmaResult& result);
 // The index of the point with the largest damping ratio (none without points).
 std::optional<std::size_t> most_damped_point(const NmaResult& result);
 
