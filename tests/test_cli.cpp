@@ -292,6 +292,22 @@ TEST_F(Cli, ARefusedInputCreatesNoOutputFolder) {
   }
 }
 
+// `frichb nma` refuses synthesis levels it cannot read, and --against-run without them,
+// before any work and without an output folder.
+TEST_F(Cli, NmaRefusesBadSynthesisLevels) {
+  const fs::path out = dir_ / "nma";
+  for (const std::string levels : {"1,x", "0.5,0", "-1", "1,,2", "2,"}) {
+    const Result r = frichb("nma " + quoted(kQuickstart) + " --synthesise=" + quoted(levels) +
+                            " -o " + quoted(out));
+    EXPECT_EQ(r.code, 1) << levels << ": " << r.output;
+    EXPECT_THAT(r.output, HasSubstr("--synthesise takes excitation levels")) << levels;
+  }
+  const Result r = frichb("nma " + quoted(kQuickstart) + " --against-run -o " + quoted(out));
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("--against-run compares syntheses"));
+  EXPECT_FALSE(fs::exists(out));
+}
+
 // `frichb peaks` refuses a range it cannot read and a parameter inside the structure (built
 // once for the whole peak curve) before any work, naming the option or the path.
 TEST_F(Cli, PeaksRefusesABadRangeAndAStructureParameter) {

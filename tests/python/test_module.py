@@ -266,6 +266,42 @@ def test_nma_gives_the_programs_backbone(tmp_path):
         frichb.nma(scene, mode=9)
 
 
+def test_nma_synthesises_the_programs_forced_responses(tmp_path):
+    scene = SOURCE / "configs" / "two_dof_blade_damper.yaml"
+    result = frichb.nma(scene, synthesise=[0.001, 0.05], set={"output.plots": False})
+    assert result.status == 0, result.message
+    cli = frichb_cli("nma", str(scene), "--synthesise", "0.001,0.05", "--set",
+                     "output.plots=false", "-o", str(tmp_path / "cli"))
+    assert cli.returncode == 0, cli.stderr
+    result.write(tmp_path / "py")
+    assert ((tmp_path / "py" / "synthesis.csv").read_bytes()
+            == (tmp_path / "cli" / "synthesis.csv").read_bytes())
+    header, py_peaks = read_csv(tmp_path / "py" / "synthesis_peaks.csv")
+    _, cli_peaks = read_csv(tmp_path / "cli" / "synthesis_peaks.csv")
+    numbers = [i for i, name in enumerate(header) if not name.endswith("seconds")]
+    np.testing.assert_array_equal(py_peaks[:, numbers], cli_peaks[:, numbers])
+    levels = result.syntheses
+    assert [level["excitation_scale"] for level in levels] == [0.001, 0.05]
+    stuck = levels[0]
+    # Stuck, the synthesised peak is the linear one: the harmonic-balance solve at its
+    # frequency agrees to the damping's coupling between the modes.
+    assert stuck["peak"]["found"] and stuck["check"]["converged"]
+    assert abs(stuck["check"]["error"]) < 1e-7
+    curve = stuck["curve"]
+    assert np.all(np.diff(curve["frequency_hz"]) > 0)
+    assert curve["node_amplitude_m"].max() == pytest.approx(stuck["peak"]["node_amplitude_m"],
+                                                            rel=1e-3)
+    header, rows = read_csv(tmp_path / "cli" / "synthesis.csv")
+    assert header == ["level", "excitation_scale", "frequency_hz", "amplitude_m_sqrt_kg",
+                      "node_amplitude_mode_m", "node_amplitude_m"]
+    np.testing.assert_allclose(curve["frequency_hz"], rows[rows[:, 0] == 0, 2], rtol=1e-11)
+    assert result.full_run_seconds == 0 and levels[0]["full_run"] is None
+    with pytest.raises(ValueError):
+        frichb.nma(scene, synthesise=[0.0])
+    with pytest.raises(ValueError):
+        frichb.nma(scene, against_run=True)
+
+
 TWO_RESONANCES = """name: two_resonances
 structure:
   provider: lumped
