@@ -1222,13 +1222,13 @@ void bind_nma(py::module_& m) {
           py::arg("folder"), "Writes what `frichb nma -o folder` writes.");
   m.def(
       "nma",
-      [](const py::object& scene, int mode, const py::object& amplitude,
-         const std::vector<double>& synthesise, bool against_run, const py::dict& set,
-         bool allow_scene_plugins) {
+      [](const py::object& scene, int mode, const py::object& amplitude, const py::dict& set,
+         bool allow_scene_plugins, const std::vector<double>& synthesise, bool against_run) {
         const core::StopSource source;
         core::NmaOptions options;
         for (const double level : synthesise)
-          if (!(level > 0)) throw py::value_error("synthesise: excitation levels > 0");
+          if (!(level > 0 && std::isfinite(level)))
+            throw py::value_error("synthesise: excitation levels > 0, finite");
         if (against_run && synthesise.empty())
           throw py::value_error("against_run compares syntheses: give synthesise levels");
         options.synthesise = synthesise;
@@ -1247,8 +1247,8 @@ void bind_nma(py::module_& m) {
         return call_stoppable(source, [&] { return core::compute_nonlinear_modes(options); });
       },
       py::arg("scene"), py::arg("mode") = 1, py::arg("amplitude") = py::none(),
-      py::arg("synthesise") = std::vector<double>{}, py::arg("against_run") = false,
       py::arg("set") = py::dict(), py::arg("allow_scene_plugins") = false,
+      py::arg("synthesise") = std::vector<double>{}, py::arg("against_run") = false,
       "Mode `mode` (1: the lowest) of the scene's structure with its contacts as a nonlinear\n"
       "mode, continued in its modal amplitude, as `frichb nma SCENE --mode K --amplitude\n"
       "FROM:TO` does. amplitude: (from, to) in m sqrt(kg), or None for the contact motion from\n"

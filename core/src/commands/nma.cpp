@@ -148,12 +148,18 @@ void describe_structure(const Scene& scene, const HarmonicBalanceModel& model,
   result.modal_excitation = basis.rows.adjoint() * model.excitation(k1);
   if (scene.output.response.empty()) return;
   result.node = scene.output.response.front();
+  const Eigen::VectorXcd flexible =
+      model.structure().residual_response(result.harmonic_index, model.excitation(k1));
   for (const auto& node : scene.structure.nodes)
     if (node.name == result.node) {
-      result.node_modes.resize(static_cast<Eigen::Index>(node.dofs.size()), basis.rows.cols());
-      for (std::size_t d = 0; d < node.dofs.size(); ++d)
-        result.node_modes.row(static_cast<Eigen::Index>(d)) =
-            basis.rows.row(model.kept_index(node.dofs[d]));
+      const auto dofs = static_cast<Eigen::Index>(node.dofs.size());
+      result.node_modes.resize(dofs, basis.rows.cols());
+      result.node_flexible_excitation.resize(dofs);
+      for (Eigen::Index d = 0; d < dofs; ++d) {
+        const Eigen::Index kept = model.kept_index(node.dofs[static_cast<std::size_t>(d)]);
+        result.node_modes.row(d) = basis.rows.row(kept);
+        result.node_flexible_excitation(d) = flexible(kept);
+      }
     }
 }
 
@@ -164,6 +170,11 @@ void end_early(NmaResult& result, const std::string& file, const std::string& te
   result.outcome.termination = result.termination = termination;
   result.outcome.message = message;
   spdlog::warn("{}: {}", file, message);
+}
+
+void warn(NmaResult& result, const std::string& file, const std::string& warning) {
+  spdlog::warn("{}: {}", file, warning);
+  result.outcome.warnings.push_back(warning);
 }
 
 // A stop requested: the outcome says so (true), else false.
@@ -275,15 +286,21 @@ std::optional<BackboneStart> start_backbone(const NonlinearModeProblem& problem,
 
 // Refinement of the traced backbone (refine_backbone): neighbours whose damping ratios differ
 // by more than kRefineDamping of the larger, or whose frequencies by more than kRefineFrequency,
-// get a point between them, down to kRefineSmallest in ln a and at most kRefinePoints points.
+// get a point between them, down to kRefineSmallest in ln a and at most kRefinePoints points
+// (and options.max_points in all).
+// A change in the damping ratio below kRefineDampingFloor is none (a backbone without
+// structural damping is stuck at zero to rounding).
 constexpr double kRefineDamping = 0.05, kRefineFrequency = 1e-3, kRefineSmallest = 1e-4;
+constexpr double kRefineDampingFloor = 1e-6;
 constexpr std::size_t kRefinePoints = 400;
 
 bool needs_point_between(const NmaPoint& p0, const NmaPoint& p1) {
   const double gap = std::log(p1.amplitude / p0.amplitude);
   if (!(gap > kRefineSmallest)) return false;
-  return std::abs(p1.damping_ratio - p0.damping_ratio) >
-             kRefineDamping * std::max(std::abs(p0.damping_ratio), std::abs(p1.damping_ratio)) ||
+  const double change = std::abs(p1.damping_ratio - p0.damping_ratio);
+  return (change > kRefineDampingFloor &&
+          change >
+              kRefineDamping * std::max(std::abs(p0.damping_ratio), std::abs(p1.damping_ratio))) ||
          std::abs(p1.frequency_hz - p0.frequency_hz) >
              kRefineFrequency * std::min(p0.frequency_hz, p1.frequency_hz);
 }
@@ -300,9 +317,23 @@ std::size_t refine_backbone(const NonlinearModeProblem& problem, const Continuat
                             NmaResult& result, std::size_t& unsolved) {
   const Eigen::Index n = problem.harmonic_unknowns();
   std::vector<NmaPoint>& points = result.points;
+  const std::size_t traced = points.size();
+  const auto most = static_cast<std::size_t>(std::max(0, options.max_points));
+  const std::size_t limit = std::min(kRefinePoints, most > traced ? most - traced : 0);
   std::size_t added = 0;
-  for (std::size_t i = 1; i < points.size() && added < kRefinePoints;) {
+  for (std::size_t i = 1; i < points.size();) {
     if (options.stop.stop_requested()) break;
+    if (added == limit) {
+      for (std::size_t j = i; j < points.size(); ++j)
+        if (needs_point_between(points[j - 1], points[j])) {
+          warn(result, result.scene_file.string(),
+               "the backbone's refinement stopped at " + std::to_string(added) +
+                   " added points (its limit): it is coarser above a = " +
+                   format_number(points[j - 1].amplitude, 4) + " m sqrt(kg)");
+          break;
+        }
+      break;
+    }
     if (!needs_point_between(points[i - 1], points[i])) {
       ++i;
       continue;
@@ -356,15 +387,12 @@ void trace_backbone(const NonlinearModeProblem& problem, const BackboneStart& st
         spdlog::info("{}: {} points added where the damping ratio or the frequency turns sharply",
                      file, added);
     } catch (const std::runtime_error& e) {
-      undescribed = e.what();
+      warn(result, file, std::string("the backbone's refinement stopped: ") + e.what());
     }
-    if (unsolved > 0) {
-      const std::string warning =
-          std::to_string(unsolved) +
-          " points between traced ones did not converge: the backbone is coarser there";
-      spdlog::warn("{}: {}", file, warning);
-      result.outcome.warnings.push_back(warning);
-    }
+    if (unsolved > 0)
+      warn(result, file,
+           std::to_string(unsolved) +
+               " points between traced ones did not converge: the backbone is coarser there");
     if (stopped(options, result)) return;
   }
   if (!summary.reached_end())
@@ -373,11 +401,62 @@ void trace_backbone(const NonlinearModeProblem& problem, const BackboneStart& st
                   (undescribed.empty() ? summary.message : "a point's contacts: " + undescribed));
 }
 
+// The harmonic-balance solve at a synthesised peak; what it throws becomes its message.
+void check_level(const Scene& scene, const NonlinearModeProblem& problem, const NmaOptions& options,
+                 NmaResult& result, SynthesisedResponse& response) {
+  const std::string level = "excitation x " + format_number(response.scale, 6);
+  try {
+    response.check =
+        check_synthesised_peak(scene, problem.model(), problem, result, response, options.stop);
+  } catch (const std::exception& e) {
+    response.check = SynthesisCheck{};
+    response.check.message = e.what();
+  }
+  result.check_seconds += response.check.seconds;
+  if (options.stop.stop_requested()) return;
+  if (!response.check.converged) {
+    warn(result, scene.file.string(), level + ": " + response.check.message);
+    return;
+  }
+  spdlog::info(
+      "{}: synthesised peak {} m at {} Hz (damping ratio {}); the harmonic balance there: {} m "
+      "({:+.2e})",
+      level, format_number(response.peak.node_amplitude_with_residual_m, 6),
+      format_number(response.peak.frequency_hz, 7), format_number(response.peak.damping_ratio, 4),
+      format_number(response.check.node_amplitude_m, 6), response.check.error_with_residual);
+}
+
+// The full run of a level; what it throws becomes its message.
+void run_level(const Scene& scene, const NmaOptions& options, NmaResult& result,
+               SynthesisedResponse& response) {
+  const std::string level = "excitation x " + format_number(response.scale, 6);
+  try {
+    const BoundScene scaled = with_excitation_scaled(options.scene, scene, response.scale);
+    response.full = compare_with_full_run(scaled.scene, response, options.stop);
+  } catch (const std::exception& e) {
+    response.full = FullRunComparison{};
+    response.full->message = e.what();
+  }
+  result.full_run_seconds += response.full->seconds;
+  if (options.stop.stop_requested()) return;
+  if (!response.full->found) {
+    warn(result, scene.file.string(), level + ": full run: " + response.full->message);
+    return;
+  }
+  spdlog::info(
+      "{}: the full run's peak {} m at {} Hz ({} points, {} s): synthesis {:+.2e} in amplitude, "
+      "{:+.2e} in frequency",
+      level, format_number(response.full->node_amplitude_m, 6),
+      format_number(response.full->frequency_hz, 7), response.full->points,
+      format_number(response.full->seconds, 3), response.full->amplitude_error_with_residual,
+      response.full->frequency_error);
+}
+
 // The forced responses at options.synthesise: each synthesised, its peak checked by one
-// harmonic-balance solve, and (options.against_run) the full run traced.
+// harmonic-balance solve, and (options.against_run) the full run traced. A stop ends them
+// (the outcome says so).
 void synthesise_levels(const Scene& scene, const NonlinearModeProblem& problem,
                        const NmaOptions& options, NmaResult& result) {
-  const std::string file = scene.file.string();
   for (const double scale : options.synthesise) {
     if (stopped(options, result)) return;
     const auto synthesising = std::chrono::steady_clock::now();
@@ -385,48 +464,16 @@ void synthesise_levels(const Scene& scene, const NonlinearModeProblem& problem,
         result.syntheses.emplace_back(synthesise_response(result, scale));
     result.synthesis_seconds += seconds_since(synthesising);
     if (!response.peak.found) {
-      const std::string warning = "excitation x " + format_number(scale, 6) +
-                                  ": no synthesised peak: " + response.peak.message;
-      spdlog::warn("{}: {}", file, warning);
-      result.outcome.warnings.push_back(warning);
+      warn(result, scene.file.string(),
+           "excitation x " + format_number(scale, 6) +
+               ": no synthesised peak: " + response.peak.message);
       continue;
     }
-    response.check =
-        check_synthesised_peak(scene, problem.model(), problem, result, response, options.stop);
-    result.check_seconds += response.check.seconds;
-    if (response.check.converged)
-      spdlog::info(
-          "excitation x {}: synthesised peak {} m at {} Hz (damping ratio {}); the harmonic "
-          "balance there: {} m ({:+.2e})",
-          format_number(scale, 6), format_number(response.peak.node_amplitude_with_residual_m, 6),
-          format_number(response.peak.frequency_hz, 7),
-          format_number(response.peak.damping_ratio, 4),
-          format_number(response.check.node_amplitude_m, 6), response.check.error_with_residual);
-    else {
-      const std::string warning =
-          "excitation x " + format_number(scale, 6) + ": " + response.check.message;
-      spdlog::warn("{}: {}", file, warning);
-      result.outcome.warnings.push_back(warning);
-    }
-    if (!options.against_run || stopped(options, result)) continue;
-    const BoundScene scaled = with_excitation_scaled(options.scene, scene, scale);
-    response.full = compare_with_full_run(scaled.scene, response, options.stop);
-    result.full_run_seconds += response.full->seconds;
-    if (response.full->found)
-      spdlog::info(
-          "excitation x {}: the full run's peak {} m at {} Hz ({} points, {} s): synthesis {:+.2e} "
-          "in amplitude, {:+.2e} in frequency",
-          format_number(scale, 6), format_number(response.full->node_amplitude_m, 6),
-          format_number(response.full->frequency_hz, 7), response.full->points,
-          format_number(response.full->seconds, 3), response.full->amplitude_error_with_residual,
-          response.full->frequency_error);
-    else {
-      const std::string warning =
-          "excitation x " + format_number(scale, 6) + ": full run: " + response.full->message;
-      spdlog::warn("{}: {}", file, warning);
-      result.outcome.warnings.push_back(warning);
-    }
+    check_level(scene, problem, options, result, response);
+    if (options.against_run && !options.stop.stop_requested())
+      run_level(scene, options, result, response);
   }
+  stopped(options, result);
 }
 
 }  // namespace

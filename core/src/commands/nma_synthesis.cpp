@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -22,6 +23,10 @@ namespace frichb::core {
 namespace {
 
 constexpr double kTwoPi = 2 * std::numbers::pi;
+// The synthesised curve: points per interval of the backbone, and how far below the peak's
+// amplitude a it goes (its flanks down to a tenth of the peak's a).
+constexpr int kCurveSubdivisions = 8;
+constexpr double kCurveDepth = 0.1;
 
 double seconds_since(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
@@ -80,10 +85,14 @@ std::complex<double> modal_response(double scale, const BackboneAt& at, double b
 struct NodeMotion {
   Eigen::VectorXcd mode, residual;
 };
-NodeMotion node_motion(const NmaResult& result, double scale, const BackboneAt& at, double big_w) {
+// `modal`: the mode's complex amplitude a e^{i theta}. The residual terms: the other linear
+// modes with the contacts at rest, and the excitation's static motion of the node through the
+// residual flexibility.
+NodeMotion node_motion(const NmaResult& result, double scale, const BackboneAt& at, double big_w,
+                       std::complex<double> modal_amplitude) {
   NodeMotion motion;
   if (result.node_modes.size() == 0) return motion;
-  motion.mode = at.shape.node * modal_response(scale, at, big_w);
+  motion.mode = at.shape.node * modal_amplitude;
   Eigen::VectorXcd modal = Eigen::VectorXcd::Zero(result.modal_excitation.size());
   for (Eigen::Index j = 0; j < result.rest_stiffness.size(); ++j) {
     if (j == result.rest_mode) continue;
@@ -92,7 +101,7 @@ NodeMotion node_motion(const NmaResult& result, double scale, const BackboneAt& 
                   std::complex<double>(result.rest_stiffness(j) - big_w * big_w,
                                        big_w * result.rest_damping(j)));
   }
-  motion.residual = result.node_modes * modal;
+  motion.residual = result.node_modes * modal + scale * result.node_flexible_excitation;
   return motion;
 }
 
@@ -102,18 +111,26 @@ struct PeakBracket {
   double t = 0.0;
 };
 std::optional<PeakBracket> find_peak(const NmaResult& result, double scale) {
-  // g = scale / excitation_scale_at - 1 falls through 0 at the peak (the excitation a point's
-  // amplitude needs grows along the backbone).
-  const auto g = [&](std::size_t i) { return scale / excitation_scale_at(result, i) - 1.0; };
+  // g = ln(scale / excitation_scale_at) falls through 0 at the peak (the excitation a point's
+  // amplitude needs grows along the backbone); linear in t where the needed excitation is a
+  // power of a (a linear mode's is proportional to it), as ln a is. A point without damping
+  // (zeta <= 0: friction alone while the contacts stick, zero to rounding) needs no excitation:
+  // its g is infinite, and a peak right after it is put at the next point.
+  const auto g = [&](std::size_t i) {
+    const double needed = excitation_scale_at(result, i);
+    return needed > 0 ? std::log(scale / needed) : std::numeric_limits<double>::infinity();
+  };
   for (std::size_t i = 1; i < result.points.size(); ++i) {
     const double before = g(i - 1), after = g(i);
-    if (before > 0 && after <= 0) return PeakBracket{i, before / (before - after)};
+    if (!(before > 0 && after <= 0)) continue;
+    return PeakBracket{i, std::isinf(before) ? 1.0 : before / (before - after)};
   }
   return std::nullopt;
 }
 
 // The two frequencies (rad/s, ascending) at which the mode reaches the point's amplitude under
-// `scale`, or nullopt where it does not (above the peak) or the lower one is not real.
+// `scale`, or nullopt where it does not (above the peak) or neither is real; a lower one that is
+// not real is 0.
 std::optional<std::pair<double, double>> frequencies_reaching(double scale, const BackboneAt& at) {
   const double w2 = at.w * at.w, zeta2 = at.zeta * at.zeta;
   const double reach = scale * std::abs(at.shape.force) / (at.shape.mass * at.amplitude);
@@ -126,7 +143,7 @@ std::optional<std::pair<double, double>> frequencies_reaching(double scale, cons
 
 SynthesisedPoint curve_point(const NmaResult& result, double scale, const BackboneAt& at,
                              double big_w) {
-  const NodeMotion motion = node_motion(result, scale, at, big_w);
+  const NodeMotion motion = node_motion(result, scale, at, big_w, modal_response(scale, at, big_w));
   SynthesisedPoint point;
   point.frequency_hz = big_w / kTwoPi;
   point.amplitude = at.amplitude;
@@ -177,9 +194,11 @@ SynthesisedPeak synthesise_peak(const NmaResult& result, double scale) {
   }
   const double big_w = at.w * std::sqrt(1 - 2 * at.zeta * at.zeta);
   peak.frequency_hz = big_w / kTwoPi;
-  const NodeMotion motion = node_motion(result, scale, at, big_w);
+  // The interpolated amplitude in the phase of the response there.
+  const NodeMotion motion =
+      node_motion(result, scale, at, big_w,
+                  std::polar(at.amplitude, std::arg(modal_response(scale, at, big_w))));
   if (motion.mode.size() > 0) {
-    // At the peak |a e^{i theta}| = a: the mode alone moves the node by its shape times a.
     peak.node_amplitude_m = largest_norm(motion.mode);
     peak.node_amplitude_with_residual_m = largest_norm(motion.mode + motion.residual);
     const double total = (motion.mode + motion.residual).norm();
@@ -189,21 +208,42 @@ SynthesisedPeak synthesise_peak(const NmaResult& result, double scale) {
   return peak;
 }
 
+std::pair<double, double> synthesis_band_hz(const NmaResult& result) {
+  std::pair<double, double> band{0.0, std::numeric_limits<double>::infinity()};
+  const Eigen::Index j = result.rest_mode, count = result.rest_stiffness.size();
+  if (j >= count) return band;
+  const auto hz = [&](Eigen::Index i) {
+    return std::sqrt(std::max(0.0, result.rest_stiffness(i))) / kTwoPi;
+  };
+  if (j > 0) band.first = 0.5 * (hz(j - 1) + hz(j));
+  if (j + 1 < count) band.second = 0.5 * (hz(j) + hz(j + 1));
+  return band;
+}
+
 SynthesisedResponse synthesise_response(const NmaResult& result, double scale) {
   SynthesisedResponse response;
   response.scale = scale;
   response.peak = synthesise_peak(result, scale);
   if (!response.peak.found) return response;
-  const std::size_t last = find_peak(result, scale)->index;  // the points below the peak
-  std::vector<SynthesisedPoint> below, above;
-  for (std::size_t i = 0; i < last; ++i) {
-    const BackboneAt at = backbone_at(result, std::max<std::size_t>(i, 1), i == 0 ? 0.0 : 1.0);
-    const auto reach = frequencies_reaching(scale, at);
-    if (!reach) continue;
-    if (reach->first > 0) below.push_back(curve_point(result, scale, at, reach->first));
-    above.push_back(curve_point(result, scale, at, reach->second));
-  }
   const PeakBracket bracket = *find_peak(result, scale);
+  const std::pair<double, double> band = synthesis_band_hz(result);
+  const double smallest = response.peak.amplitude * kCurveDepth;
+  std::vector<SynthesisedPoint> below, above;
+  // The backbone below the peak, kCurveSubdivisions points per interval.
+  for (std::size_t i = 1; i <= bracket.index; ++i)
+    for (int j = 0; j < kCurveSubdivisions; ++j) {
+      const double t = static_cast<double>(j) / kCurveSubdivisions;
+      if (i == bracket.index && t >= bracket.t) break;
+      const BackboneAt at = backbone_at(result, i, t);
+      if (at.amplitude < smallest) continue;
+      const auto reach = frequencies_reaching(scale, at);
+      if (!reach) continue;
+      const auto inside = [&band](double w) {
+        return w > 0 && w / kTwoPi >= band.first && w / kTwoPi <= band.second;
+      };
+      if (inside(reach->first)) below.push_back(curve_point(result, scale, at, reach->first));
+      if (inside(reach->second)) above.push_back(curve_point(result, scale, at, reach->second));
+    }
   const BackboneAt at = backbone_at(result, bracket.index, bracket.t);
   response.curve = std::move(below);
   response.curve.push_back(curve_point(result, scale, at, kTwoPi * response.peak.frequency_hz));
@@ -234,7 +274,7 @@ SynthesisCheck check_synthesised_peak(const Scene& scene, const HarmonicBalanceM
   const auto started = std::chrono::steady_clock::now();
   SynthesisCheck check;
   const std::unique_ptr<HarmonicBalanceModel> scaled =
-      base.with_dynamic_excitation_scaled(scene, response.scale);
+      base.with_excitation_scaled(scene, 1, response.scale);
   const HarmonicBalanceModel& model = *scaled;
   const PeakBracket bracket = *find_peak(result, response.scale);
   const BackboneAt at = backbone_at(result, bracket.index, bracket.t);

@@ -14,10 +14,10 @@ namespace frichb::core {
 // load_bound_scene.
 BoundScene with_excitation_scaled(const SceneInput& input, const Scene& scene, double scale);
 
-// One harmonic-balance solve of the scene's forced equations (`model`, the scene's, its
-// dynamic excitation scaled by response.scale) at the peak's frequency, started from the
-// backbone of `problem` at the peak (result.points) turned into the excitation's phase. A
-// solve that fails is a check with converged false and why.
+// One harmonic-balance solve of the scene's forced equations at the peak's frequency: of
+// `model` (the scene's, unscaled) with its harmonic-1 excitation scaled by response.scale,
+// started from the backbone of `problem` at the peak (result.points) turned into the
+// excitation's phase. A solve that fails is a check with converged false and why.
 SynthesisCheck check_synthesised_peak(const Scene& scene, const HarmonicBalanceModel& model,
                                       const NonlinearModeProblem& problem, const NmaResult& result,
                                       const SynthesisedResponse& response, const StopToken& stop);

@@ -284,14 +284,15 @@ std::unique_ptr<HarmonicBalanceModel> HarmonicBalanceModel::with_contact_params(
   return std::unique_ptr<HarmonicBalanceModel>(new HarmonicBalanceModel(*this, scene));
 }
 
-std::unique_ptr<HarmonicBalanceModel> HarmonicBalanceModel::with_dynamic_excitation_scaled(
-    const Scene& scene, double scale) const {
-  if (!std::isfinite(scale))
-    throw std::invalid_argument("with_dynamic_excitation_scaled: the scale is not finite");
+std::unique_ptr<HarmonicBalanceModel> HarmonicBalanceModel::with_excitation_scaled(
+    const Scene& scene, int harmonic, double scale) const {
+  if (harmonic < 1 || !std::isfinite(scale))
+    throw std::invalid_argument("with_excitation_scaled: a harmonic >= 1 and a finite scale, not " +
+                                std::to_string(harmonic) + " and " + std::to_string(scale));
   std::unique_ptr<HarmonicBalanceModel> scaled(new HarmonicBalanceModel(*this, scene));
   const auto& h = layout_.harmonics();
   for (std::size_t k = 0; k < h.size(); ++k) {
-    if (h[k] == 0) continue;
+    if (h[k] != harmonic) continue;
     scaled->excitation_[k] *= scale;
     ContactReceptance& cr = scaled->contact_receptance_[k];
     cr.modal_force *= scale;

@@ -157,7 +157,9 @@ void write_syntheses(const NmaResult& result, StagedOutput& out) {
              "full_run_frequency_error",
              "full_run_seconds"},
             peaks);
-  if (result.plots) {
+  const bool curves = std::any_of(result.syntheses.begin(), result.syntheses.end(),
+                                  [](const SynthesisedResponse& s) { return !s.curve.empty(); });
+  if (result.plots && curves) {
     write_text(out.path("synthesis.gp"), synthesis_plot_script(result));
     run_gnuplot(out.path("synthesis.gp"), out.stop());
   }

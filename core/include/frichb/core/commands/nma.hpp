@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "frichb/core/commands/verb.hpp"
@@ -83,14 +84,16 @@ struct NmaPoint {
 //   W^2 = w^2 (1 - 2 zeta^2) +- sqrt((scale |p| / (m a))^2 - 4 zeta^2 w^4 (1 - zeta^2)),
 // and the mode's phase against the excitation is that of scale p / (m a (w^2 - W^2 + 2 i zeta
 // w W)). The response node moves as the mode's motion (NmaPoint::node_motion / a) times that,
-// and, in the figures `_with_residual`, also as the off-resonant modes as linear terms: the
-// linear modes with the contacts at rest other than the one the backbone starts from (shapes
-// v_j in modal coordinates), Phi v_j scale v_j^H Phi^H f / (lambda_j - W^2 + i W d_j). They are
-// exact where the contacts stick and hold the response's part off the mode's resonance where
-// they slip only as well as the contacts' tangents at rest do. Accurate near an isolated resonance
-// where the mode's shape holds the response; interactions between modes (internal resonances) are
-// left out, and the forced motion's shape departs from the free mode's as the friction damping
-// grows (docs/validation.md gives the error against it).
+// and, in the figures `_with_residual`, also with residual terms: the off-resonant modes as
+// linear terms, the linear modes with the contacts at rest other than the one the backbone
+// starts from (shapes v_j in modal coordinates), Phi v_j scale v_j^H Phi^H f / (lambda_j - W^2 +
+// i W d_j), and the excitation's static motion through the residual flexibility, scale F f.
+// Where the contacts stick they leave out only the damping's coupling between the modes and
+// the contacts' own static share through F (G F G^H); where the contacts slip they hold the
+// off-resonant part only as well as the contacts' tangents at rest do. Accurate near an isolated
+// resonance where the mode's shape holds the response; interactions between modes (internal
+// resonances) are left out, and the forced motion's shape departs from the free mode's as the
+// friction damping grows (docs/validation.md gives the error against it).
 struct SynthesisedPeak {
   bool found = false;             // false: the backbone does not hold the peak (message says why)
   double amplitude = 0.0;         // a at the peak, m sqrt(kg)
@@ -142,9 +145,12 @@ struct FullRunComparison {
 struct SynthesisedResponse {
   double scale = 1.0;  // of the scene's harmonic-1 excitation
   SynthesisedPeak peak;
-  // Ascending frequency: the branch below the peak's frequency (a rising), the peak, the
-  // branch above it (a falling), over the backbone's points below the peak. Empty without a
-  // peak.
+  // In order along the curve: the flank below the peak's frequency (a rising), the peak, the
+  // flank above it (a falling; frequencies ascend on both unless a strongly softening backbone
+  // folds a flank), over the backbone below the peak (8 points per interval,
+  // interpolated as the peak is) down to a tenth of the peak's a, and within
+  // synthesis_band_hz.
+  // Empty without a peak.
   std::vector<SynthesisedPoint> curve;
   SynthesisCheck check;                   // when the peak was found
   std::optional<FullRunComparison> full;  // NmaOptions::against_run
@@ -172,6 +178,9 @@ struct NmaResult {
   Eigen::VectorXcd modal_excitation;
   std::string node;
   Eigen::MatrixXcd node_modes;
+  // The excitation's static motion of the response node through the residual flexibility,
+  // (F f) at its DOFs (m; zero without a residual flexibility): a residual term.
+  Eigen::VectorXcd node_flexible_excitation;
   // The linear modes with the contacts at rest (NonlinearModeProblem::rest_modes), for the
   // off-resonant modes' residual terms: their stiffness (rad^2/s^2) and modal damping (rad/s),
   // their shapes in the retained modes' coordinates (columns), and the one the backbone starts
@@ -189,6 +198,10 @@ struct NmaResult {
 // backbone, where the condition above is met, between two traced points (interpolated in ln a).
 SynthesisedPeak synthesise_peak(const NmaResult& result, double scale);
 
+// The frequencies (Hz) within which a synthesised curve is drawn: between the midpoints to the
+// neighbouring linear modes with the contacts at rest (0 and infinity where there is none),
+// where the mode rather than its neighbours makes the response.
+std::pair<double, double> synthesis_band_hz(const NmaResult& result);
 // The curve and the peak of a level (no check): pure, from the result's backbone.
 SynthesisedResponse synthesise_response(const NmaResult& result, double scale);
 // The excitation scale whose synthesised peak lies at point `index` of the backbone (inverse of

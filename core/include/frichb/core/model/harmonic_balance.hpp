@@ -82,12 +82,13 @@ class HarmonicBalanceModel final : public CurveProblem {
   // anew. The new model does not refer to this one. Throws PluginError where a law refuses
   // its params and std::invalid_argument where a contact uses other components than here.
   std::unique_ptr<HarmonicBalanceModel> with_contact_params(const Scene& scene) const;
-  // A model of the same scene with the excitation of harmonics n >= 1 times `scale` (the
-  // static load as it is): it shares this model's reduced structure and instantiates the
-  // contacts anew from `scene` (this model's). Throws as with_contact_params and
-  // std::invalid_argument for a scale that is not finite.
-  std::unique_ptr<HarmonicBalanceModel> with_dynamic_excitation_scaled(const Scene& scene,
-                                                                       double scale) const;
+  // A model of the same scene with the excitation at temporal harmonic `harmonic` (>= 1) times
+  // `scale` (the static load and the other harmonics' excitation as they are): it shares this
+  // model's reduced structure and instantiates the contacts anew from `scene` (this model's).
+  // Throws as with_contact_params, and std::invalid_argument for a harmonic below 1 or a scale
+  // that is not finite.
+  std::unique_ptr<HarmonicBalanceModel> with_excitation_scaled(const Scene& scene, int harmonic,
+                                                               double scale) const;
 
   Eigen::Index equation_count() const override { return unknown_count_; }
   bool evaluate(const Eigen::VectorXd& y, Eigen::VectorXd& residual, Eigen::MatrixXd* jacobian,
