@@ -1103,6 +1103,52 @@ void bind_peaks(py::module_& m) {
       "PARAMETER=START:END` does. Returns a PeaksResult.");
 }
 
+// NmaResult.syntheses: a dict per level, as summary.json's synthesis.levels.
+py::list synthesis_levels(const core::NmaResult& r) {
+  py::list out;
+  for (const core::SynthesisedResponse& s : r.syntheses) {
+    py::dict level;
+    level["excitation_scale"] = s.scale;
+    const core::SynthesisedPeak& p = s.peak;
+    level["peak"] =
+        py::dict(py::arg("found") = p.found, py::arg("frequency_hz") = p.frequency_hz,
+                 py::arg("amplitude") = p.amplitude, py::arg("damping_ratio") = p.damping_ratio,
+                 py::arg("node_amplitude_mode_m") = p.node_amplitude_m,
+                 py::arg("node_amplitude_m") = p.node_amplitude_with_residual_m,
+                 py::arg("residual_share") = p.residual_share, py::arg("message") = p.message);
+    std::vector<double> frequency, amplitude, node_mode, node;
+    for (const core::SynthesisedPoint& c : s.curve) {
+      frequency.push_back(c.frequency_hz);
+      amplitude.push_back(c.amplitude);
+      node_mode.push_back(c.node_amplitude_m);
+      node.push_back(c.node_amplitude_with_residual_m);
+    }
+    level["curve"] = py::dict(py::arg("frequency_hz") = array(frequency),
+                              py::arg("amplitude") = array(amplitude),
+                              py::arg("node_amplitude_mode_m") = array(node_mode),
+                              py::arg("node_amplitude_m") = array(node));
+    level["check"] = py::dict(
+        py::arg("converged") = s.check.converged,
+        py::arg("node_amplitude_m") = s.check.node_amplitude_m,
+        py::arg("error_mode") = s.check.error, py::arg("error") = s.check.error_with_residual,
+        py::arg("newton_iterations") = s.check.newton_iterations,
+        py::arg("seconds") = s.check.seconds, py::arg("message") = s.check.message);
+    if (s.full)
+      level["full_run"] = py::dict(
+          py::arg("found") = s.full->found, py::arg("frequency_hz") = s.full->frequency_hz,
+          py::arg("node_amplitude_m") = s.full->node_amplitude_m,
+          py::arg("amplitude_error_mode") = s.full->amplitude_error,
+          py::arg("amplitude_error") = s.full->amplitude_error_with_residual,
+          py::arg("frequency_error") = s.full->frequency_error, py::arg("points") = s.full->points,
+          py::arg("seconds") = s.full->seconds, py::arg("termination") = s.full->termination,
+          py::arg("message") = s.full->message);
+    else
+      level["full_run"] = py::none();
+    out.append(level);
+  }
+  return out;
+}
+
 // frichb.nma and NmaResult.
 void bind_nma(py::module_& m) {
   py::class_<core::NmaResult> nma_result(
@@ -1156,54 +1202,7 @@ void bind_nma(py::module_& m) {
       .def_readonly("termination_of_continuation", &core::NmaResult::termination,
                     "How the continuation ended ('reached_end', ...).")
       .def_property_readonly(
-          "syntheses",
-          [](const core::NmaResult& r) {
-            py::list out;
-            for (const core::SynthesisedResponse& s : r.syntheses) {
-              py::dict level;
-              level["excitation_scale"] = s.scale;
-              const core::SynthesisedPeak& p = s.peak;
-              level["peak"] = py::dict(
-                  py::arg("found") = p.found, py::arg("frequency_hz") = p.frequency_hz,
-                  py::arg("amplitude") = p.amplitude, py::arg("damping_ratio") = p.damping_ratio,
-                  py::arg("node_amplitude_mode_m") = p.node_amplitude_m,
-                  py::arg("node_amplitude_m") = p.node_amplitude_with_residual_m,
-                  py::arg("residual_share") = p.residual_share, py::arg("message") = p.message);
-              std::vector<double> frequency, amplitude, node_mode, node;
-              for (const core::SynthesisedPoint& c : s.curve) {
-                frequency.push_back(c.frequency_hz);
-                amplitude.push_back(c.amplitude);
-                node_mode.push_back(c.node_amplitude_m);
-                node.push_back(c.node_amplitude_with_residual_m);
-              }
-              level["curve"] = py::dict(py::arg("frequency_hz") = array(frequency),
-                                        py::arg("amplitude") = array(amplitude),
-                                        py::arg("node_amplitude_mode_m") = array(node_mode),
-                                        py::arg("node_amplitude_m") = array(node));
-              level["check"] = py::dict(py::arg("converged") = s.check.converged,
-                                        py::arg("node_amplitude_m") = s.check.node_amplitude_m,
-                                        py::arg("error_mode") = s.check.error,
-                                        py::arg("error") = s.check.error_with_residual,
-                                        py::arg("newton_iterations") = s.check.newton_iterations,
-                                        py::arg("seconds") = s.check.seconds,
-                                        py::arg("message") = s.check.message);
-              if (s.full)
-                level["full_run"] = py::dict(
-                    py::arg("found") = s.full->found,
-                    py::arg("frequency_hz") = s.full->frequency_hz,
-                    py::arg("node_amplitude_m") = s.full->node_amplitude_m,
-                    py::arg("amplitude_error_mode") = s.full->amplitude_error,
-                    py::arg("amplitude_error") = s.full->amplitude_error_with_residual,
-                    py::arg("frequency_error") = s.full->frequency_error,
-                    py::arg("points") = s.full->points, py::arg("seconds") = s.full->seconds,
-                    py::arg("termination") = s.full->termination,
-                    py::arg("message") = s.full->message);
-              else
-                level["full_run"] = py::none();
-              out.append(level);
-            }
-            return out;
-          },
+          "syntheses", synthesis_levels,
           "The forced responses synthesised at `synthesise`, one dict per level as\n"
           "summary.json's synthesis.levels, with the curve as arrays (synthesis.csv's columns).")
       .def_readonly("backbone_seconds", &core::NmaResult::wall_seconds,

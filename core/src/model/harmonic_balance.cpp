@@ -541,20 +541,9 @@ std::complex<double> HarmonicBalanceModel::modal_coordinate(const Eigen::VectorX
   const Eigen::Index n = unknown_count_;
   const int hn = h[k];
   const int ci = layout_.cos_index(k), si = layout_.sin_index(k);
-  Eigen::VectorXd traced;
-  const Eigen::VectorXd* forces = &work_.forces;
-  if (work_.forces_at.size() != y.size() || (work_.forces_at.array() != y.array()).any()) {
-    bool ok = true;
-    std::string message;
-    gather_forces(y, traced, false, &message, ok);
-    if (!ok) throw std::runtime_error("modal_coordinate: " + message);
-    forces = &traced;
-  }
   const Eigen::VectorXcd p = cr.projected.col(mode);
-  std::complex<double> projected_force = 0.0;  // p^H F_n, F_n(a) = F_c - i F_s
-  for (int a = 0; a < components_; ++a)
-    projected_force +=
-        std::conj(p(a)) * std::complex<double>((*forces)(a * c + ci), -(*forces)(a * c + si));
+  // p^H F_n, F_n(a) = F_c - i F_s
+  const std::complex<double> projected_force = p.dot(contact_force_amplitudes(y, k));
   const ReducedStructure::Basis& b = structure_->basis(harmonic_index_[k]);
   const double big_w = hn * y(n);
   const double wr = b.frequencies(mode);
