@@ -68,18 +68,24 @@ std::string synthesis_plot_script(const NmaResult& result) {
   for (std::size_t i = 0; i < result.syntheses.size(); ++i) {
     const SynthesisedResponse& s = result.syntheses[i];
     if (s.curve.empty()) continue;
-    const std::string level = std::to_string(i);
-    curves.push_back("'synthesis.csv' using ($1 == " + level + " ? $3 : 1/0):($6 * " + factor +
-                     ") with lines lt " + std::to_string(i + 1) + " lw 2 title " +
-                     gnuplot_string("excitation × " + format_number(s.scale, 6)));
-    if (s.check.converged)
-      curves.push_back("'synthesis_peaks.csv' using ($1 == " + level +
-                       " && $10 == 1 ? $4 : 1/0):($11 * " + factor + ") with points lt " +
-                       std::to_string(i + 1) + " pt 6 ps 2 notitle");
-    if (s.full && s.full->found)
-      curves.push_back("'synthesis_peaks.csv' using ($1 == " + level +
-                       " && $15 == 1 ? $16 : 1/0):($17 * " + factor + ") with points lt " +
-                       std::to_string(i + 1) + " pt 2 ps 2 notitle");
+    const std::size_t type = i + 1;
+    std::ostringstream curve;
+    curve << "'synthesis.csv' using ($1 == " << i << " ? $3 : 1/0):($6 * " << factor
+          << ") with lines lt " << type << " lw 2 title "
+          << gnuplot_string("excitation × " + format_number(s.scale, 6));
+    curves.push_back(curve.str());
+    if (s.check.converged) {
+      std::ostringstream check;
+      check << "'synthesis_peaks.csv' using ($1 == " << i << " && $10 == 1 ? $4 : 1/0):($11 * "
+            << factor << ") with points lt " << type << " pt 6 ps 2 notitle";
+      curves.push_back(check.str());
+    }
+    if (s.full && s.full->found) {
+      std::ostringstream full;
+      full << "'synthesis_peaks.csv' using ($1 == " << i << " && $15 == 1 ? $16 : 1/0):($17 * "
+           << factor << ") with points lt " << type << " pt 2 ps 2 notitle";
+      curves.push_back(full.str());
+    }
   }
   gp << "# circles: the harmonic-balance solve at each synthesised peak; crosses: the full run's "
         "peak\nplot ";
