@@ -651,8 +651,10 @@ Verb nma_spec() {
       "the cost of both. Writes synthesis.csv (the curves), synthesis_peaks.csv (peaks,\n"
       "checks, full runs) and synthesis.png. Synthesis holds near an isolated resonance at\n"
       "light friction damping: docs/validation.md gives its error against the damping.";
-  v.examples = {"frichb nma configs/two_dof_blade_damper.yaml --mode 1 -o out/damper_nma",
-                "frichb nma configs/two_dof_blade_damper.yaml --synthesise 0.5,1,2 --against-run"};
+  v.examples = {
+      "frichb nma configs/two_dof_blade_damper.yaml --mode 1 -o out/damper_nma",
+      "frichb nma configs/two_dof_blade_damper.yaml --synthesise 0.001,0.05,0.2 --against-run "
+      "-o out/damper_synthesis"};
   v.reads_scene = true;
   v.input_plugins = true;
   v.writes_output = true;
