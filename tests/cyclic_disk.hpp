@@ -11,6 +11,7 @@
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <Eigen/Dense>
 
@@ -29,6 +30,10 @@ struct DiskOptions {
   double amplitude = 2.0;  // N on each blade
   double from_hz = 200.0, to_hz = 400.0;
   bool stability = false;
+  // Blade j's disk-to-blade spring times 1 + blade_deviations[j] (the whole disk only; empty:
+  // tuned). The cyclic scene names the blade (`blade_dofs: [1]`) so that a `mistuning`
+  // section can give the same disk.
+  std::vector<double> blade_deviations = {};
 };
 
 inline std::string harmonic_balance_and_rest(const DiskOptions& o, const std::string& response) {
@@ -46,6 +51,7 @@ inline std::string cyclic_disk_scene(const DiskOptions& o = {}) {
     << "    masses: [0.5, 0.1]\n"
     << "    springs: [{between: [ground, 0], k: 2.0e6}, {between: [0, 1], k: 4.0e5}]\n"
     << "    coupling: [{between: [0, 0], k: 1.0e5}]\n    modal_damping: [0.01]\n"
+    << "    blade_dofs: [1]\n"
     << "  dofs: {disk: 0, blade: 1}\n"
     << "excitation: [{dof: blade, amplitude: " << o.amplitude << "}]\n"
     << "contacts:\n  - name: shroud\n    law: " << o.law << "\n"
@@ -63,7 +69,9 @@ inline std::string full_disk_scene(const DiskOptions& o = {}) {
   for (int k = 0; k < kDiskSectors; ++k) {
     const int disk = 2 * k, blade = 2 * k + 1, next_disk = 2 * ((k + 1) % kDiskSectors);
     s << "      - {between: [ground, " << disk << "], k: 2.0e6}\n"
-      << "      - {between: [" << disk << ", " << blade << "], k: 4.0e5}\n"
+      << "      - {between: [" << disk << ", " << blade
+      << "], k: " << 4.0e5 * (o.blade_deviations.empty() ? 1.0 : 1.0 + o.blade_deviations[k])
+      << "}\n"
       << "      - {between: [" << disk << ", " << next_disk << "], k: 1.0e5}\n";
   }
   s << "    modal_damping: [0.01]\n  dofs: {";

@@ -52,6 +52,10 @@ std::vector<frichb_param_spec> lumped_cyclic_schema() {
                        "same for every harmonic index)")
           .at_least(0)
           .optional(),
+      Param::text_list("blade_dofs",
+                       "the DOFs (0-based) of the sector's blade: a mistuning factor scales "
+                       "every spring with an end on one of them (springs, not coupling)")
+          .optional(),
   };
 }
 
@@ -63,6 +67,14 @@ class LumpedCyclic final : public frichb::sdk::StructureProvider {
     mass_ = Eigen::VectorXd::Map(masses.data(), n);
     k0_ = Eigen::MatrixXd::Zero(n, n);
     k1_ = Eigen::MatrixXd::Zero(n, n);
+    blade_ = Eigen::MatrixXd::Zero(n, n);
+    for (const auto& d : p.texts("blade_dofs")) {
+      try {
+        blade_dofs_.push_back(end_index(d, n, false));
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(std::string("blade_dofs: ") + e.what());
+      }
+    }
     assemble_springs(p);
     assemble_coupling(p);
 
@@ -102,6 +114,27 @@ class LumpedCyclic final : public frichb::sdk::StructureProvider {
     else
       basis_.gather_mode_rows(basis.modes, kept, n_kept);
     return basis_.basis();
+  }
+
+  // S = Phi_h1^H K_b Phi_h2 (or Phi_h1^T K_b Phi_h2) with K_b the springs on blade_dofs.
+  void blade_stiffness(int h1, int h2, bool conjugate_first, double* real, double* imag) override {
+    if (blade_dofs_.empty())
+      throw std::invalid_argument(
+          "lumped_cyclic has no blade_dofs: name the blade's DOFs to mistune it");
+    for (int h : {h1, h2})
+      if (h < 0 || h >= sectors_)
+        throw std::invalid_argument("harmonic index " + std::to_string(h) + " is outside [0, " +
+                                    std::to_string(sectors_) + ")");
+    const Eigen::MatrixXcd& a = bases_[static_cast<std::size_t>(h1)].modes;
+    const Eigen::MatrixXcd& b = bases_[static_cast<std::size_t>(h2)].modes;
+    const Eigen::MatrixXcd kb = blade_.cast<std::complex<double>>() * b;
+    const Eigen::MatrixXcd out =
+        conjugate_first ? Eigen::MatrixXcd(a.adjoint() * kb) : Eigen::MatrixXcd(a.transpose() * kb);
+    for (Eigen::Index i = 0; i < out.rows(); ++i)
+      for (Eigen::Index j = 0; j < out.cols(); ++j) {
+        real[i * out.cols() + j] = out(i, j).real();
+        imag[i * out.cols() + j] = out(i, j).imag();
+      }
   }
 
  private:
@@ -182,12 +215,22 @@ class LumpedCyclic final : public frichb::sdk::StructureProvider {
       const long a = end_index(ends[0], n, true), b = end_index(ends[1], n, true);
       if (a == b)
         throw std::invalid_argument("springs[" + std::to_string(r) + "] joins an end to itself");
-      if (a >= 0) k0_(a, a) += k;
-      if (b >= 0) k0_(b, b) += k;
-      if (a >= 0 && b >= 0) {
-        k0_(a, b) -= k;
-        k0_(b, a) -= k;
-      }
+      add_spring(k0_, a, b, k);
+      if (on_blade(a) || on_blade(b)) add_spring(blade_, a, b, k);
+    }
+  }
+
+  bool on_blade(long dof) const {
+    return dof >= 0 && std::find(blade_dofs_.begin(), blade_dofs_.end(), dof) != blade_dofs_.end();
+  }
+
+  // k (e_a - e_b)(e_a - e_b)^T, e_ground = 0.
+  static void add_spring(Eigen::MatrixXd& stiffness, long a, long b, double k) {
+    if (a >= 0) stiffness(a, a) += k;
+    if (b >= 0) stiffness(b, b) += k;
+    if (a >= 0 && b >= 0) {
+      stiffness(a, b) -= k;
+      stiffness(b, a) -= k;
     }
   }
 
@@ -216,6 +259,8 @@ class LumpedCyclic final : public frichb::sdk::StructureProvider {
   long long sectors_;
   Eigen::VectorXd mass_;
   Eigen::MatrixXd k0_, k1_;
+  Eigen::MatrixXd blade_;  // K_b: the springs with an end on a blade DOF
+  std::vector<long> blade_dofs_;
   std::vector<double> ratios_;
   std::vector<Basis> bases_;
   frichb::sdk::ModalBasisBuilder basis_;

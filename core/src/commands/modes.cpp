@@ -6,6 +6,7 @@
 #include <chrono>
 #include <numbers>
 
+#include "frichb/core/model/mistuned_disk.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
 
 namespace frichb::core {
@@ -13,7 +14,8 @@ namespace frichb::core {
 ModesResult compute_modes(const ModesOptions& options) {
   const BoundScene bound = load_bound_scene(options.scene);
   const Scene& scene = bound.scene;
-  StructureInstance structure(scene.structure.plugin, scene.structure.values);
+  const auto instance = instantiate_structure(scene);
+  StructureModel& structure = *instance;
   ModesResult result;
   result.scene_file = scene.file;
   result.sectors = static_cast<int>(structure.sector_count());

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/model/mistuned_disk.hpp"
 #include "frichb/core/model/nonlinear_modes.hpp"
 #include "frichb/core/plugin_host/periodic_trace.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
@@ -484,7 +485,8 @@ NmaResult compute_nonlinear_modes(const NmaOptions& options) {
   const BoundScene bound = load_bound_scene(options.scene);
   const Scene& scene = bound.scene;
   const std::string file = scene.file.string();
-  StructureInstance structure(scene.structure.plugin, scene.structure.values);
+  const auto instance = instantiate_structure(scene);
+  StructureModel& structure = *instance;
   check_scene_against_plugins(scene, structure);
   const HarmonicBalanceModel model(scene, structure);
   check_mode_retained(file, model, options.mode);

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "frichb/core/commands/run.hpp"
+#include "frichb/core/model/mistuned_disk.hpp"
 #include "frichb/core/model/peak_tracking.hpp"
 #include "frichb/core/model/stability.hpp"
 #include "frichb/core/plugin_host/registry.hpp"
@@ -238,8 +239,7 @@ SceneParameterModels::SceneParameterModels(const Scene& base, const Registry& re
       registry_(registry),
       path_(std::move(path)),
       threads_(contact_threads),
-      structure_(
-          std::make_unique<StructureInstance>(base.structure.plugin, base.structure.values)) {}
+      structure_(instantiate_structure(base)) {}
 
 SceneParameterModels::~SceneParameterModels() = default;
 

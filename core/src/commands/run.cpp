@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/model/mistuned_disk.hpp"
 #include "frichb/core/model/stability.hpp"
 #include "frichb/core/scene/plugin_checks.hpp"
 #include "frichb/core/scene/scene.hpp"
@@ -239,8 +240,7 @@ PreparedRun prepare_run(const Scene& scene, int contact_threads) {
                    "contacts");
   }
   try {
-    start.structure =
-        std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
+    start.structure = instantiate_structure(scene);
     check_scene_against_plugins(scene, *start.structure);
     start.model = std::make_unique<HarmonicBalanceModel>(scene, *start.structure);
     start.model->set_contact_threads(contact_threads);

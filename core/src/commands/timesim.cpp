@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/model/mistuned_disk.hpp"
 #include "frichb/core/scene/plugin_checks.hpp"
 #include "frichb/core/support/exit_codes.hpp"
 
@@ -68,7 +69,8 @@ TimesimResult simulate_in_time(const Scene& scene, const TimesimOptions& options
     if (!c.plugin)
       throw std::invalid_argument("timesim: the scene's plugins are not bound (bind_plugins)");
 
-  StructureInstance structure(scene.structure.plugin, scene.structure.values);
+  const auto instance = instantiate_structure(scene);
+  StructureModel& structure = *instance;
   check_scene_against_plugins(scene, structure);
   const HarmonicBalanceModel model(scene, structure);
   const auto& basis = model.structure().basis(0);

@@ -67,7 +67,7 @@ void check_coefficient_cover(const HarmonicLayout& layout) {
 
 }  // namespace
 
-HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureInstance& structure)
+HarmonicBalanceModel::HarmonicBalanceModel(const Scene& scene, StructureModel& structure)
     : layout_(scene.harmonic_balance.harmonics, scene.harmonic_balance.samples_per_period),
       trace_layout_(
           scene.harmonic_balance.harmonics,

@@ -26,7 +26,7 @@ Eigen::MatrixXcd modal_impedance_matrix(const ReducedStructure::Basis& b, double
 
 }  // namespace
 
-ReducedStructure::ReducedStructure(StructureInstance& provider, std::vector<std::size_t> kept_dofs,
+ReducedStructure::ReducedStructure(StructureModel& provider, std::vector<std::size_t> kept_dofs,
                                    const std::vector<int>& harmonic_indices,
                                    const FlexibilityUse* use)
     : kept_dofs_(std::move(kept_dofs)) {
@@ -63,7 +63,7 @@ ReducedStructure::ReducedStructure(StructureInstance& provider, std::vector<std:
             Eigen::Map<const RowMajor>(b.residual_flexibility_imag, kept, kept);
     }
     if (!basis.frequencies.allFinite() || !basis.damping.allFinite() || !basis.rows.allFinite())
-      throw PluginError("structure '" + provider.plugin().name() +
+      throw PluginError("structure '" + provider.name() +
                         "' returned a modal basis with NaN or Inf for harmonic index " +
                         std::to_string(h));
     if (use != nullptr && use->reduce && basis.diagonal_damping &&

@@ -259,6 +259,10 @@ StructureInstance::~StructureInstance() {
   if (instance_) api_->destroy(instance_);
 }
 
+std::string StructureInstance::name() const {
+  return plugin_->name();
+}
+
 std::size_t StructureInstance::dof_count() const {
   return api_->dof_count(instance_);
 }
@@ -281,6 +285,29 @@ frichb_modal_basis StructureInstance::modal_basis(int harmonic_index,
     throw PluginError("structure '" + plugin_->name() + "' failed on harmonic index " +
                       std::to_string(harmonic_index) + ": " + message);
   return basis;
+}
+
+bool StructureInstance::offers_blade_stiffness() const {
+  const std::size_t needed =
+      offsetof(frichb_structure_api, blade_stiffness) + sizeof(api_->blade_stiffness);
+  return api_->struct_size >= needed && api_->blade_stiffness != nullptr;
+}
+
+std::vector<std::complex<double>> StructureInstance::blade_stiffness(int h1, int h2,
+                                                                     bool conjugate_first,
+                                                                     std::size_t rows,
+                                                                     std::size_t cols) {
+  if (!offers_blade_stiffness())
+    throw PluginError("structure '" + plugin_->name() +
+                      "' cannot be mistuned: it gives no blade stiffness (plugin ABI 1.4)");
+  std::vector<double> re(rows * cols), im(rows * cols);
+  char message[kMessageCapacity] = {0};
+  if (api_->blade_stiffness(instance_, h1, h2, conjugate_first ? 1 : 0, re.data(), im.data(),
+                            message, kMessageCapacity) != FRICHB_OK)
+    throw PluginError("structure '" + plugin_->name() + "' cannot be mistuned: " + message);
+  std::vector<std::complex<double>> out(rows * cols);
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {re[i], im[i]};
+  return out;
 }
 
 void check_plugin_allowed(const fs::path& plugin_file, const std::vector<fs::path>& input_folders,

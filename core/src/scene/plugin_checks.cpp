@@ -67,7 +67,7 @@ void check_contact(const Scene& scene, std::size_t index) {
 
 }  // namespace
 
-void check_scene_against_plugins(const Scene& scene, const StructureInstance& structure) {
+void check_scene_against_plugins(const Scene& scene, const StructureModel& structure) {
   check_dofs_exist(scene, structure.dof_count());
   check_sector_count(scene, static_cast<int>(structure.sector_count()));
   for (std::size_t i = 0; i < scene.contacts.size(); ++i) check_contact(scene, i);

@@ -19,6 +19,7 @@
 #include "frichb/core/scene/scene_variables.hpp"
 #include "frichb/core/support/format.hpp"
 #include "frichb/plugin/sdk.hpp"
+#include "scene/mistuning.hpp"
 
 namespace frichb::core {
 
@@ -568,9 +569,9 @@ namespace {
 // of the sections.
 void read_top_level(Scene& scene, const YAML::Node& root, const YamlContext& ctx) {
   if (!root.IsMap()) ctx.fail(root, "", "a scene is a YAML map of sections");
-  const std::vector<std::string> sections = {"structure",        "excitation",   "contacts",
-                                             "harmonic_balance", "continuation", "output",
-                                             "cyclic",           "study",        "variables"};
+  const std::vector<std::string> sections = {
+      "structure", "excitation", "contacts", "harmonic_balance", "continuation",
+      "output",    "cyclic",     "study",    "variables",        "mistuning"};
   const auto top = validate_params(root, top_schema(), "", ctx, sections);
   const auto topv = view(top_schema(), top);
   scene.name = topv.text("name");
@@ -1108,6 +1109,7 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   read_contacts(scene, scene.root, ctx);
   read_continuation(scene, scene.root, ctx);
   read_output(scene, scene.root, ctx);
+  read_mistuning(scene, scene.root, ctx);
   return scene;
 }
 
@@ -1217,7 +1219,8 @@ std::vector<CoreSection> core_schemas() {
   return {
       {"(top level)", top_schema(),
        "Sections: `structure`, `excitation`, `contacts`, `harmonic_balance`, `continuation` "
-       "(required), `output`, `cyclic`, `study`, `variables`. `variables`: a map of names to "
+       "(required), `output`, `cyclic`, `mistuning`, `study`, `variables`. `variables`: a map "
+       "of names to "
        "values (`variables: {pairs: 16}`); `${name}` in any text value of the scene is "
        "replaced by the value as written, e.g. `mass: models/blade_p${pairs}/sector_mass.mtx`, "
        "and a study can sweep `variables.pairs`."},
@@ -1233,6 +1236,13 @@ std::vector<CoreSection> core_schemas() {
        "Optional: a tuned disk of `sectors` identical sectors under an engine-order excitation. "
        "The structure provider then models one sector (harmonic indices h = mod(n m, nb)), "
        "and contacts may join a node of the reference sector to one of its neighbour."},
+      {"mistuning", mistuning_schema(),
+       "Optional, on a cyclic scene: a mistuned disk. Blade j's stiffness (the part the "
+       "structure provider calls the blade, e.g. lumped_cyclic's `blade_dofs`) is scaled by "
+       "1 + deviations[j]; `sigma` instead draws the deviations at random. The whole disk is "
+       "then computed: each node `name` of the sector becomes `name@j` on blade j, each contact "
+       "`c` one per blade (`c@j`), each excitation entry one per blade, delayed by j m / nb of a "
+       "period. See docs/mistuning.md."},
       {"contacts[]", contact_schema(),
        "`between`: [side A, side B], each a node name, `ground`, or `{node: name, sector: +1}` "
        "(sector offset -1, 0 or +1 in cyclic scenes; the map form below). "

@@ -36,10 +36,11 @@ extern "C" {
 #endif
 #ifndef FRICHB_ABI_MINOR
 #define FRICHB_ABI_MINOR                                                                 \
-  3 /* 1.1: frichb_structure_api.sector_count appended;                                  \
+  4 /* 1.1: frichb_structure_api.sector_count appended;                                  \
        1.2: steps along the motion (step_along, traces_motion);                          \
        1.3: frichb_force_kinks with struct_size and onsets (the host calls step_along of \
-       plugins built for 1.3 or later only, and steps 1.2 plugins by step()) */
+       plugins built for 1.3 or later only, and steps 1.2 plugins by step());            \
+       1.4: frichb_structure_api.blade_stiffness appended (mistuned disks) */
 #endif
 
 #define FRICHB_PLUGIN_ENTRY_SYMBOL "frichb_plugin_entry"
@@ -276,6 +277,18 @@ typedef struct frichb_structure_api {
   /* ABI 1.1: number of sectors nb of a cyclic sector model, 1 for a plain structure. The host
    * reads it only when struct_size covers it (a 1.0 plugin is a plain structure). */
   size_t (*sector_count)(const void* instance);
+  /* ABI 1.4, optional (NULL, or past struct_size: the structure cannot be mistuned). For a
+   * cyclic sector model: the stiffness K_b of the sector's mistunable part (its blade: the
+   * part whose stiffness a mistuning factor scales, blade by blade) projected on the modes of
+   * harmonic indices h1 and h2, all of them and over all DOFs, as modal_basis gives them:
+   *   S = Phi_h1^H K_b Phi_h2 (conjugate_first = 1)  or  Phi_h1^T K_b Phi_h2 (0),
+   * n_modes(h1) x n_modes(h2) row-major into the caller's `real` and `imag`, in 1/s^2 (K_b in
+   * N/m, modes mass-normalised). K_b is real symmetric and within one sector: a spring
+   * between sectors is not part of a blade. FRICHB_ERROR with a message when the model has
+   * no mistunable part defined. Not thread-safe. */
+  frichb_status (*blade_stiffness)(void* instance, int h1, int h2, int conjugate_first,
+                                   double* real, double* imag, char* message,
+                                   size_t message_capacity);
 } frichb_structure_api;
 
 /* ------------------------------------------------------------------------------------ */

@@ -219,6 +219,13 @@ class StructureProvider {
   // The returned pointers must stay valid until the next call or destruction.
   virtual frichb_modal_basis modal_basis(int harmonic_index, const size_t* kept_dofs,
                                          size_t n_kept) = 0;
+  // The mistunable part's stiffness projected on the modes of two harmonic indices
+  // (frichb_structure_api.blade_stiffness): n_modes(h1) x n_modes(h2) row-major into `real`
+  // and `imag`. The default refuses: the model has no mistunable part.
+  virtual void blade_stiffness(int /*h1*/, int /*h2*/, bool /*conjugate_first*/, double* /*real*/,
+                               double* /*imag*/) {
+    throw std::invalid_argument("this structure provider defines no mistunable (blade) part");
+  }
 };
 
 inline frichb_contact_law_traits make_traits(int tangential_dimensions, bool uses_normal,
@@ -327,6 +334,13 @@ struct StructureTrampolines : Lifecycle<StructureProvider, Provider> {
       *basis = static_cast<StructureProvider*>(instance)->modal_basis(harmonic_index, kept, n_kept);
     });
   }
+  static frichb_status blade_stiffness(void* instance, int h1, int h2, int conjugate_first,
+                                       double* real, double* imag, char* message, size_t capacity) {
+    return guarded(message, capacity, [&] {
+      static_cast<StructureProvider*>(instance)->blade_stiffness(h1, h2, conjugate_first != 0, real,
+                                                                 imag);
+    });
+  }
 };
 
 template <class Law>
@@ -370,7 +384,8 @@ const frichb_plugin_descriptor* structure_descriptor(
                                            &T::destroy,
                                            &T::dof_count,
                                            &T::modal_basis,
-                                           &T::sector_count};
+                                           &T::sector_count,
+                                           &T::blade_stiffness};
   static const frichb_plugin_descriptor descriptor = {FRICHB_ABI_MAJOR,
                                                       FRICHB_ABI_MINOR,
                                                       sizeof(frichb_plugin_descriptor),

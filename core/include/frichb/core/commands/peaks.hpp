@@ -190,7 +190,7 @@ class SceneParameterModels final : public ParameterModels {
   const Registry& registry_;
   std::string path_;
   int threads_ = 0;
-  std::unique_ptr<StructureInstance> structure_;
+  std::unique_ptr<StructureModel> structure_;
   mutable std::vector<Entry> cache_;
   mutable long clock_ = 0;
 };

@@ -64,7 +64,7 @@ struct RunOutcome {
 // one per core). Throws SceneError located in the scene (or the file a value came from).
 // The model refers to the structure: keep them together (members destroyed model first).
 struct PreparedRun {
-  std::unique_ptr<StructureInstance> structure;
+  std::unique_ptr<StructureModel> structure;
   std::unique_ptr<HarmonicBalanceModel> model;
   ContinuationSetup setup;
   std::vector<std::string> warnings;  // logged as they arose (too few samples per harmonic)

@@ -72,7 +72,7 @@ class HarmonicBalanceModel final : public CurveProblem {
   // scene file; here a DOF out of range, a sector count that differs from cyclic.sectors or a
   // missing frame direction throws std::invalid_argument, a law refusing its params PluginError,
   // and a structure failing to give its modal basis PluginError.
-  HarmonicBalanceModel(const Scene& scene, StructureInstance& structure);
+  HarmonicBalanceModel(const Scene& scene, StructureModel& structure);
   ~HarmonicBalanceModel() override;
 
   // The model of `scene`, which differs from this model's scene at most in its contacts' law

@@ -33,7 +33,7 @@ class ReducedStructure {
 
   // Fetches the modal basis of every harmonic index from the provider. `use`: where F is
   // reduced (see FlexibilityUse), or null to keep it whole.
-  ReducedStructure(StructureInstance& provider, std::vector<std::size_t> kept_dofs,
+  ReducedStructure(StructureModel& provider, std::vector<std::size_t> kept_dofs,
                    const std::vector<int>& harmonic_indices, const FlexibilityUse* use = nullptr);
 
   const std::vector<std::size_t>& kept_dofs() const { return kept_dofs_; }

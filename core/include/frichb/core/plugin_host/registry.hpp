@@ -6,6 +6,7 @@
 // ABI version and kind. Errors are PluginError with a message fit for the user.
 #pragma once
 
+#include <complex>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -125,19 +126,46 @@ class ContactLawInstance {
 };
 
 // One structure-provider instance. Not thread-safe.
-class StructureInstance {
+// A structure as the engine reads it: DOFs, sectors and the modal basis of a harmonic index
+// at the DOFs a scene keeps (frichb_structure_api's contract). A provider plugin's instance
+// (StructureInstance) is one; a model the host builds on one (a mistuned disk,
+// model/mistuned_disk.hpp) is another. Not thread-safe.
+class StructureModel {
+ public:
+  virtual ~StructureModel() = default;
+  // What messages call it: the provider's name.
+  virtual std::string name() const = 0;
+  virtual std::size_t dof_count() const = 0;
+  // Sectors of a cyclic sector model; 1 for a plain structure.
+  virtual std::size_t sector_count() const = 0;
+  // The pointers stay valid until the next call or the model's destruction. Throws
+  // PluginError (or std::invalid_argument) with the reason on failure.
+  virtual frichb_modal_basis modal_basis(int harmonic_index,
+                                         std::span<const std::size_t> kept_dofs) = 0;
+};
+
+class StructureInstance final : public StructureModel {
  public:
   StructureInstance(std::shared_ptr<const LoadedPlugin> plugin, const ParamValues& params);
-  ~StructureInstance();
+  ~StructureInstance() override;
   StructureInstance(const StructureInstance&) = delete;
   StructureInstance& operator=(const StructureInstance&) = delete;
 
   const LoadedPlugin& plugin() const { return *plugin_; }
-  std::size_t dof_count() const;
+  std::string name() const override;
+  std::size_t dof_count() const override;
   // Sectors of a cyclic sector model; 1 for a plain structure (and for ABI 1.0 plugins).
-  std::size_t sector_count() const;
+  std::size_t sector_count() const override;
   // Throws PluginError with the plugin's message on failure.
-  frichb_modal_basis modal_basis(int harmonic_index, std::span<const std::size_t> kept_dofs);
+  frichb_modal_basis modal_basis(int harmonic_index,
+                                 std::span<const std::size_t> kept_dofs) override;
+  // Whether the plugin's table has blade_stiffness (ABI 1.4); it may still refuse to answer.
+  bool offers_blade_stiffness() const;
+  // frichb_structure_api.blade_stiffness: Phi_h1^H K_b Phi_h2 (or Phi_h1^T K_b Phi_h2),
+  // `rows` x `cols` (the two indices' mode counts), row-major, 1/s^2. Throws PluginError
+  // with the plugin's message (no mistunable part, or an older plugin).
+  std::vector<std::complex<double>> blade_stiffness(int h1, int h2, bool conjugate_first,
+                                                    std::size_t rows, std::size_t cols);
 
  private:
   std::shared_ptr<const LoadedPlugin> plugin_;

@@ -18,6 +18,6 @@ namespace frichb::core {
 //   - a contact lacks a frame direction (tangent1, tangent2, normal) its law uses.
 // Creates (and destroys) one instance of each contact law. Reads the scene and the structure
 // only; safe to call concurrently on distinct scenes.
-void check_scene_against_plugins(const Scene& scene, const StructureInstance& structure);
+void check_scene_against_plugins(const Scene& scene, const StructureModel& structure);
 
 }  // namespace frichb::core

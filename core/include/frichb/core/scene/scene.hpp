@@ -130,6 +130,29 @@ struct CyclicSpec {
   }
 };
 
+// A mistuned disk (the scene's `mistuning` section on a cyclic scene): every blade's
+// stiffness factor, the full disk built from the tuned sector (model/mistuned_disk.hpp). The
+// scene read with it describes the whole disk: every node `name` of the sector becomes one per
+// blade, `name@j` (j = 0..sectors-1, the DOF d of the sector's blade j numbered d * sectors +
+// j), every contact `c` one per blade, `c@j`, joining blade j to blade j + its sector offset
+// (modulo sectors), every excitation entry one per blade, delayed by j m / nb of a period
+// (harmonic n's phase minus n m 2 pi j / nb), and `cyclic` is off (sectors = 1).
+struct MistuningSpec {
+  int sectors = 0;       // nb of the tuned disk
+  int engine_order = 0;  // m
+  // Blade j's stiffness factor is 1 + deviations[j] (its blade part's stiffness, as the
+  // provider defines it).
+  std::vector<double> deviations;
+  // Where the deviations came from: "given", or a random pattern's distribution.
+  std::string source = "given";
+  double sigma = 0;  // standard deviation of a random pattern
+  long long seed = 0;
+  std::vector<std::string> sector_nodes;     // the tuned sector's node names, scene order
+  std::vector<std::string> sector_contacts;  // the tuned sector's contact names
+  // The name of node (or contact) `name` on blade j.
+  static std::string on_blade(const std::string& name, int blade);
+};
+
 // Overrides of scene keys (`frichb run SCENE --set PATH=VALUE`, or a library caller's
 // SceneInput::overrides): a scene-key path (below) and a value in YAML's flow syntax, typed by
 // the schema of the key it sets like a value written in the file: a number, a boolean, a word,
@@ -190,6 +213,9 @@ struct Scene {
   std::vector<ContactSpec> contacts;
   HarmonicBalanceSpec harmonic_balance;
   CyclicSpec cyclic;
+  // Set when the scene's `mistuning` section made it a whole mistuned disk (see
+  // MistuningSpec: `cyclic` is then off and the nodes, contacts and excitation are the disk's).
+  std::optional<MistuningSpec> mistuning;
   ContinuationSpec continuation;
   OutputSpec output;
   YAML::Node root;

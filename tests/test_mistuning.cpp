@@ -1,0 +1,220 @@
+// Mistuned disks (scene `mistuning`, model/mistuned_disk.hpp) against independent oracles:
+//  (1) with every deviation zero, the mistuned disk's harmonic balance equals the tuned cyclic
+//      solution's (the cyclic sector's curve, each point turned into the whole disk's unknowns
+//      by delaying blade j by j m / nb of a period): residual and response to 1e-8;
+//  (2) with a pattern, the reduction on the tuned sector's modes equals the same mistuned disk
+//      assembled spring by spring as a plain lumped structure: natural frequencies, residuals
+//      at arbitrary (slipping) points, and a traced curve of the reduction, to 1e-8;
+//  (3) a random pattern is reproducible from its seed and has the standard deviation asked;
+//  (4) scenes the section cannot use are refused at the key.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "cyclic_disk.hpp"
+#include "frichb/core/model/harmonic_balance.hpp"
+#include "frichb/core/model/mistuned_disk.hpp"
+#include "frichb/core/scene/scene.hpp"
+#include "frichb/core/solver/continuation.hpp"
+#include "test_support.hpp"
+
+namespace frichb::core {
+namespace {
+
+constexpr int kSectors = test::kDiskSectors;
+
+struct Built {
+  Scene scene;
+  std::unique_ptr<StructureModel> structure;
+  std::unique_ptr<HarmonicBalanceModel> model;
+};
+
+Built build(const std::filesystem::path& file, const Registry& registry) {
+  Built b;
+  b.scene = load_scene(file);
+  bind_plugins(b.scene, registry);
+  b.structure = instantiate_structure(b.scene);
+  b.model = std::make_unique<HarmonicBalanceModel>(b.scene, *b.structure);
+  return b;
+}
+
+std::string mistuning_section(const std::vector<double>& deviations) {
+  std::string s = "mistuning: {deviations: [";
+  for (std::size_t j = 0; j < deviations.size(); ++j)
+    s += (j ? ", " : "") + format_scene_value(deviations[j]);
+  return s + "]}\n";
+}
+
+TEST(Mistuning, ZeroDeviationsEqualTheTunedCyclicSolution) {
+  const Registry registry({FRICHB_PLUGIN_DIR});
+  if (!registry.contains("lumped_cyclic")) GTEST_SKIP() << "lumped_cyclic not built";
+  test::TempDir dir;
+  Built cyc = build(dir.write("cyclic.yaml", test::cyclic_disk_scene()), registry);
+  Built mis =
+      build(dir.write("mistuned.yaml", test::cyclic_disk_scene() +
+                                           mistuning_section(std::vector<double>(kSectors, 0.0))),
+            registry);
+  ASSERT_TRUE(mis.scene.mistuning);
+  // Unknowns [U; w]: equation_count() harmonic coefficients and the frequency.
+  ASSERT_EQ(mis.model->equation_count(), kSectors * cyc.model->equation_count());
+
+  const auto curve = test::trace_hz(*cyc.model, 200, 400, 2.0);
+  ASSERT_TRUE(curve.reached_end()) << curve.message;
+  const auto& layout = cyc.model->layout();
+  double worst_residual = 0, worst_response = 0, scale = 0;
+  bool slipped = false;
+  const std::size_t blade = mis.scene.structure.find("blade@3")->dofs[0];
+  const std::size_t blade0 = cyc.scene.structure.find("blade")->dofs[0];
+  for (const auto& p : curve.points) {
+    const Eigen::VectorXd y = test::full_disk_unknowns(layout, p.y);
+    Eigen::VectorXd e;
+    std::string message;
+    ASSERT_TRUE(mis.model->evaluate(y, e, nullptr, &message)) << message;
+    scale = std::max(scale, y.head(y.size() - 1).cwiseAbs().maxCoeff());
+    worst_residual = std::max(worst_residual, e.cwiseAbs().maxCoeff());
+    // Blade 3 moves like blade 0 delayed by 3 m / nb of a period.
+    const auto xc = cyc.model->kept_response(p.y);
+    const auto xm = mis.model->kept_response(y);
+    for (std::size_t k = 0; k < xc.size(); ++k) {
+      const int n = layout.harmonics()[k];
+      const std::complex<double> delayed =
+          xc[k](cyc.model->kept_index(blade0)) *
+          std::polar(1.0,
+                     -2.0 * std::numbers::pi * n * test::DiskOptions{}.engine_order * 3 / kSectors);
+      worst_response =
+          std::max(worst_response, std::abs(delayed - xm[k](mis.model->kept_index(blade))));
+    }
+    slipped = slipped || std::hypot(p.y(layout.cos_index(1)), p.y(layout.sin_index(1))) > 2.5e-5;
+  }
+  EXPECT_TRUE(slipped) << "the sweep must reach slip for the comparison to mean something";
+  EXPECT_LT(worst_residual, 1e-8 * scale);
+  EXPECT_LT(worst_response, 1e-8 * scale);
+  std::printf(
+      "tuned cyclic vs zero-mistuned disk over %zu points: residual %.2e, response %.2e "
+      "(scale %.2e m)\n",
+      curve.points.size(), worst_residual, worst_response, scale);
+}
+
+TEST(Mistuning, ReductionEqualsTheMistunedDiskAssembledSpringBySpring) {
+  const Registry registry({FRICHB_PLUGIN_DIR});
+  if (!registry.contains("lumped_cyclic")) GTEST_SKIP() << "lumped_cyclic not built";
+  test::TempDir dir;
+  test::DiskOptions o;
+  o.blade_deviations = {0.03, -0.02, 0.05, 0.0, -0.04, 0.01};
+  Built mis = build(dir.write("mistuned.yaml",
+                              test::cyclic_disk_scene(o) + mistuning_section(o.blade_deviations)),
+                    registry);
+  Built full = build(dir.write("full.yaml", test::full_disk_scene(o)), registry);
+  const Eigen::Index n = mis.model->equation_count();
+  ASSERT_EQ(full.model->equation_count(), n);
+
+  // The natural frequencies: the reduction's against the assembled disk's eigen-solution.
+  const auto& disk = dynamic_cast<const MistunedDisk&>(*mis.structure);
+  const Eigen::VectorXd& assembled = full.model->structure().natural_frequencies(0);
+  ASSERT_EQ(disk.natural_frequencies().size(), assembled.size());
+  const double frequency_error =
+      (disk.natural_frequencies() - assembled).cwiseAbs().maxCoeff() / assembled.maxCoeff();
+  EXPECT_LT(frequency_error, 1e-12);
+  // The pattern splits the tuned pairs: no mistuned frequency equals a tuned one.
+  const double split =
+      (disk.natural_frequencies() - disk.tuned_frequencies()).cwiseAbs().maxCoeff();
+  EXPECT_GT(split, 1e-3 * assembled.maxCoeff());
+
+  // Residuals at arbitrary points, sticking and slipping, near and between the resonances.
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  double worst = 0, worst_scale = 0;
+  for (double amplitude : {1e-6, 1e-4})
+    for (double hz : {230.0, 290.0, 330.0}) {
+      Eigen::VectorXd y(n + 1);  // [U; w]
+      for (Eigen::Index i = 0; i < n; ++i) y(i) = amplitude * normal(rng);
+      y(n) = 2 * std::numbers::pi * hz;
+      Eigen::VectorXd em, ef;
+      std::string message;
+      ASSERT_TRUE(mis.model->evaluate(y, em, nullptr, &message)) << message;
+      ASSERT_TRUE(full.model->evaluate(y, ef, nullptr, &message)) << message;
+      worst = std::max(worst, (em - ef).cwiseAbs().maxCoeff());
+      worst_scale = std::max(worst_scale, ef.cwiseAbs().maxCoeff());
+    }
+  EXPECT_LT(worst, 1e-8 * worst_scale);
+
+  // A curve of the reduction solves the assembled disk's equations.
+  const auto curve = test::trace_hz(*mis.model, 200, 400, 2.0);
+  ASSERT_TRUE(curve.reached_end()) << curve.message;
+  double curve_residual = 0, scale = 0;
+  for (const auto& p : curve.points) {
+    Eigen::VectorXd e;
+    std::string message;
+    ASSERT_TRUE(full.model->evaluate(p.y, e, nullptr, &message)) << message;
+    curve_residual = std::max(curve_residual, e.cwiseAbs().maxCoeff());
+    scale = std::max(scale, p.y.head(n).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(curve_residual, 1e-8 * scale);
+  std::printf(
+      "reduction vs assembled mistuned disk: frequencies %.2e, residuals %.2e of %.2e, "
+      "curve of %zu points %.2e (scale %.2e m)\n",
+      frequency_error, worst, worst_scale, curve.points.size(), curve_residual, scale);
+}
+
+TEST(Mistuning, RandomPatternsAreSeededAndHaveTheirStandardDeviation) {
+  test::TempDir dir;
+  auto deviations = [&](const std::string& pattern) {
+    // Sectors only parse here: no plugin is bound.
+    std::string scene =
+        "cyclic: {sectors: 4000, engine_order: 1}\n"
+        "structure: {provider: lumped_cyclic, dofs: {blade: 0}}\n"
+        "harmonic_balance: {max_harmonic: 1}\n"
+        "continuation: {frequency: {from: 1, to: 2}}\n"
+        "mistuning: " +
+        pattern + "\n";
+    return load_scene(dir.write("random.yaml", scene)).mistuning->deviations;
+  };
+  for (const std::string distribution : {"normal", "uniform"}) {
+    const auto a = deviations("{sigma: 0.02, distribution: " + distribution + ", seed: 5}");
+    const auto b = deviations("{sigma: 0.02, distribution: " + distribution + ", seed: 5}");
+    const auto c = deviations("{sigma: 0.02, distribution: " + distribution + ", seed: 6}");
+    EXPECT_EQ(a, b);
+    EXPECT_NE(a, c);
+    const double mean = std::accumulate(a.begin(), a.end(), 0.0) / static_cast<double>(a.size());
+    double var = 0, largest = 0;
+    for (double d : a) {
+      var += (d - mean) * (d - mean);
+      largest = std::max(largest, std::abs(d));
+    }
+    const double sd = std::sqrt(var / static_cast<double>(a.size() - 1));
+    // 4000 draws: the sample deviation is within 5 % of sigma (its spread is ~1.1-1.6 %).
+    EXPECT_NEAR(sd, 0.02, 0.001) << distribution;
+    EXPECT_NEAR(mean, 0.0, 0.0015) << distribution;
+    if (distribution == "uniform")
+      EXPECT_LE(largest, std::sqrt(3.0) * 0.02);
+    else
+      EXPECT_GT(largest, std::sqrt(3.0) * 0.02);  // tails a uniform cannot have
+  }
+}
+
+TEST(Mistuning, ScenesTheSectionCannotUseAreRefusedAtTheKey) {
+  test::TempDir dir;
+  const std::string base = test::cyclic_disk_scene();
+  auto refused = [&](const std::string& text, const std::string& key) {
+    try {
+      (void)load_scene(dir.write("bad.yaml", text));
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  };
+  refused(base + "mistuning: {deviations: [0.1, 0.2]}\n", "mistuning.deviations");
+  refused(base + "mistuning: {deviations: [0, 0, 0, 0, 0, 0], sigma: 0.01}\n", "mistuning");
+  refused(base + "mistuning: {seed: 3}\n", "mistuning");
+  refused(base + "mistuning: {deviations: [0, 0, 0, -1, 0, 0]}\n", "mistuning.deviations");
+  refused(base + "mistuning: {sigma: 0.5}\n", "mistuning.sigma");
+  // Without a cyclic section there is no tuned sector to mistune.
+  refused(test::full_disk_scene() + "mistuning: {deviations: [0, 0, 0, 0, 0, 0]}\n", "mistuning");
+}
+
+}  // namespace
+}  // namespace frichb::core
