@@ -9,17 +9,23 @@
 //  (4) scenes the section cannot use are refused at the key.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "cyclic_disk.hpp"
+#include "frichb/core/commands/run.hpp"
+#include "frichb/core/commands/study.hpp"
 #include "frichb/core/model/harmonic_balance.hpp"
 #include "frichb/core/model/mistuned_disk.hpp"
+#include "frichb/core/report/study_report.hpp"
 #include "frichb/core/scene/scene.hpp"
 #include "frichb/core/solver/continuation.hpp"
+#include "frichb/core/support/output.hpp"
 #include "test_support.hpp"
 
 namespace frichb::core {
@@ -158,6 +164,143 @@ TEST(Mistuning, ReductionEqualsTheMistunedDiskAssembledSpringBySpring) {
       "reduction vs assembled mistuned disk: frequencies %.2e, residuals %.2e of %.2e, "
       "curve of %zu points %.2e (scale %.2e m)\n",
       frequency_error, worst, worst_scale, curve.points.size(), curve_residual, scale);
+}
+
+// A bound scene (the run keeps a reference to it).
+struct BoundFile {
+  std::unique_ptr<Registry> registry;
+  Scene scene;
+};
+BoundFile bind(const std::filesystem::path& file) {
+  BoundFile b{std::make_unique<Registry>(std::vector<std::filesystem::path>{FRICHB_PLUGIN_DIR}),
+              load_scene(file)};
+  bind_plugins(b.scene, *b.registry);
+  return b;
+}
+
+TEST(Mistuning, RunGivesEveryBladesPeakAndTheAmplificationOverTheTunedDisk) {
+  const Registry registry({FRICHB_PLUGIN_DIR});
+  if (!registry.contains("lumped_cyclic")) GTEST_SKIP() << "lumped_cyclic not built";
+  test::TempDir dir;
+  test::DiskOptions o;
+  o.blade_deviations = {0.03, -0.02, 0.05, 0.0, -0.04, 0.01};
+  RunOptions quiet;
+  quiet.quiet = true;
+  quiet.plots = 0;
+
+  // Zero deviations: every blade peaks as the tuned disk does.
+  const BoundFile zero = bind(dir.write(
+      "zero.yaml", test::cyclic_disk_scene(o) + mistuning_section(std::vector<double>(kSectors))));
+  const RunResult tuned_run = trace_scene(zero.scene, quiet);
+  ASSERT_TRUE(tuned_run.mistuning);
+  ASSERT_EQ(tuned_run.mistuning->nodes.size(), 2U);  // blade, disk
+  const BladePeaks& zb = tuned_run.mistuning->nodes[0];
+  EXPECT_EQ(zb.node, "blade");
+  ASSERT_GT(zb.tuned_amplitude_m, 0);
+  for (int j = 0; j < kSectors; ++j)
+    EXPECT_NEAR(zb.amplitude_m[static_cast<std::size_t>(j)] / zb.tuned_amplitude_m, 1.0, 1e-6)
+        << "blade " << j;
+  EXPECT_NEAR(zb.amplification, 1.0, 1e-6);
+
+  // A pattern: every blade's peak as the disk assembled spring by spring gives it.
+  const BoundFile mistuned = bind(dir.write(
+      "mistuned.yaml", test::cyclic_disk_scene(o) + mistuning_section(o.blade_deviations)));
+  std::string full = test::full_disk_scene(o);
+  std::string blades = "[";
+  for (int j = 0; j < kSectors; ++j) blades += (j ? ", blade" : "blade") + std::to_string(j);
+  full.replace(full.find("[blade0, disk0]"), std::string("[blade0, disk0]").size(), blades + "]");
+  const BoundFile assembled = bind(dir.write("full.yaml", full));
+  const RunResult run = trace_scene(mistuned.scene, quiet);
+  const RunResult reference = trace_scene(assembled.scene, quiet);
+  ASSERT_TRUE(run.mistuning);
+  const BladePeaks& b = run.mistuning->nodes[0];
+  // Peaks solved in both runs agree to the peak solver's tolerance; a peak one run reports at
+  // its highest traced point (its solve failed) is within the curve's resolution.
+  double largest = 0;
+  int compared = 0;
+  for (int j = 0; j < kSectors; ++j) {
+    const auto jj = static_cast<std::size_t>(j);
+    const NodePeak* expected = nullptr;
+    for (const auto& p : reference.peaks)
+      if (p.node == "blade" + std::to_string(j)) expected = &p;
+    ASSERT_TRUE(expected) << "blade " << j;
+    const double ratio = b.amplitude_m[jj] / expected->amplitude_m;
+    if (b.solved[jj] && expected->refined) {
+      EXPECT_NEAR(ratio, 1.0, 1e-6) << "blade " << j;
+      ++compared;
+    } else {
+      EXPECT_NEAR(ratio, 1.0, 1e-3) << "blade " << j;
+    }
+    largest = std::max(largest, expected->amplitude_m);
+  }
+  EXPECT_GE(compared, kSectors - 2);
+  EXPECT_NEAR(b.tuned_amplitude_m / zb.tuned_amplitude_m, 1.0, 1e-9);
+  EXPECT_NEAR(b.amplification, largest / zb.tuned_amplitude_m, 1e-3 * b.amplification);
+  EXPECT_GT(b.amplification, 1.0);
+  EXPECT_EQ(run.mistuning->deviations, o.blade_deviations);
+  std::printf(
+      "amplification %.6f (worst blade %d); the assembled disk's %.6f; %d of %d peaks "
+      "solved in both runs\n",
+      b.amplification, b.worst_blade, largest / zb.tuned_amplitude_m, compared, kSectors);
+}
+
+// A study over three seeds (CI's small study): each row's amplification is the one a run of
+// its pattern alone gives, and study.json's statistics are those of the three factors.
+TEST(Mistuning, StudyOverSeedsGivesEachPatternsAmplificationAndTheirStatistics) {
+  const Registry registry({FRICHB_PLUGIN_DIR});
+  if (!registry.contains("lumped_cyclic")) GTEST_SKIP() << "lumped_cyclic not built";
+  test::TempDir dir;
+  const std::string base = test::cyclic_disk_scene() + "mistuning: {sigma: 0.03, seed: 1}\n";
+  const auto scene =
+      dir.write("study.yaml", base +
+                                  "study: {sweep: [{path: mistuning.seed, values: [11, 12, "
+                                  "13]}], parallel: 1}\n");
+  StudyRequest request;
+  request.scene.file = scene;
+  std::optional<StagedOutput> out;
+  request.stage_runs = [&] {
+    out.emplace(dir.path() / "out", study_outputs());
+    return out->path("runs");
+  };
+  request.write_run = [](const RunResult&, const std::filesystem::path&) {};
+  StudyCommunicator serial;
+  const StudyResult study = run_study(request, serial);
+  ASSERT_EQ(study.outcome.status, 0) << study.outcome.message;
+  ASSERT_EQ(study.mistuned_nodes, (std::vector<std::string>{"blade", "disk"}));
+  ASSERT_EQ(study.runs.size(), 3U);
+  std::vector<double> factors;
+  for (int k = 0; k < 3; ++k) {
+    const BoundFile alone =
+        bind(dir.write("alone.yaml", test::cyclic_disk_scene() + "mistuning: {sigma: 0.03, seed: " +
+                                         std::to_string(11 + k) + "}\n"));
+    RunOptions quiet;
+    quiet.quiet = true;
+    const RunResult run = trace_scene(alone.scene, quiet);
+    ASSERT_TRUE(run.mistuning);
+    const auto& row = study.runs[static_cast<std::size_t>(k)].outcome.amplification;
+    ASSERT_EQ(row.size(), 2U);
+    EXPECT_EQ(row[0].node, "blade");
+    EXPECT_DOUBLE_EQ(row[0].factor, run.mistuning->nodes[0].amplification);
+    EXPECT_EQ(row[0].worst_blade, run.mistuning->nodes[0].worst_blade);
+    factors.push_back(row[0].factor);
+  }
+  // Three different patterns, three different factors.
+  EXPECT_NE(factors[0], factors[1]);
+  EXPECT_NE(factors[1], factors[2]);
+  const auto stats = amplification_statistics(study);
+  ASSERT_EQ(stats.size(), 2U);
+  const auto& s = stats[0];
+  std::vector<double> sorted = factors;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(s.count, 3U);
+  EXPECT_NEAR(s.mean, (factors[0] + factors[1] + factors[2]) / 3.0, 1e-15);
+  // The q-th percentile of three sorted values at position 2q: 1.9 and 1.98.
+  EXPECT_NEAR(s.p95, sorted[1] + 0.9 * (sorted[2] - sorted[1]), 1e-15);
+  EXPECT_NEAR(s.p99, sorted[1] + 0.98 * (sorted[2] - sorted[1]), 1e-15);
+  EXPECT_EQ(s.largest, sorted[2]);
+  EXPECT_EQ(factors[s.worst_run], sorted[2]);
+  std::printf("amplification over seeds 11-13 (sigma 3 %%): %.4f %.4f %.4f, mean %.4f\n",
+              factors[0], factors[1], factors[2], s.mean);
 }
 
 TEST(Mistuning, RandomPatternsAreSeededAndHaveTheirStandardDeviation) {

@@ -656,6 +656,17 @@ void bind_run_result(py::module_& m) {
           "One dict per response node with a peak: node, amplitude_m, omega_rad_s, "
           "frequency_hz, refined.")
       .def_property_readonly(
+          "mistuning",
+          [](const core::RunResult& r) -> py::object {
+            if (!r.mistuning) return py::none();
+            return py::module_::import("json").attr("loads")(
+                core::mistuning_json(*r.mistuning).dump());
+          },
+          "A mistuned disk's comparison with the tuned disk (the scene's `mistuning`), as "
+          "summary.json's `mistuning` section: deviations, and per response node every blade's "
+          "peak (blade_peak_m, blade_peak_hz, blade_peak_solved), the tuned peak, the "
+          "amplification and the worst blade; None for any other scene.")
+      .def_property_readonly(
           "points", [](const core::RunResult& r) { return r.summary.points.size(); },
           "The points of the response curve.")
       .def_property_readonly(
@@ -679,8 +690,8 @@ void bind_run_result(py::module_& m) {
                                            {"continuation_s", r.continuation_seconds},
                                            {"post_and_output_s", r.post_seconds},
                                            {"total_s", r.wall_seconds}};
-            const nlohmann::json doc =
-                core::run_summary(record, loops, timing, r.options.study_context);
+            nlohmann::json doc = core::run_summary(record, loops, timing, r.options.study_context);
+            if (r.mistuning) doc["mistuning"] = core::mistuning_json(*r.mistuning);
             return py::module_::import("json").attr("loads")(doc.dump());
           },
           "summary.json's content as a dict (termination, peaks, turning points, harmonic "

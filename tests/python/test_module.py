@@ -719,3 +719,55 @@ output: {response: [blade], stability: true}
                                rows[:, header.index("largest_multiplier")], rtol=5e-12, atol=0)
     summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
     assert result.summary["stability"] == summary["stability"]
+
+
+def mistuned_disk_dict(deviations):
+    """The 6-blade lumped disk of tests/cyclic_disk.hpp with a shroud between neighbours."""
+    return {
+        "name": "mistuned_six",
+        "cyclic": {"sectors": 6, "engine_order": 2},
+        "structure": {
+            "provider": "lumped_cyclic",
+            "params": {"sectors": 6, "masses": [0.5, 0.1],
+                       "springs": [{"between": ["ground", 0], "k": 2.0e6},
+                                   {"between": [0, 1], "k": 4.0e5}],
+                       "coupling": [{"between": [0, 0], "k": 1.0e5}],
+                       "modal_damping": [0.01], "blade_dofs": [1]},
+            "dofs": {"disk": 0, "blade": 1}},
+        "excitation": [{"dof": "blade", "amplitude": 2.0}],
+        "contacts": [{"name": "shroud", "law": "jenkins_1d",
+                      "between": [{"node": "blade", "sector": 0}, {"node": "blade", "sector": 1}],
+                      "params": {"kt": 1.0e5, "mu": 0.5, "normal_load": 5.0}}],
+        "harmonic_balance": {"harmonics": [0, 1, 2, 3], "samples_per_period": 96},
+        "continuation": {"frequency": {"from": 200, "to": 400}},
+        "output": {"response": ["blade"], "plots": False},
+        "mistuning": {"deviations": deviations},
+    }
+
+
+def test_mistuned_disk_gives_the_programs_blade_peaks(tmp_path):
+    deviations = [0.03, -0.02, 0.05, 0.0, -0.04, 0.01]
+    result = frichb.run(mistuned_disk_dict(deviations), plots=False)
+    assert result.status == 0, result.message
+    m = result.mistuning
+    assert m["deviations"] == deviations
+    (node,) = m["nodes"]
+    assert node["node"] == "blade" and len(node["blade_peak_m"]) == 6
+    assert node["amplification"] == max(node["blade_peak_m"]) / node["tuned_peak_m"]
+    assert node["amplification"] > 1.0
+    assert [f"blade@{j}_amplitude_m" in result.columns for j in range(6)] == [True] * 6
+    assert result.summary["mistuning"] == m
+    # The program writes the same numbers: summary.json and blade_peaks.csv.
+    scene = tmp_path / "mistuned.yaml"
+    scene.write_text(json.dumps(mistuned_disk_dict(deviations)))
+    cli = frichb_cli("run", str(scene), "-o", str(tmp_path / "cli"))
+    assert cli.returncode == 0, cli.stderr
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert summary["mistuning"]["nodes"][0]["blade_peak_m"] == node["blade_peak_m"]
+    assert summary["mistuning"]["nodes"][0]["amplification"] == node["amplification"]
+    header, rows = read_csv(tmp_path / "cli" / "blade_peaks.csv")
+    assert header[:4] == ["blade", "deviation", "blade_peak_m", "blade_peak_hz"]
+    np.testing.assert_allclose(rows[:, 2], node["blade_peak_m"], rtol=5e-12, atol=0)
+    np.testing.assert_array_equal(rows[:, 1], deviations)
+    # A plain scene has no comparison.
+    assert frichb.run(QUICKSTART, plots=False).mistuning is None

@@ -326,6 +326,57 @@ RunResult run_scene(const SceneInput& input, const RunOptions& options) {
 
 namespace {
 
+RunResult trace_stages(const Scene& scene, const RunOptions& run_options);
+
+// Every blade's peak of a mistuned disk's run against the tuned disk's, traced now.
+MistuningComparison compare_with_tuned(const Scene& scene, const RunResult& mistuned,
+                                       const RunOptions& run_options) {
+  const MistuningSpec& m = *scene.mistuning;
+  MistuningComparison out;
+  out.deviations = m.deviations;
+  RunOptions quiet = run_options;
+  quiet.quiet = true;
+  quiet.on_point = nullptr;
+  spdlog::log(run_options.quiet ? spdlog::level::debug : spdlog::level::info,
+              "tracing the tuned disk (its cyclic sector) for the amplification");
+  const RunResult tuned = trace_stages(*m.tuned, quiet);
+  out.tuned_termination = to_string(tuned.summary.termination);
+  out.tuned_points = tuned.summary.points.size();
+  out.tuned_seconds = tuned.wall_seconds;
+  const auto hz = [](const NodePeak& p) { return p.omega_rad_s / (2 * std::numbers::pi); };
+  for (const auto& name : m.tuned->output.response) {
+    BladePeaks b;
+    b.node = name;
+    for (const auto& p : tuned.peaks)
+      if (p.node == name) {
+        b.tuned_amplitude_m = p.amplitude_m;
+        b.tuned_frequency_hz = hz(p);
+      }
+    for (int j = 0; j < m.sectors; ++j) {
+      const std::string on_blade = MistuningSpec::on_blade(name, j);
+      double amplitude = 0, frequency = 0;
+      bool solved = false;
+      for (const auto& p : mistuned.peaks)
+        if (p.node == on_blade) {
+          amplitude = p.amplitude_m;
+          frequency = hz(p);
+          solved = p.refined;
+        }
+      b.amplitude_m.push_back(amplitude);
+      b.frequency_hz.push_back(frequency);
+      b.solved.push_back(solved);
+      if (amplitude > 0 &&
+          (b.worst_blade < 0 || amplitude > b.amplitude_m[static_cast<std::size_t>(b.worst_blade)]))
+        b.worst_blade = j;
+    }
+    if (b.worst_blade >= 0 && b.tuned_amplitude_m > 0)
+      b.amplification =
+          b.amplitude_m[static_cast<std::size_t>(b.worst_blade)] / b.tuned_amplitude_m;
+    out.nodes.push_back(std::move(b));
+  }
+  return out;
+}
+
 // Every stage of trace_scene.
 RunResult trace_stages(const Scene& scene, const RunOptions& run_options) {
   const auto t_start = Clock::now();
@@ -389,6 +440,16 @@ RunResult trace_stages(const Scene& scene, const RunOptions& run_options) {
       solve_contact_traces(scene, model, options, summary, scene.output.contact_states_at);
   if (run_options.stop.stop_requested())
     return interrupted_while("while solving the friction loops");
+  if (scene.mistuning && scene.mistuning->tuned) {
+    result.mistuning = compare_with_tuned(scene, result, run_options);
+    if (run_options.stop.stop_requested()) return interrupted_while("while tracing the tuned disk");
+    for (const auto& b : result.mistuning->nodes)
+      spdlog::log(routine,
+                  "{}: worst blade {} at {:.6g} m, tuned peak {:.6g} m: amplification {:.4f}",
+                  b.node, b.worst_blade,
+                  b.worst_blade >= 0 ? b.amplitude_m[static_cast<std::size_t>(b.worst_blade)] : 0.0,
+                  b.tuned_amplitude_m, b.amplification);
+  }
   result.post_seconds = seconds_since(t_post);
   for (auto& warning : result_warnings(scene, result)) {
     spdlog::warn("{}", warning);
@@ -432,6 +493,9 @@ RunOutcome run_member(const Scene& scene, const fs::path& folder, const RunOptio
     outcome.points = result.summary.points.size();
     outcome.unknowns = static_cast<long>(result.prepared.model->equation_count());
     outcome.peaks = result.peaks;
+    if (result.mistuning)
+      for (const auto& b : result.mistuning->nodes)
+        outcome.amplification.push_back({b.node, b.amplification, b.worst_blade});
     write(result, folder);
     outcome.wrote_output = true;
     outcome.exit_code = result.outcome.status;

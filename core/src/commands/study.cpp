@@ -141,9 +141,20 @@ nlohmann::json outcome_json(const StudyRun& run, const RunOutcome& o) {
                      {"amplitude_m", p.amplitude_m},
                      {"omega_rad_s", p.omega_rad_s},
                      {"refined", p.refined}});
-  return {{"index", run.index},   {"exit_code", o.exit_code}, {"termination", o.termination},
-          {"message", o.message}, {"points", o.points},       {"unknowns", o.unknowns},
-          {"peaks", peaks},       {"wall_s", o.wall_seconds}, {"wrote_output", o.wrote_output}};
+  nlohmann::json amplification = nlohmann::json::array();
+  for (const auto& a : o.amplification)
+    amplification.push_back(
+        {{"node", a.node}, {"factor", a.factor}, {"worst_blade", a.worst_blade}});
+  return {{"index", run.index},
+          {"exit_code", o.exit_code},
+          {"termination", o.termination},
+          {"message", o.message},
+          {"points", o.points},
+          {"unknowns", o.unknowns},
+          {"peaks", peaks},
+          {"amplification", amplification},
+          {"wall_s", o.wall_seconds},
+          {"wrote_output", o.wrote_output}};
 }
 
 // Reports finished runs: a bar on a terminal, a log line per run otherwise.
@@ -610,12 +621,55 @@ RunOutcome outcome_from_json(const nlohmann::json& o) {
     outcome.peaks.push_back({p.at("node").get<std::string>(), p.at("amplitude_m").get<double>(),
                              p.at("omega_rad_s").get<double>(), p.at("refined").get<bool>(),
                              Eigen::VectorXd()});
+  for (const auto& a : o.at("amplification"))
+    outcome.amplification.push_back({a.at("node").get<std::string>(), a.at("factor").get<double>(),
+                                     a.at("worst_blade").get<int>()});
   outcome.wall_seconds = o.at("wall_s").get<double>();
   outcome.wrote_output = o.at("wrote_output").get<bool>();
   return outcome;
 }
 
 }  // namespace
+
+std::vector<AmplificationStatistics> amplification_statistics(const StudyResult& result) {
+  std::vector<AmplificationStatistics> out;
+  for (const auto& node : result.mistuned_nodes) {
+    AmplificationStatistics s;
+    s.node = node;
+    s.worst_run = result.runs.size();
+    std::vector<double> factors;
+    for (std::size_t i = 0; i < result.runs.size(); ++i) {
+      const RunOutcome& o = result.runs[i].outcome;
+      if (o.exit_code != kExitOk) continue;
+      for (const auto& a : o.amplification)
+        if (a.node == node && a.factor > 0) {
+          factors.push_back(a.factor);
+          if (s.worst_run == result.runs.size() || a.factor > s.largest) {
+            s.largest = a.factor;
+            s.worst_run = i;
+          }
+        }
+    }
+    s.count = factors.size();
+    if (!factors.empty()) {
+      std::sort(factors.begin(), factors.end());
+      double sum = 0;
+      for (double f : factors) sum += f;
+      s.mean = sum / static_cast<double>(factors.size());
+      const auto percentile = [&](double q) {
+        const double at = q * static_cast<double>(factors.size() - 1);
+        const auto below = static_cast<std::size_t>(std::floor(at));
+        const std::size_t above = std::min(below + 1, factors.size() - 1);
+        return factors[below] +
+               (at - static_cast<double>(below)) * (factors[above] - factors[below]);
+      };
+      s.p95 = percentile(0.95);
+      s.p99 = percentile(0.99);
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
 
 StudyResult run_study(const StudyRequest& request, StudyCommunicator& comm) {
   const auto t_start = Clock::now();
@@ -664,6 +718,7 @@ StudyResult run_study(const StudyRequest& request, StudyCommunicator& comm) {
   result.scene_name = scene.name;
   result.unit = scene.continuation.unit;
   result.response = scene.output.response;
+  if (scene.mistuning) result.mistuned_nodes = scene.mistuning->tuned->output.response;
   result.plots = scene.output.plots;
   result.stability = scene.output.stability;
   result.amplitude_axis = scene.output.amplitude_axis;
@@ -691,6 +746,12 @@ StudyResult run_study(const StudyRequest& request, StudyCommunicator& comm) {
         }
       result.runs.push_back(std::move(row));
     }
+    for (const auto& a : amplification_statistics(result))
+      if (a.count > 0)
+        spdlog::info(
+            "amplification at {} over {} patterns: mean {:.4f}, 95th percentile {:.4f}, 99th "
+            "{:.4f}, largest {:.4f} (run {})",
+            a.node, a.count, a.mean, a.p95, a.p99, a.largest, result.runs[a.worst_run].id);
     if (result.failed_runs > 0)
       result.outcome = {kExitIncomplete,
                         "runs_incomplete",

@@ -188,6 +188,10 @@ frichb_modal_basis MistunedDisk::modal_basis(int harmonic_index,
         const auto row = static_cast<Eigen::Index>(row_of[static_cast<std::size_t>(i)]);
         const Complex phi(b.mode_rows_real[row * m + t.r],
                           b.mode_rows_imag ? b.mode_rows_imag[row * m + t.r] : 0.0);
+        // A standing index's modes are real: its one standing wave is the real part.
+        if ((h == 0 || 2 * h == sectors_) && std::abs(phi.imag()) > 1e-9 * std::abs(phi))
+          throw std::invalid_argument("the sector's modes of harmonic index " + std::to_string(h) +
+                                      " are complex: a mistuned disk needs them real");
         const Complex u = phi * std::polar(1.0, -h * j * theta);
         tuned_rows(i, a) = t.scale * (t.imaginary ? u.imag() : u.real());
       }

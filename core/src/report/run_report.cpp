@@ -641,10 +641,81 @@ nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_
 }
 
 std::vector<std::string> run_outputs() {
-  return {"response.csv", "response_harmonics.csv", "contact_harmonics.csv",
-          "response.gp",  "response.png",           "summary.json",
-          "loops"};
+  return {"response.csv",   "response_harmonics.csv", "contact_harmonics.csv",
+          "response.gp",    "response.png",           "summary.json",
+          "loops",          "blade_peaks.csv",        "blade_peaks.gp",
+          "blade_peaks.png"};
 }
+
+nlohmann::json mistuning_json(const MistuningComparison& m) {
+  nlohmann::json nodes = nlohmann::json::array();
+  for (const auto& b : m.nodes)
+    nodes.push_back({{"node", b.node},
+                     {"amplification", b.amplification},
+                     {"worst_blade", b.worst_blade},
+                     {"tuned_peak_m", b.tuned_amplitude_m},
+                     {"tuned_peak_hz", b.tuned_frequency_hz},
+                     {"blade_peak_m", b.amplitude_m},
+                     {"blade_peak_hz", b.frequency_hz},
+                     {"blade_peak_solved", b.solved}});
+  return {{"deviations", m.deviations},
+          {"nodes", nodes},
+          {"tuned_run",
+           {{"termination", m.tuned_termination},
+            {"points", m.tuned_points},
+            {"wall_s", m.tuned_seconds}}},
+          {"file", "blade_peaks.csv"}};
+}
+
+namespace {
+
+// blade_peaks.csv: per blade its stiffness deviation and, per response node, its peak, the
+// peak's frequency, the peak over the tuned disk's (0 where a peak is missing) and whether the
+// peak was solved (1) or is the highest traced point (0).
+void write_blade_peaks(const fs::path& file, const MistuningComparison& m) {
+  std::vector<std::string> header = {"blade", "deviation"};
+  for (const auto& b : m.nodes)
+    for (const char* column : {"_peak_m", "_peak_hz", "_over_tuned", "_solved"})
+      header.push_back(b.node + column);
+  std::vector<std::vector<double>> rows;
+  for (std::size_t j = 0; j < m.deviations.size(); ++j) {
+    std::vector<double> row = {static_cast<double>(j), m.deviations[j]};
+    for (const auto& b : m.nodes) {
+      row.push_back(b.amplitude_m[j]);
+      row.push_back(b.frequency_hz[j]);
+      row.push_back(b.tuned_amplitude_m > 0 ? b.amplitude_m[j] / b.tuned_amplitude_m : 0.0);
+      row.push_back(b.solved[j] ? 1.0 : 0.0);
+    }
+    rows.push_back(std::move(row));
+  }
+  write_csv(file, header, rows);
+}
+
+// blade_peaks.png: each blade's peak over the tuned peak, a bar per blade and node, around
+// the disk; the line at 1 is the tuned disk.
+std::string blade_peaks_plot_script(const Scene& scene, const MistuningComparison& m) {
+  std::ostringstream gp;
+  const std::size_t n = m.nodes.size();
+  gp << "# gnuplot script written by frichb; run `gnuplot blade_peaks.gp` to remake "
+        "blade_peaks.png\n"
+     << plot_header("blade_peaks.png", 1000, 560) << line_types(n) << "set title "
+     << gnuplot_string((scene.name.empty() ? scene.file.stem().string() : scene.name) +
+                       ": every blade's peak against the tuned disk's")
+     << "\n"
+     << "set xlabel 'blade'\nset ylabel 'peak / tuned peak'\n"
+     << "set style data histogram\nset style histogram clustered gap 1\n"
+     << "set style fill solid 0.8 border -1\nset boxwidth 0.9\nset yrange [0:*]\n"
+     << "set key outside right top\n";
+  gp << "plot ";
+  for (std::size_t i = 0; i < n; ++i)
+    gp << (i ? ", \\\n     " : "") << "'blade_peaks.csv' using (column("
+       << gnuplot_string(m.nodes[i].node + "_over_tuned") << ")):xtic(1) lt " << i + 1 << " title "
+       << gnuplot_string(m.nodes[i].node);
+  gp << ", \\\n     1 with lines lc rgb 'black' dt 2 title 'tuned'\n";
+  return gp.str();
+}
+
+}  // namespace
 
 void write_run(const RunResult& result, StagedOutput& out) {
   const auto started = std::chrono::steady_clock::now();
@@ -665,6 +736,15 @@ void write_run(const RunResult& result, StagedOutput& out) {
   if (!result.table.stable_peaks.empty()) timing["stability_s"] = result.table.stability_seconds;
   nlohmann::json doc = run_summary(record, loop_entries, timing, result.options.study_context);
   doc["contact_states"] = state_entries;
+  if (result.mistuning) {
+    doc["mistuning"] = mistuning_json(*result.mistuning);
+    write_blade_peaks(out.path("blade_peaks.csv"), *result.mistuning);
+    if (plots) {
+      const fs::path gp = out.path("blade_peaks.gp");
+      write_text(gp, blade_peaks_plot_script(scene, *result.mistuning));
+      run_gnuplot(gp, out.stop());
+    }
+  }
   write_json(out.path("summary.json"), doc);
   spdlog::log(result.options.quiet ? spdlog::level::debug : spdlog::level::info,
               "{} points; total {:.3f} s", result.table.rows.size(), result.wall_seconds + writing);

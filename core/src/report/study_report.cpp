@@ -48,6 +48,8 @@ StudyIndex study_index(const StudyResult& r) {
   csv << ",exit_code,termination,points";
   for (const auto& node : r.response)
     csv << "," << node << "_peak_amplitude_m," << node << "_peak_frequency_" << fcol;
+  for (const auto& node : r.mistuned_nodes)
+    csv << "," << node << "_amplification," << node << "_worst_blade";
   csv << ",wall_s\n";
   StudyIndex index;
   for (const auto& run : runs) {
@@ -67,6 +69,18 @@ StudyIndex study_index(const StudyResult& r) {
       if (std::isfinite(amp))
         peaks[node] = {{"amplitude_m", amp}, {"frequency", w / unit}, {"omega_rad_s", w}};
     }
+    nlohmann::json amplification = nlohmann::json::object();
+    for (const auto& node : r.mistuned_nodes) {
+      double factor = std::numeric_limits<double>::quiet_NaN();
+      int worst = -1;
+      for (const auto& a : o.amplification)
+        if (a.node == node && a.factor > 0) {
+          factor = a.factor;
+          worst = a.worst_blade;
+        }
+      csv << "," << cell(factor) << "," << (worst >= 0 ? std::to_string(worst) : std::string());
+      if (worst >= 0) amplification[node] = {{"factor", factor}, {"worst_blade", worst}};
+    }
     csv << "," << cell(o.wall_seconds) << "\n";
     nlohmann::json params = nlohmann::json::object();
     for (std::size_t s = 0; s < study.sweeps.size(); ++s)
@@ -79,10 +93,28 @@ StudyIndex study_index(const StudyResult& r) {
                           {"message", o.message},
                           {"points", o.points},
                           {"peak", peaks},
+                          {"amplification", amplification},
                           {"wall_s", o.wall_seconds}});
   }
   index.csv = csv.str();
   return index;
+}
+
+// study.json's `amplification`: a mistuned disk's statistics per sector node (null otherwise).
+nlohmann::json amplification_json(const StudyResult& r) {
+  if (r.mistuned_nodes.empty()) return nullptr;
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& s : amplification_statistics(r))
+    out[s.node] = {
+        {"runs", s.count},
+        {"mean", s.mean},
+        {"p95", s.p95},
+        {"p99", s.p99},
+        {"largest", s.largest},
+        {"worst_run", s.worst_run < r.runs.size() ? nlohmann::json(r.runs[s.worst_run].id)
+                                                  : nlohmann::json(nullptr)},
+        {"among", "runs that reached the end of their sweep with every peak"}};
+  return out;
 }
 
 // study.json: the study's settings, every run's index entry and the optimum.
@@ -108,6 +140,7 @@ nlohmann::json study_json(const StudyResult& r, const StudyIndex& index) {
           {"runs", index.runs},
           {"failed_runs", r.failed_runs},
           {"optimum", optimum},
+          {"amplification", amplification_json(r)},
           {"wall_s", r.wall_seconds}};
 }
 

@@ -1110,6 +1110,11 @@ Scene load_scene(const YAML::Node& document, const fs::path& file) {
   read_continuation(scene, scene.root, ctx);
   read_output(scene, scene.root, ctx);
   read_mistuning(scene, scene.root, ctx);
+  if (scene.mistuning) {
+    YAML::Node tuned = YAML::Clone(scene.root);
+    tuned.remove("mistuning");
+    scene.mistuning->tuned = std::make_shared<Scene>(load_scene(tuned, file));
+  }
   return scene;
 }
 
@@ -1172,6 +1177,13 @@ void bind_plugins(Scene& scene, const Registry& registry) {
           patch_pair_values(scene, c, path, ctx, scene.core_values["contacts"][c.entry]["params"]);
     else
       c.values = validate_params(c.params, c.plugin->schema(), path + ".params", ctx);
+  }
+  if (scene.mistuning && scene.mistuning->tuned) {
+    Scene& tuned = *scene.mistuning->tuned;
+    tuned.overrides = scene.overrides;
+    tuned.allow_scene_plugins = scene.allow_scene_plugins;
+    tuned.text = scene.text;
+    bind_plugins(tuned, registry);
   }
 }
 

@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,14 @@ struct RunOptions {
   std::function<void(std::size_t point, double frequency_hz)> on_point;
 };
 
+// A mistuned disk's amplification at one response node of the sector (MistuningComparison,
+// in brief).
+struct Amplification {
+  std::string node;   // the sector's node name
+  double factor = 0;  // the worst blade's peak over the tuned peak (0: a peak is missing)
+  int worst_blade = -1;
+};
+
 // What a run produced, in brief: one row of a study or a convergence study.
 struct RunOutcome {
   int exit_code = 4;            // an ExitCode
@@ -52,8 +61,10 @@ struct RunOutcome {
   std::size_t points = 0;       // points on the response curve
   long unknowns = 0;            // harmonic-balance unknowns (0 when the model was not built)
   std::vector<NodePeak> peaks;  // one per output.response node, in scene order
-  double wall_seconds = 0.0;    // set-up, continuation, post-processing and outputs
-  bool wrote_output = false;    // the output folder holds this run's files
+  // A mistuned disk's (the scene's `mistuning`), per sector response node; empty otherwise.
+  std::vector<Amplification> amplification;
+  double wall_seconds = 0.0;  // set-up, continuation, post-processing and outputs
+  bool wrote_output = false;  // the output folder holds this run's files
 };
 
 // The first stage of a run: the structure and the model built (plugin parameters, matrix files,
@@ -81,6 +92,28 @@ std::string suggestion(const ContinuationSummary& summary, const Scene& scene);
 // result dropped). For `frichb validate`.
 void check_run_start(const Scene& scene);
 
+// A mistuned disk's run (the scene's `mistuning`, docs/mistuning.md): each response node's peak
+// on every blade against the tuned disk's, the tuned disk traced by its cyclic sector (the
+// scene without `mistuning`, MistuningSpec::tuned) over the same sweep.
+struct BladePeaks {
+  std::string node;                  // the sector's node name (blade j's is node@j)
+  std::vector<double> amplitude_m;   // per blade; 0 where the blade's curve has no peak
+  std::vector<double> frequency_hz;  // per blade; 0 where it has none
+  // Per blade: the peak was solved (not the highest traced point, NodePeak::refined).
+  std::vector<bool> solved;
+  double tuned_amplitude_m = 0, tuned_frequency_hz = 0;  // 0: the tuned curve has no peak
+  // The worst blade's peak over the tuned peak (0 when either is missing), and that blade (-1).
+  double amplification = 0;
+  int worst_blade = -1;
+};
+struct MistuningComparison {
+  std::vector<double> deviations;  // blade j's stiffness factor is 1 + deviations[j]
+  std::vector<BladePeaks> nodes;   // in output.response order
+  std::string tuned_termination;   // the tuned curve's ("reached_end", "max_points", ...)
+  std::size_t tuned_points = 0;
+  double tuned_seconds = 0;  // wall time of the tuned run
+};
+
 // The results of one run, as report/run_report.hpp writes them. Move-only (it owns the model).
 struct RunResult {
   // completed when the curve reached the end of the sweep; kExitIncomplete with the
@@ -99,6 +132,7 @@ struct RunResult {
   std::vector<FrictionLoop> loops;   // at output.friction_loops_at, every crossing
   std::vector<FrictionLoop> states;  // at output.contact_states_at, every crossing
   std::vector<NodePeak> peaks;       // of the output.response nodes that have one, in order
+  std::optional<MistuningComparison> mistuning;  // a mistuned disk's, against the tuned one
   // Wall-clock times, s: set-up, continuation, peaks and loops, and the whole call.
   double setup_seconds = 0.0, continuation_seconds = 0.0, post_seconds = 0.0, wall_seconds = 0.0;
 };

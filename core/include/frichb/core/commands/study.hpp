@@ -130,8 +130,11 @@ struct StudyResult {
   bool leader = true;  // this process holds the rows (rank 0); the other ranks hold none
   std::filesystem::path scene_file;
   std::string scene_name;
-  FrequencyUnit unit = FrequencyUnit::kHz;                  // of the scene's sweep
-  std::vector<std::string> response;                        // the scene's output.response nodes
+  FrequencyUnit unit = FrequencyUnit::kHz;  // of the scene's sweep
+  std::vector<std::string> response;        // the scene's output.response nodes
+  // A mistuned disk's study: the sector's response nodes, whose amplification each run gives
+  // (RunOutcome::amplification) and the study sums up (amplification_statistics).
+  std::vector<std::string> mistuned_nodes;
   bool plots = true;                                        // the scene's output.plots
   bool stability = false;                                   // the scene's output.stability
   AmplitudeAxis amplitude_axis = AmplitudeAxis::automatic;  // the scene's output.amplitude_axis
@@ -146,6 +149,18 @@ struct StudyResult {
   double optimum_amplitude_m = 0.0;
   double wall_seconds = 0.0;
 };
+
+// The amplification factors of a mistuned disk's study at one sector node, over the runs that
+// reached the end of their sweep and found every peak: their count, mean, 95th and 99th
+// percentiles (linear interpolation between order statistics, as numpy's default), the
+// largest and the run that gave it (runs.size() when none).
+struct AmplificationStatistics {
+  std::string node;
+  std::size_t count = 0;
+  double mean = 0, p95 = 0, p99 = 0, largest = 0;
+  std::size_t worst_run = 0;
+};
+std::vector<AmplificationStatistics> amplification_statistics(const StudyResult& result);
 
 // Runs the study of a scene on `communicator`'s processes (run i on rank i mod size, each
 // rank's share on its threads), every run handed to request.write_run as it ends; rank 0

@@ -69,5 +69,9 @@ nlohmann::json write_contact_states(StagedOutput& out, const RunRecord& run,
 // not null. Command-line overrides are recorded with their types.
 nlohmann::json run_summary(const RunRecord& run, const nlohmann::json& friction_loops,
                            const nlohmann::json& timing, const nlohmann::json& study_context);
+// summary.json's `mistuning` section of a mistuned disk's run: the deviations, per response
+// node every blade's peak, the tuned peak, the amplification and the worst blade, and how the
+// tuned run ended.
+nlohmann::json mistuning_json(const MistuningComparison& mistuning);
 
 }  // namespace frichb::core

@@ -137,6 +137,7 @@ struct CyclicSpec {
 // j), every contact `c` one per blade, `c@j`, joining blade j to blade j + its sector offset
 // (modulo sectors), every excitation entry one per blade, delayed by j m / nb of a period
 // (harmonic n's phase minus n m 2 pi j / nb), and `cyclic` is off (sectors = 1).
+struct Scene;
 struct MistuningSpec {
   int sectors = 0;       // nb of the tuned disk
   int engine_order = 0;  // m
@@ -149,6 +150,9 @@ struct MistuningSpec {
   long long seed = 0;
   std::vector<std::string> sector_nodes;     // the tuned sector's node names, scene order
   std::vector<std::string> sector_contacts;  // the tuned sector's contact names
+  // The same scene without its `mistuning` section: the tuned sector, for the tuned disk's
+  // response that the mistuned one is compared with (bound by bind_plugins with it).
+  std::shared_ptr<Scene> tuned;
   // The name of node (or contact) `name` on blade j.
   static std::string on_blade(const std::string& name, int blade);
 };
