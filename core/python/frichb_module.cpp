@@ -305,6 +305,15 @@ py::dict run_outcome_dict(const core::RunOutcome& o) {
   py::list peaks;
   for (const auto& p : o.peaks) peaks.append(peak_dict(p));
   d["peaks"] = peaks;
+  py::list amplification;
+  for (const auto& a : o.amplification) {
+    py::dict entry;
+    entry["node"] = a.node;
+    entry["factor"] = a.factor;
+    entry["worst_blade"] = a.worst_blade;
+    amplification.append(entry);
+  }
+  d["amplification"] = amplification;
   d["wall_seconds"] = o.wall_seconds;
   return d;
 }
@@ -1367,6 +1376,26 @@ void bind_study(py::module_& m) {
           "of their sweep (None when none did).")
       .def_readonly("optimum_amplitude_m", &core::StudyResult::optimum_amplitude_m)
       .def_readonly("failed_runs", &core::StudyResult::failed_runs)
+      .def_property_readonly(
+          "amplification",
+          [](const core::StudyResult& r) {
+            py::dict out;
+            for (const auto& a : core::amplification_statistics(r)) {
+              py::dict d;
+              d["runs"] = a.count;
+              d["mean"] = a.mean;
+              d["p95"] = a.p95;
+              d["p99"] = a.p99;
+              d["largest"] = a.largest;
+              d["worst_run"] = a.worst_run < r.runs.size() ? py::object(py::int_(a.worst_run))
+                                                           : py::object(py::none());
+              out[py::str(a.node)] = d;
+            }
+            return out;
+          },
+          "A mistuned disk's study: per sector response node the amplification factors' "
+          "statistics over the runs that completed (runs, mean, p95, p99, largest, and the "
+          "index of the run that gave it); empty for any other study.")
       .def_readonly("threads", &core::StudyResult::threads)
       .def_readonly("wall_seconds", &core::StudyResult::wall_seconds);
 
