@@ -458,11 +458,16 @@ Verb run_spec() {
       "response_harmonics.csv (each response DOF's harmonics at every point), summary.json\n"
       "(peaks, termination, resonance bands, timings), response.png and the friction\n"
       "loops of output.friction_loops_at; with output.contact_forces, contact_harmonics.csv\n"
-      "(each contact's displacement and force harmonics at every point). The folder is\n"
-      "replaced as a whole when the run succeeds and keeps its earlier results when it does not.";
+      "(each contact's displacement and force harmonics at every point). A scene with a\n"
+      "`mistuning` section is the whole mistuned disk (docs/mistuning.md): a column group per\n"
+      "blade, and the tuned disk traced too for blade_peaks.csv/.png and the amplification in\n"
+      "summary.json. The folder is replaced as a whole when the run succeeds and keeps its\n"
+      "earlier results when it does not.";
   v.examples = {"frichb run configs/quickstart_friction_oscillator.yaml -o out/quickstart",
                 "frichb run configs/two_dof_blade_damper.yaml --set "
-                "contacts.platform_friction.params.mu=0.3 -v"};
+                "contacts.platform_friction.params.mu=0.3 -v",
+                "frichb run configs/bladed_disk_lumped_eo3_mistuned.yaml --set "
+                "mistuning.deviations=[0.02,-0.02,0,0,0.01,0,-0.01,0]"};
   v.reads_scene = true;
   v.input_plugins = true;
   v.writes_output = true;
