@@ -117,7 +117,8 @@ class LumpedCyclic final : public frichb::sdk::StructureProvider {
   }
 
   // S = Phi_h1^H K_b Phi_h2 (or Phi_h1^T K_b Phi_h2) with K_b the springs on blade_dofs.
-  void blade_stiffness(int h1, int h2, bool conjugate_first, double* real, double* imag) override {
+  void blade_stiffness(int h1, int h2, bool conjugate_first, size_t rows, size_t cols, double* real,
+                       double* imag) override {
     if (blade_dofs_.empty())
       throw std::invalid_argument(
           "lumped_cyclic has no blade_dofs: name the blade's DOFs to mistune it");
@@ -128,6 +129,11 @@ class LumpedCyclic final : public frichb::sdk::StructureProvider {
     const Eigen::MatrixXcd& a = bases_[static_cast<std::size_t>(h1)].modes;
     const Eigen::MatrixXcd& b = bases_[static_cast<std::size_t>(h2)].modes;
     const Eigen::MatrixXcd kb = blade_.cast<std::complex<double>>() * b;
+    if (rows != static_cast<size_t>(a.cols()) || cols != static_cast<size_t>(b.cols()))
+      throw std::invalid_argument("blade_stiffness asked for " + std::to_string(rows) + " x " +
+                                  std::to_string(cols) + " values; the harmonic indices have " +
+                                  std::to_string(a.cols()) + " and " + std::to_string(b.cols()) +
+                                  " modes");
     const Eigen::MatrixXcd out =
         conjugate_first ? Eigen::MatrixXcd(a.adjoint() * kb) : Eigen::MatrixXcd(a.transpose() * kb);
     for (Eigen::Index i = 0; i < out.rows(); ++i)

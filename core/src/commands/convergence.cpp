@@ -97,6 +97,7 @@ Row run_setting(const Scene& base, const Registry& registry, const Setting& s,
     options.stop = stop;
     options.quiet = true;
     options.plots = 0;
+    options.compare_with_tuned = false;  // the settings' curves alone are compared
     options.study_context = {{"convergence_setting", s.id}};
     const RunWriter nowhere = [](const RunResult&, const fs::path&) {};
     row.outcome = run_member(scene, runs_folder / s.id, options, write_run ? write_run : nowhere);

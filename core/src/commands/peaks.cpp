@@ -873,6 +873,7 @@ PeaksResult track_peaks(const PeaksOptions& options) {
   RunOptions run_options;
   run_options.plots = 0;
   run_options.stop = options.stop;
+  run_options.compare_with_tuned = false;  // the peaks need the curves alone
   RunResult start = trace_scene(scene, run_options);
   result.start_seconds = seconds_since(started);
   result.outcome.warnings = start.outcome.warnings;

@@ -440,7 +440,7 @@ RunResult trace_stages(const Scene& scene, const RunOptions& run_options) {
       solve_contact_traces(scene, model, options, summary, scene.output.contact_states_at);
   if (run_options.stop.stop_requested())
     return interrupted_while("while solving the friction loops");
-  if (scene.mistuning && scene.mistuning->tuned) {
+  if (scene.mistuning && scene.mistuning->tuned && run_options.compare_with_tuned) {
     result.mistuning = compare_with_tuned(scene, result, run_options);
     if (run_options.stop.stop_requested()) return interrupted_while("while tracing the tuned disk");
     for (const auto& b : result.mistuning->nodes)

@@ -339,9 +339,14 @@ StudySpec load_study(const Scene& scene) {
         ctx.fail(entry, key + ".spacing", "log spacing needs from > 0 and to > 0");
       for (std::size_t k = 0; k < n; ++k) {
         const double s = static_cast<double>(k) / static_cast<double>(n - 1);
+        // Linear: (from (n-1-k) + to k) / (n-1), exact wherever the value is an integer (a
+        // seed swept from 1 to 100 in 100 values gives 1, 2, ..., 100 exactly).
+        const double linear =
+            (from * static_cast<double>(n - 1 - k) + to * static_cast<double>(k)) /
+            static_cast<double>(n - 1);
         sweep.values.push_back(k + 1 == n ? to  // exactly the end the user wrote
                                : log      ? from * std::pow(to / from, s)
-                                          : from + (to - from) * s);
+                                          : linear);
       }
     }
     study.sweeps.push_back(std::move(sweep));

@@ -78,7 +78,7 @@ void MistunedDisk::solve(const MistuningSpec& mistuning) {
   }
   const auto n = static_cast<Eigen::Index>(tuned_.size());
   tuned_frequencies_ = Eigen::Map<const Eigen::VectorXd>(frequencies.data(), n);
-  tuned_damping_ = Eigen::Map<const Eigen::VectorXd>(damping.data(), n);
+  const Eigen::VectorXd tuned_damping = Eigen::Map<const Eigen::VectorXd>(damping.data(), n);
 
   // The first tuned mode of each harmonic index.
   std::vector<Eigen::Index> first(mode_counts.size(), 0);
@@ -145,8 +145,7 @@ void MistunedDisk::solve(const MistuningSpec& mistuning) {
     double ratio = 0;
     for (Eigen::Index a = 0; a < n; ++a)
       if (tuned_frequencies_(a) > 0)
-        ratio +=
-            vectors_(a, k) * vectors_(a, k) * tuned_damping_(a) / (2.0 * tuned_frequencies_(a));
+        ratio += vectors_(a, k) * vectors_(a, k) * tuned_damping(a) / (2.0 * tuned_frequencies_(a));
     damping_(k) = 2.0 * ratio * frequencies_(k);
   }
   std::sort(tuned_frequencies_.data(), tuned_frequencies_.data() + n);
@@ -214,7 +213,15 @@ std::unique_ptr<StructureModel> instantiate_structure(const Scene& scene) {
   auto instance =
       std::make_unique<StructureInstance>(scene.structure.plugin, scene.structure.values);
   if (!scene.mistuning) return instance;
-  return std::make_unique<MistunedDisk>(std::move(instance), *scene.mistuning);
+  YAML::Node root = scene.root;  // a handle: its operator[] on a const node would throw
+  const YamlContext ctx{scene.file.string()};
+  try {
+    return std::make_unique<MistunedDisk>(std::move(instance), *scene.mistuning);
+  } catch (const PluginError& e) {
+    ctx.fail(root["mistuning"], "mistuning", e.what());
+  } catch (const std::invalid_argument& e) {
+    ctx.fail(root["mistuning"], "mistuning", e.what());
+  }
 }
 
 }  // namespace frichb::core

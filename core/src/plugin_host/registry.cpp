@@ -302,8 +302,8 @@ std::vector<std::complex<double>> StructureInstance::blade_stiffness(int h1, int
                       "' cannot be mistuned: it gives no blade stiffness (plugin ABI 1.4)");
   std::vector<double> re(rows * cols), im(rows * cols);
   char message[kMessageCapacity] = {0};
-  if (api_->blade_stiffness(instance_, h1, h2, conjugate_first ? 1 : 0, re.data(), im.data(),
-                            message, kMessageCapacity) != FRICHB_OK)
+  if (api_->blade_stiffness(instance_, h1, h2, conjugate_first ? 1 : 0, rows, cols, re.data(),
+                            im.data(), message, kMessageCapacity) != FRICHB_OK)
     throw PluginError("structure '" + plugin_->name() + "' cannot be mistuned: " + message);
   std::vector<std::complex<double>> out(rows * cols);
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = {re[i], im[i]};

@@ -113,7 +113,7 @@ nlohmann::json amplification_json(const StudyResult& r) {
         {"largest", s.largest},
         {"worst_run", s.worst_run < r.runs.size() ? nlohmann::json(r.runs[s.worst_run].id)
                                                   : nlohmann::json(nullptr)},
-        {"among", "runs that reached the end of their sweep with every peak"}};
+        {"among", "runs that reached the end of their sweep with a tuned and a blade's peak"}};
   return out;
 }
 

@@ -282,12 +282,13 @@ typedef struct frichb_structure_api {
    * part whose stiffness a mistuning factor scales, blade by blade) projected on the modes of
    * harmonic indices h1 and h2, all of them and over all DOFs, as modal_basis gives them:
    *   S = Phi_h1^H K_b Phi_h2 (conjugate_first = 1)  or  Phi_h1^T K_b Phi_h2 (0),
-   * n_modes(h1) x n_modes(h2) row-major into the caller's `real` and `imag`, in 1/s^2 (K_b in
-   * N/m, modes mass-normalised). K_b is real symmetric and within one sector: a spring
-   * between sectors is not part of a blade. FRICHB_ERROR with a message when the model has
-   * no mistunable part defined. Not thread-safe. */
-  frichb_status (*blade_stiffness)(void* instance, int h1, int h2, int conjugate_first,
-                                   double* real, double* imag, char* message,
+   * rows x cols = n_modes(h1) x n_modes(h2) row-major into the caller's `real` and `imag`
+   * (rows * cols doubles each), in 1/s^2 (K_b in N/m, modes mass-normalised). K_b is real
+   * symmetric and within one sector: a spring between sectors is not part of a blade.
+   * FRICHB_ERROR with a message when the model has no mistunable part defined, or when rows
+   * and cols are not the two indices' mode counts. Not thread-safe. */
+  frichb_status (*blade_stiffness)(void* instance, int h1, int h2, int conjugate_first, size_t rows,
+                                   size_t cols, double* real, double* imag, char* message,
                                    size_t message_capacity);
 } frichb_structure_api;
 

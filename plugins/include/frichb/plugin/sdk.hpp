@@ -220,10 +220,11 @@ class StructureProvider {
   virtual frichb_modal_basis modal_basis(int harmonic_index, const size_t* kept_dofs,
                                          size_t n_kept) = 0;
   // The mistunable part's stiffness projected on the modes of two harmonic indices
-  // (frichb_structure_api.blade_stiffness): n_modes(h1) x n_modes(h2) row-major into `real`
-  // and `imag`. The default refuses: the model has no mistunable part.
-  virtual void blade_stiffness(int /*h1*/, int /*h2*/, bool /*conjugate_first*/, double* /*real*/,
-                               double* /*imag*/) {
+  // (frichb_structure_api.blade_stiffness): rows x cols, which must be n_modes(h1) x
+  // n_modes(h2) (throw otherwise), row-major into `real` and `imag`. The default refuses: the
+  // model has no mistunable part.
+  virtual void blade_stiffness(int /*h1*/, int /*h2*/, bool /*conjugate_first*/, size_t /*rows*/,
+                               size_t /*cols*/, double* /*real*/, double* /*imag*/) {
     throw std::invalid_argument("this structure provider defines no mistunable (blade) part");
   }
 };
@@ -335,10 +336,11 @@ struct StructureTrampolines : Lifecycle<StructureProvider, Provider> {
     });
   }
   static frichb_status blade_stiffness(void* instance, int h1, int h2, int conjugate_first,
-                                       double* real, double* imag, char* message, size_t capacity) {
+                                       size_t rows, size_t cols, double* real, double* imag,
+                                       char* message, size_t capacity) {
     return guarded(message, capacity, [&] {
-      static_cast<StructureProvider*>(instance)->blade_stiffness(h1, h2, conjugate_first != 0, real,
-                                                                 imag);
+      static_cast<StructureProvider*>(instance)->blade_stiffness(h1, h2, conjugate_first != 0, rows,
+                                                                 cols, real, imag);
     });
   }
 };

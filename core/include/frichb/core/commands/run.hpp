@@ -42,6 +42,9 @@ struct RunOptions {
   // frequency in Hz (empty: not called). Must not throw; a caller that wants to end the run
   // requests a stop.
   std::function<void(std::size_t point, double frequency_hz)> on_point;
+  // A mistuned disk's run also traces the tuned disk for every blade's amplification
+  // (RunResult::mistuning); a caller that needs only the curve turns it off.
+  bool compare_with_tuned = true;
 };
 
 // A mistuned disk's amplification at one response node of the sector (MistuningComparison,

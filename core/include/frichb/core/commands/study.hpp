@@ -151,9 +151,9 @@ struct StudyResult {
 };
 
 // The amplification factors of a mistuned disk's study at one sector node, over the runs that
-// reached the end of their sweep and found every peak: their count, mean, 95th and 99th
-// percentiles (linear interpolation between order statistics, as numpy's default), the
-// largest and the run that gave it (runs.size() when none).
+// reached the end of their sweep with a tuned peak and a blade's peak: their count, mean, 95th and
+// 99th percentiles (linear interpolation between order statistics, as numpy's default), the largest
+// and the run that gave it (runs.size() when none).
 struct AmplificationStatistics {
   std::string node;
   std::size_t count = 0;

@@ -65,9 +65,9 @@ class MistunedDisk final : public StructureModel {
   std::unique_ptr<StructureInstance> sector_;
   int sectors_ = 0;
   std::vector<TunedMode> tuned_;
-  Eigen::VectorXd tuned_frequencies_, tuned_damping_;  // rad/s; C_aa in 1/s
-  Eigen::VectorXd frequencies_, damping_;              // mistuned, rad/s and 2 zeta w
-  Eigen::MatrixXd vectors_;                            // V: tuned x mistuned
+  Eigen::VectorXd tuned_frequencies_;      // rad/s, ascending
+  Eigen::VectorXd frequencies_, damping_;  // mistuned, rad/s and 2 zeta w
+  Eigen::MatrixXd vectors_;                // V: tuned x mistuned
   // The arrays behind the last modal_basis().
   Eigen::MatrixXd damping_matrix_, rows_;
 };
